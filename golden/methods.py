@@ -61,3 +61,12 @@ def run_method(
     d2 = estimate_derivatives(image2, est)
     solve = range_g3 if spec.equation == "g3" else range_g4
     return solve(d1, d2, camera, motion, ranging)
+
+
+#: Ranging thresholds per scene preset, chosen by measurement (README, "Measured"):
+#: the lab pair has 1-3 px disparity and 0.5 grey-level noise; the runway pair's
+#: larger thresholds reject the near-focus-of-expansion ground where parallax vanishes.
+SCENE_RANGING: dict[str, RangingConfig] = {
+    "lab": RangingConfig(threshold_e=2.0, threshold_g=2.0, range_max=100.0),
+    "runway": RangingConfig(threshold_e=4.0, threshold_g=4.0, range_max=2000.0),
+}

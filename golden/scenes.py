@@ -1040,7 +1040,7 @@ def _lab_preset() -> _Preset:
         (19.0, y_bracket - bw / 2, table_z),
         ((1, 0, 0), (0, 1, 0), up),
         (bt, bw, bh),
-        _Material(_Layer("brick", scale_at(19.0, 3.0), 95.0, 32.0, (250.0, 10.0)), 5, 0.7),
+        _Material(_Layer("brick", scale_at(19.0, 1.0), 95.0, 32.0, (250.0, 10.0)), 5, 0.7),
         skip=((2, 0),),
     )
     wire_z = -1.5
