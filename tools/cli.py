@@ -99,8 +99,16 @@ def _paper_diagnostics(scene: Scene, est: EstimatorConfig, valid: np.ndarray) ->
     }
 
 
+def _estimator(args: argparse.Namespace) -> EstimatorConfig:
+    try:
+        return EstimatorConfig(pole=args.pole, bias=args.bias)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
+    est = _estimator(args)
     steps = ["render lab", *DEMO_METHODS, "figures"]
     bar = tqdm(total=len(steps), desc="rangefx demo", disable=args.json or not sys.stderr.isatty())
     with atomic_output_dir(out) as tmp:
@@ -108,7 +116,6 @@ def cmd_demo(args: argparse.Namespace) -> int:
         scene = _render("lab", args.seed)
         bar.update()
         ranging = SCENE_RANGING["lab"]
-        est = EstimatorConfig(pole=args.pole, bias=args.bias)
         results, summary_methods = {}, {}
         for m in DEMO_METHODS:
             bar.set_postfix_str(m)
@@ -237,7 +244,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 threshold_g=ranging.threshold_g if args.threshold_g is None else args.threshold_g,
                 range_max=args.range_max or ranging.range_max,
             )
-        est = EstimatorConfig(pole=args.pole, bias=args.bias)
+        est = _estimator(args)
         result = run_method(args.method, e1, e2, camera, motion, estimator=est, ranging=ranging)
     except ValueError as exc:
         raise UserError(str(exc)) from None
