@@ -12,7 +12,11 @@ Discrete form (SPEC §3). One first-order section with pole ``c`` per pixel (the
     e = x[k] - p[k];   r1 = p[k];   r2 = (c / h) e;   p[k+1] = p[k] + c e
 
 which is forward Euler of ``p' = -a p + a x`` (eq 20): ``r2`` is the exact forward
-difference ``p[k+1] - p[k]`` of the smoothed sequence. Higher derivatives come from a
+difference ``p[k+1] - p[k]`` of the smoothed sequence. With forward Euler ``c = a h``, so
+``r2 = a e`` as SPEC §3 writes it; for a pole mapped with the exact ZOH discretisation
+(``c = 1 - exp(-a h)``) the output stays the discrete difference ``(c / h) e``, which is
+the derivative consistent with the sampled ``r1`` sequence (``a e`` would not be).
+Higher derivatives come from a
 cascade of ``n`` such sections (``order = n``); the ``d``-th output is the ``d``-th
 forward difference of the cascade's last state, so the estimator of order ``n``
 delivers derivatives up to order ``n`` from its states and the current input only
@@ -95,7 +99,7 @@ class EstimatorConfig:
 
     def __post_init__(self) -> None:
         c = self.pole
-        if not isinstance(c, (int, float)) or not math.isfinite(c):
+        if isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c):
             raise ValueError(f"filter pole must be a finite number, not {c!r}")
         if abs(1.0 - c) >= 1.0:
             raise ValueError(
@@ -114,7 +118,8 @@ class EstimatorConfig:
             raise ValueError(f"unknown estimator variant {self.variant!r}; choose from {VARIANTS}")
         if self.init not in INITS:
             raise ValueError(f"unknown filter init {self.init!r}; choose from {INITS}")
-        if not math.isfinite(self.bias) or self.bias < 0:
+        b = self.bias
+        if isinstance(b, bool) or not isinstance(b, (int, float)) or not math.isfinite(b) or b < 0:
             raise ValueError(f"bias must be a finite non-negative number, not {self.bias!r}")
 
     @classmethod

@@ -220,7 +220,12 @@ def k_coefficients(motion: MotionIncrement, xp: np.ndarray, yp: np.ndarray, f_px
 
 
 def camera_from_inertial(motion: MotionIncrement, x: np.ndarray, frame: int = 1) -> np.ndarray:
-    """Camera-frame coordinates of inertial points ``x`` (shape (..., 3)), eqs 12 and 15."""
+    """Camera-frame coordinates of inertial points ``x`` (shape (..., 3)), eqs 12 and 15.
+
+    ``frame`` 1 or 2 selects the vehicle state before or after the increment.
+    """
+    if frame not in (1, 2):
+        raise ValueError(f"frame must be 1 or 2, not {frame!r}")
     T2 = motion.T2 if frame == 1 else motion.T2 + motion.dT2
     xv = motion.xv if frame == 1 else motion.xv + motion.dxv
     xb = (np.asarray(x, dtype=np.float64) - xv) @ T2.T
