@@ -1,0 +1,538 @@
+"""Fixed-point formats and bit-exact cast kernels (SPEC §4 "Fixed-point semantics").
+
+A value of format (signed, W, F) is held as a raw integer ``r`` and means ``r * 2**-F``.
+``F`` may be negative or larger than ``W``.  Quantisation and overflow modes carry the
+Vitis HLS ``ap_fixed`` names and meanings.  Casting is always *quantise, then overflow*:
+the exact value is first rounded to a multiple of ``2**-F_out`` with the quantisation mode,
+then the resulting integer is brought into the ``W_out``-bit range with the overflow mode
+(so a rounding carry out of the top bit is an overflow, as in ``ap_fixed``).
+
+The kernels work on ``int64`` raw integers only: no floats, no Python objects, so they can
+be called from other ``@njit`` code.  The public Python wrappers validate and allocate.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+__all__ = [
+    "MAX_WORD",
+    "FixedFormat",
+    "Overflow",
+    "Quant",
+    "cast_array",
+    "cast_raw",
+    "overflow_raw",
+    "quantise_shift",
+    "rounding_doc_text",
+    "rounding_table",
+    "rounding_table_markdown",
+    "write_rounding_doc",
+]
+
+MAX_WORD = 62
+MAX_ABS_FRAC = 1022
+_I64_MIN = -(2**63)
+_I64_MAX = 2**63 - 1
+
+
+class Quant(enum.IntEnum):
+    """Quantisation modes, named and defined as Vitis HLS ``ap_fixed`` (SPEC §4).
+
+    With ``q = floor(x)`` and ``x - q`` the remainder of the exact value ``x`` in units of
+    the result LSB:
+
+    * ``TRN``: toward -inf (``q``); dropping bits of a two's complement word.
+    * ``TRN_ZERO``: toward zero.
+    * ``RND``: to nearest, ties toward +inf.
+    * ``RND_ZERO``: to nearest, ties toward zero.
+    * ``RND_INF``: to nearest, ties away from zero.
+    * ``RND_MIN_INF``: to nearest, ties toward -inf.
+    * ``RND_CONV``: to nearest, ties to even (convergent).
+    """
+
+    TRN = 0
+    TRN_ZERO = 1
+    RND = 2
+    RND_ZERO = 3
+    RND_INF = 4
+    RND_MIN_INF = 5
+    RND_CONV = 6
+
+
+class Overflow(enum.IntEnum):
+    """Overflow modes, named and defined as Vitis HLS ``ap_fixed`` (SPEC §4).
+
+    * ``WRAP``: keep the low ``W`` bits (two's complement for signed formats).
+    * ``SAT``: clamp to ``[raw_min, raw_max]``.
+    * ``SAT_ZERO``: an out-of-range value becomes 0.
+    * ``SAT_SYM``: clamp to ``[-raw_max, raw_max]`` for signed formats (the most negative
+      code ``-2**(W-1)`` is never produced and counts as an overflow); as ``SAT`` for
+      unsigned formats.
+    """
+
+    WRAP = 0
+    SAT = 1
+    SAT_ZERO = 2
+    SAT_SYM = 3
+
+
+_Q_TRN = 0
+_Q_TRN_ZERO = 1
+_Q_RND = 2
+_Q_RND_ZERO = 3
+_Q_RND_INF = 4
+_Q_RND_MIN_INF = 5
+_Q_RND_CONV = 6
+_O_WRAP = 0
+_O_SAT = 1
+_O_SAT_ZERO = 2
+_O_SAT_SYM = 3
+
+
+@njit(cache=True, nogil=True)
+def _floor_shift(raw, shift):
+    """Floor of ``raw / 2**shift`` (``shift >= 1``) and the remainder's class.
+
+    Returns ``(q, half_cmp, inexact)``: ``q = floor(raw / 2**shift)``; ``half_cmp`` is -1, 0
+    or +1 as the remainder ``raw / 2**shift - q`` is below, at or above one half;
+    ``inexact`` is True when the remainder is non-zero.
+    """
+    if shift <= 62:
+        q = raw >> shift
+        rem = raw - (q << shift)
+        half = np.int64(1) << (shift - 1)
+        if rem < half:
+            cmp = -1
+        elif rem == half:
+            cmp = 0
+        else:
+            cmp = 1
+        return q, cmp, rem != 0
+    if raw >= 0:
+        if shift == 63:
+            half = np.int64(1) << 62
+            cmp = -1 if raw < half else (0 if raw == half else 1)
+        else:
+            cmp = -1
+        return np.int64(0), cmp, raw != 0
+    if shift == 63:
+        excess = raw + (np.int64(1) << 62)
+        cmp = -1 if excess < 0 else (0 if excess == 0 else 1)
+        return np.int64(-1), cmp, raw != _I64_MIN
+    if shift == 64:
+        cmp = 0 if raw == _I64_MIN else 1
+        return np.int64(-1), cmp, True
+    return np.int64(-1), 1, True
+
+
+@njit(cache=True, nogil=True)
+def quantise_shift(raw, shift, quant):
+    """Drop ``shift`` LSBs of ``raw`` with quantisation mode ``quant`` (SPEC §4).
+
+    Parameters
+    ----------
+    raw : int64
+        Raw integer.
+    shift : int64
+        Number of LSBs to drop; any ``shift >= 1`` is exact, including ``shift >= 64``.
+        ``shift <= 0`` is an exact left shift ``raw * 2**-shift``: the caller guarantees the
+        product fits int64 (otherwise the result is that product modulo 2**64; a shift of
+        64 or more returns 0).
+    quant : int64
+        A :class:`Quant` value.
+
+    Returns
+    -------
+    int64
+        ``round(raw / 2**shift)`` under ``quant``: with ``q = floor(raw / 2**shift)`` (an
+        arithmetic right shift) and the remainder ``rem``: TRN ``q``; TRN_ZERO ``q + 1`` iff
+        ``q < 0`` and ``rem != 0``; otherwise ``q + 1`` iff ``rem > 1/2``, or ``rem == 1/2``
+        and the tie rule goes up (RND always, RND_ZERO iff ``q < 0``, RND_INF iff
+        ``q >= 0``, RND_MIN_INF never, RND_CONV iff ``q`` is odd).
+    """
+    if shift <= 0:
+        if shift <= -64:
+            return np.int64(0)
+        return raw << (-shift)
+    q, cmp, inexact = _floor_shift(raw, shift)
+    if quant == _Q_TRN:
+        return q
+    if quant == _Q_TRN_ZERO:
+        return q + 1 if (inexact and q < 0) else q
+    if cmp > 0:
+        return q + 1
+    if cmp < 0:
+        return q
+    if quant == _Q_RND:
+        return q + 1
+    if quant == _Q_RND_ZERO:
+        return q + 1 if q < 0 else q
+    if quant == _Q_RND_INF:
+        return q + 1 if q >= 0 else q
+    if quant == _Q_RND_CONV:
+        return q + 1 if (q & 1) == 1 else q
+    return q
+
+
+@njit(cache=True, nogil=True)
+def overflow_raw(raw, word, signed, mode):
+    """Bring ``raw`` into the range of a ``word``-bit format with overflow ``mode`` (SPEC §4).
+
+    Parameters
+    ----------
+    raw : int64
+        Raw integer already at the target fraction bits.
+    word : int64
+        Target word length ``W``, ``1 <= W <= 62``.
+    signed : bool
+        Two's complement range ``[-2**(W-1), 2**(W-1) - 1]`` if True, else ``[0, 2**W - 1]``.
+    mode : int64
+        An :class:`Overflow` value.
+
+    Returns
+    -------
+    (int64, bool)
+        The value in range, and whether ``raw`` was out of range (for signed SAT_SYM the
+        code ``-2**(W-1)`` also counts, since it is replaced by ``-(2**(W-1) - 1)``).
+    """
+    if signed:
+        hi = (np.int64(1) << (word - 1)) - 1
+        lo = -hi - 1
+    else:
+        hi = (np.int64(1) << word) - 1
+        lo = np.int64(0)
+    if mode == _O_SAT_SYM and signed:
+        lo = -hi
+    if lo <= raw <= hi:
+        return raw, False
+    if mode == _O_WRAP:
+        mask = (np.int64(1) << word) - 1
+        low = raw & mask
+        if signed and low > hi:
+            low -= mask + 1
+        return low, True
+    if mode == _O_SAT_ZERO:
+        return np.int64(0), True
+    if raw > hi:
+        return hi, True
+    return lo, True
+
+
+@njit(cache=True, nogil=True)
+def cast_raw(raw, frac_in, word_out, frac_out, signed_out, quant, overflow):
+    """Cast ``raw * 2**-frac_in`` to format (signed_out, word_out, frac_out) (SPEC §4).
+
+    Quantises with :func:`quantise_shift` (``shift = frac_in - frac_out``), then applies
+    :func:`overflow_raw`.  Exact for every int64 ``raw`` and any fraction bits: a left
+    shift whose product does not fit int64 is an overflow, saturated by sign, or wrapped
+    to the low ``word_out`` bits of the exact product.
+
+    Returns
+    -------
+    (int64, bool)
+        The raw result and whether an overflow occurred.
+    """
+    shift = frac_in - frac_out
+    if shift >= 0:
+        return overflow_raw(quantise_shift(raw, shift, quant), word_out, signed_out, overflow)
+    n = -shift
+    if raw == 0:
+        return np.int64(0), False
+    if n >= 63:
+        fits = False
+    else:
+        fits = (_I64_MIN >> n) <= raw <= (_I64_MAX >> n)
+    if fits:
+        return overflow_raw(raw << n, word_out, signed_out, overflow)
+    if overflow == _O_WRAP:
+        if n >= word_out:
+            low = np.int64(0)
+        else:
+            low = (raw & ((np.int64(1) << (word_out - n)) - 1)) << n
+        value, _ = overflow_raw(low, word_out, signed_out, overflow)
+        return value, True
+    sentinel = np.int64(_I64_MAX) if raw > 0 else np.int64(_I64_MIN)
+    value, _ = overflow_raw(sentinel, word_out, signed_out, overflow)
+    return value, True
+
+
+@njit(cache=True, nogil=True)
+def _cast_array_kernel(raw, frac_in, word, frac, signed, quant, overflow, out):
+    count = 0
+    for i in range(raw.size):
+        value, flag = cast_raw(raw[i], frac_in, word, frac, signed, quant, overflow)
+        out[i] = value
+        if flag:
+            count += 1
+    return count
+
+
+def _check_int(name: str, value: object) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ValueError(f"{name} must be an integer, not {value!r}")
+    return int(value)
+
+
+_FORMAT_RE = re.compile(r"^([su])(\d+)\.(-?\d+)$")
+
+
+@dataclass(frozen=True)
+class FixedFormat:
+    """A fixed-point format: raw integer ``r`` of ``word`` bits means ``r * 2**-frac``.
+
+    Parameters
+    ----------
+    signed : bool
+        Two's complement if True, else unsigned.
+    word : int
+        Word length ``W``, ``1 <= W <= 62`` so that raw values and one carry fit int64.
+    frac : int
+        Fraction bits ``F``, ``|F| <= 1022`` (so ``lsb`` is a normal float64); may be
+        negative or larger than ``W``.
+    quant : Quant
+        Quantisation mode used when casting *into* this format.
+    overflow : Overflow
+        Overflow mode used when casting *into* this format.
+    """
+
+    signed: bool
+    word: int
+    frac: int
+    quant: Quant = Quant.TRN
+    overflow: Overflow = Overflow.WRAP
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.signed, bool | np.bool_):
+            raise ValueError(f"signed must be a bool, not {self.signed!r}")
+        word = _check_int("word", self.word)
+        if not 1 <= word <= MAX_WORD:
+            raise ValueError(f"word length must be in 1..{MAX_WORD}, not {self.word!r}")
+        frac = _check_int("frac", self.frac)
+        if abs(frac) > MAX_ABS_FRAC:
+            raise ValueError(
+                f"fraction bits must be in -{MAX_ABS_FRAC}..{MAX_ABS_FRAC}, not {self.frac!r}"
+            )
+        for name, enum_type in (("quant", Quant), ("overflow", Overflow)):
+            value = getattr(self, name)
+            foreign = isinstance(value, enum.Enum) and not isinstance(value, enum_type)
+            if foreign or isinstance(value, bool) or not isinstance(value, int):
+                raise ValueError(f"{name} must be a {enum_type.__name__}, not {value!r}")
+            try:
+                member = enum_type(value)
+            except ValueError:
+                raise ValueError(f"{name} must be a {enum_type.__name__}, not {value!r}") from None
+            object.__setattr__(self, name, member)
+        object.__setattr__(self, "signed", bool(self.signed))
+        object.__setattr__(self, "word", word)
+        object.__setattr__(self, "frac", frac)
+
+    @classmethod
+    def from_string(
+        cls, text: str, quant: Quant = Quant.TRN, overflow: Overflow = Overflow.WRAP
+    ) -> FixedFormat:
+        """Parse ``"s16.8"`` (signed, W=16, F=8) or ``"u12.-2"`` (unsigned, W=12, F=-2)."""
+        match = _FORMAT_RE.match(text.strip()) if isinstance(text, str) else None
+        if match is None:
+            raise ValueError(f"format must look like 's16.8' or 'u12.-2', not {text!r}")
+        sign, word, frac = match.groups()
+        return cls(sign == "s", int(word), int(frac), quant, overflow)
+
+    @property
+    def int_bits(self) -> int:
+        """Integer bits ``W - F`` (including the sign bit, as ``ap_fixed``'s ``I``)."""
+        return self.word - self.frac
+
+    @property
+    def raw_min(self) -> int:
+        """Smallest raw code: ``-2**(W-1)`` if signed, else 0."""
+        return -(1 << (self.word - 1)) if self.signed else 0
+
+    @property
+    def raw_max(self) -> int:
+        """Largest raw code: ``2**(W-1) - 1`` if signed, else ``2**W - 1``."""
+        return (1 << (self.word - 1)) - 1 if self.signed else (1 << self.word) - 1
+
+    @property
+    def lsb(self) -> float:
+        """Weight of one raw step, ``2**-F``."""
+        return math.ldexp(1.0, -self.frac)
+
+    def describe(self) -> str:
+        """Vitis HLS spelling, e.g. ``ap_fixed<16,8,AP_RND,AP_SAT>``."""
+        kind = "ap_fixed" if self.signed else "ap_ufixed"
+        return f"{kind}<{self.word},{self.int_bits},AP_{self.quant.name},AP_{self.overflow.name}>"
+
+    def __str__(self) -> str:
+        return f"{'s' if self.signed else 'u'}{self.word}.{self.frac}"
+
+    def to_float(self, raw: int | np.ndarray) -> float | np.ndarray:
+        """Value of raw code(s) as float64, ``raw * 2**-F`` (exact while ``|raw| < 2**53``)."""
+        if isinstance(raw, np.ndarray):
+            return np.ldexp(raw.astype(np.float64), -self.frac)
+        return math.ldexp(float(_check_int("raw", raw)), -self.frac)
+
+    def from_float(self, x: float) -> int:
+        """Raw code of float64 ``x`` quantised exactly with this format's modes.
+
+        ``x = m * 2**(e - 53)`` with an integer ``m`` (``|m| < 2**53``) is cast by
+        :func:`cast_raw` from ``frac_in = 53 - e``, so no float rounding is involved.
+        """
+        x = float(x)
+        if not math.isfinite(x):
+            raise ValueError(f"cannot quantise a non-finite value, {x!r}")
+        mantissa, exponent = math.frexp(x)
+        raw = int(math.ldexp(mantissa, 53))
+        value, _ = cast_raw(
+            raw,
+            53 - exponent,
+            self.word,
+            self.frac,
+            self.signed,
+            int(self.quant),
+            int(self.overflow),
+        )
+        return int(value)
+
+
+def cast_array(raw: np.ndarray, frac_in: int, fmt: FixedFormat) -> tuple[np.ndarray, int]:
+    """Cast raw codes ``raw * 2**-frac_in`` into ``fmt`` with its modes (SPEC §4).
+
+    Parameters
+    ----------
+    raw : numpy.ndarray
+        Integer array (any shape); values must fit int64.
+    frac_in : int
+        Fraction bits of ``raw``.
+    fmt : FixedFormat
+        Target format, quantisation and overflow modes.
+
+    Returns
+    -------
+    (numpy.ndarray, int)
+        int64 raw codes of ``fmt`` (same shape as ``raw``) and the number of overflows.
+    """
+    if not isinstance(fmt, FixedFormat):
+        raise ValueError(f"fmt must be a FixedFormat, not {fmt!r}")
+    frac_in = _check_int("frac_in", frac_in)
+    if not _I64_MIN <= frac_in <= _I64_MAX:
+        raise ValueError(f"frac_in must fit int64, not {frac_in!r}")
+    arr = np.asarray(raw)
+    if arr.dtype.kind not in "iu":
+        raise ValueError(f"raw must be an integer array, not dtype {arr.dtype!r}")
+    if arr.dtype == np.uint64 and arr.size and int(arr.max()) > _I64_MAX:
+        raise ValueError(f"raw values must fit int64, got {int(arr.max())!r}")
+    flat = np.ascontiguousarray(arr, dtype=np.int64).ravel()
+    out = np.empty_like(flat)
+    count = _cast_array_kernel(
+        flat,
+        np.int64(frac_in),
+        np.int64(fmt.word),
+        np.int64(fmt.frac),
+        fmt.signed,
+        np.int64(fmt.quant),
+        np.int64(fmt.overflow),
+        out,
+    )
+    return out.reshape(arr.shape), int(count)
+
+
+TIES = (-2.5, -1.5, -0.5, 0.5, 1.5, 2.5)
+
+_MATLAB = {
+    Quant.TRN: "Floor",
+    Quant.TRN_ZERO: "Zero",
+    Quant.RND: "Nearest",
+    Quant.RND_ZERO: "none",
+    Quant.RND_INF: "Round",
+    Quant.RND_MIN_INF: "none",
+    Quant.RND_CONV: "Convergent",
+}
+_VHDL = {
+    Quant.TRN: "fixed_truncate",
+    Quant.TRN_ZERO: "none",
+    Quant.RND: "none",
+    Quant.RND_ZERO: "none",
+    Quant.RND_INF: "none",
+    Quant.RND_MIN_INF: "none",
+    Quant.RND_CONV: "fixed_round",
+}
+
+
+def rounding_table() -> list[dict]:
+    """Each :class:`Quant` mode applied by :func:`quantise_shift` to the ties in ``TIES``.
+
+    Each row: ``mode`` (Quant name), ``ap_fixed`` (``AP_...``), one key per tie
+    (``"-2.5"`` ... ``"2.5"``) holding the integer result (F=0), ``matlab`` (fimath
+    RoundingMethod with the same result everywhere, or ``"none"``) and ``vhdl`` (IEEE 1076-2008
+    ``fixed_pkg`` ``fixed_round_style``, or ``"none"``).
+    """
+    rows = []
+    for mode in Quant:
+        row: dict = {"mode": mode.name, "ap_fixed": f"AP_{mode.name}"}
+        for tie in TIES:
+            row[str(tie)] = int(quantise_shift(np.int64(round(tie * 2)), 1, int(mode)))
+        row["matlab"] = _MATLAB[mode]
+        row["vhdl"] = _VHDL[mode]
+        rows.append(row)
+    return rows
+
+
+def rounding_table_markdown() -> str:
+    """:func:`rounding_table` as a Markdown table (ends with a newline)."""
+    header = ["ap_fixed", *(str(t) for t in TIES), "MATLAB RoundingMethod", "VHDL fixed_pkg"]
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    for row in rounding_table():
+        cells = [
+            f"`{row['ap_fixed']}`",
+            *(str(row[str(t)]) for t in TIES),
+            row["matlab"],
+            row["vhdl"],
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+_DOC_HEAD = """\
+# Rounding modes on ties
+
+Generated by `python -m rangefx.rtl_model.fixedpoint` from
+`rangefx.rtl_model.fixedpoint.rounding_table_markdown()` (SPEC §4); a test keeps it current.
+Each cell is the integer that the mode gives for the tie in the column header (F=0),
+computed by the model's own integer kernel.
+
+"""
+
+_DOC_TAIL = """
+Names clash across tools: MATLAB `Round` is `AP_RND_INF` (ties away from zero) while MATLAB
+`Nearest` is `AP_RND` (ties toward +inf), and IEEE `fixed_pkg` `fixed_round` is convergent
+(`AP_RND_CONV`, ties to even, per its `round_fixed`), not `AP_RND`.
+`AP_RND_ZERO` and `AP_RND_MIN_INF` have no MATLAB RoundingMethod, `fixed_pkg` offers only
+`fixed_truncate` (`AP_TRN`) and `fixed_round` (`AP_RND_CONV`), and MATLAB `Ceiling` (toward
++inf) has no `ap_fixed` mode.
+On ties alone `AP_TRN_ZERO` matches `AP_RND_ZERO` and `AP_TRN` matches `AP_RND_MIN_INF`, but
+they differ off the ties (0.75 gives 0 and 1), so a tie-only test cannot tell them apart.
+Defaults differ as well: `ap_fixed` uses `AP_TRN`/`AP_WRAP`, MATLAB `fimath`
+`Nearest`/`Saturate`, and `fixed_pkg` `fixed_round`/`fixed_saturate`.
+"""
+
+
+def rounding_doc_text() -> str:
+    """Full text of ``docs/rounding.md``."""
+    return _DOC_HEAD + rounding_table_markdown() + _DOC_TAIL
+
+
+def write_rounding_doc(path: str | Path) -> None:
+    """Write :func:`rounding_doc_text` to ``path`` (UTF-8, ``\\n`` line ends)."""
+    Path(path).write_text(rounding_doc_text(), encoding="utf-8", newline="\n")
+
+
+if __name__ == "__main__":
+    write_rounding_doc(Path(__file__).resolve().parent.parent / "docs" / "rounding.md")
