@@ -62,6 +62,7 @@ __all__ = [
     "EstimatorConfig",
     "causal_estimator_1d",
     "estimate_derivatives",
+    "validate_image",
 ]
 
 VARIANTS = ("paper", "consistent")
@@ -218,7 +219,11 @@ def causal_estimator_1d(
     return outs
 
 
-def _validate_image(image: np.ndarray, name: str = "image") -> np.ndarray:
+def validate_image(image: np.ndarray, name: str = "image") -> np.ndarray:
+    """Check one grey-level image (2-D, numeric, at least 2x2, finite); return it as float64.
+
+    Raises ``ValueError`` naming ``name`` and what is wrong.
+    """
     arr = np.asarray(image)
     if arr.ndim != 2:
         raise ValueError(f"{name} must be a 2-D array, got shape {arr.shape}")
@@ -249,7 +254,7 @@ def estimate_derivatives(image: np.ndarray, config: EstimatorConfig | None = Non
         Derivatives are per pixel, x to the right (along a line), y down (across lines).
     """
     config = config or EstimatorConfig()
-    x = _validate_image(image) + config.bias
+    x = validate_image(image) + config.bias
     n = config.order
     rows = causal_estimator_1d(x, config, axis=1)
     taps = {f"r{d + 1}": r for d, r in enumerate(rows)}

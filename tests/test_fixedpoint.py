@@ -106,6 +106,14 @@ formats = st.builds(
 )
 
 
+def assert_cast_matches_reference(raws: np.ndarray, frac_in: int, fmt: FixedFormat) -> None:
+    """The kernel's values and overflow count equal the Fraction reference, value by value."""
+    out, count = cast_array(raws, frac_in, fmt)
+    expected = [reference_cast(int(r), frac_in, fmt) for r in raws]
+    assert out.tolist() == [value for value, _ in expected]
+    assert count == sum(flag for _, flag in expected)
+
+
 @pytest.mark.parametrize(("quant", "overflow"), MODE_PAIRS, ids=lambda m: m.name)
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
@@ -119,10 +127,7 @@ def test_cast_matches_fraction_reference(quant, overflow, target, shift, seed, e
     fmt = FixedFormat(signed, word, frac, quant, overflow)
     frac_in = frac + shift
     raws = np.concatenate([random_raws(seed, BATCH), np.array(extra, dtype=np.int64)])
-    out, count = cast_array(raws, frac_in, fmt)
-    expected = [reference_cast(int(r), frac_in, fmt) for r in raws]
-    assert out.tolist() == [value for value, _ in expected]
-    assert count == sum(flag for _, flag in expected)
+    assert_cast_matches_reference(raws, frac_in, fmt)
 
 
 @pytest.mark.parametrize(("quant", "overflow"), MODE_PAIRS, ids=lambda m: m.name)
@@ -144,10 +149,7 @@ def test_cast_in_format_ties_and_bounds(
         base = rng.integers(-(2 ** (word_in - 2)), 2 ** (word_in - 2), 64) >> shift << shift
         raws = np.concatenate([raws, base + (1 << (shift - 1)), base - (1 << (shift - 1))])
     fmt = FixedFormat(True, word_out, frac_out, quant, overflow)
-    out, count = cast_array(raws, frac_in, fmt)
-    expected = [reference_cast(int(r), frac_in, fmt) for r in raws]
-    assert out.tolist() == [value for value, _ in expected]
-    assert count == sum(flag for _, flag in expected)
+    assert_cast_matches_reference(raws, frac_in, fmt)
 
 
 def to_signed(bits: int, word: int) -> int:

@@ -14,12 +14,13 @@ import json
 import math
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from rangefx.golden.estimator import EstimatorConfig, estimate_derivatives
+from rangefx.golden.estimator import EstimatorConfig, estimate_derivatives, validate_image
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.methods import METHODS, SCENE_RANGING, run_method
 from rangefx.golden.ranging import RangeResult, RangingConfig
@@ -207,13 +208,10 @@ def _load_image(path: str) -> np.ndarray:
             arr = imread(p)
     except Exception as exc:  # any decoder failure is the user's file
         raise UserError(f"cannot read image {path}: {exc}") from None
-    if arr.ndim != 2:
-        raise UserError(f"image {path} must be a 2-D grey-level array, got shape {arr.shape}")
-    if arr.dtype.kind not in "uif":
-        raise UserError(f"image {path} must be numeric, got dtype {arr.dtype}")
-    if not np.all(np.isfinite(arr)):
-        raise UserError(f"image {path} contains NaN or inf")
-    return arr
+    try:
+        return validate_image(arr, name=f"image {path}")
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -232,18 +230,18 @@ def cmd_run(args: argparse.Namespace) -> int:
             motion = MotionIncrement.stereo(args.baseline)
         except ValueError as exc:
             raise UserError(str(exc)) from None
-        scene, ranging = None, RangingConfig(range_max=args.range_max or 100.0)
+        scene, ranging = None, RangingConfig()
     else:
         scene = _render(args.scene, args.seed)
         e1, e2, camera, motion = scene.image1, scene.image2, scene.camera, scene.motion
         ranging = SCENE_RANGING[scene.name]
     try:
-        if args.threshold_e is not None or args.threshold_g is not None or args.range_max:
-            ranging = RangingConfig(
-                threshold_e=ranging.threshold_e if args.threshold_e is None else args.threshold_e,
-                threshold_g=ranging.threshold_g if args.threshold_g is None else args.threshold_g,
-                range_max=args.range_max or ranging.range_max,
-            )
+        overrides = {
+            "threshold_e": args.threshold_e,
+            "threshold_g": args.threshold_g,
+            "range_max": args.range_max,
+        }
+        ranging = replace(ranging, **{k: v for k, v in overrides.items() if v is not None})
         est = _estimator(args)
         result = run_method(args.method, e1, e2, camera, motion, estimator=est, ranging=ranging)
     except ValueError as exc:
