@@ -1,0 +1,205 @@
+"""Plots like the report's Figures 4-10 (chapter 6), written as PNG files.
+
+Uses matplotlib's non-interactive Agg backend (no display needed).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from rangefx.golden.geometry import (
+    MotionIncrement,
+    PinholeCamera,
+    camera_from_inertial,
+)
+
+from .obstacles import ned_from_guidance
+from .simulate import SimulationResult
+
+__all__ = ["FIGURES", "default_view", "project_to_image", "save_figures"]
+
+#: File names written by :func:`save_figures`, with the report figure they mirror.
+FIGURES: dict[str, str] = {
+    "fig4_altitude_vs_downrange.png": "Fig 4: down range vs altitude",
+    "fig5_horizontal_projection.png": "Fig 5: horizontal projection with obstacles",
+    "fig6_closest_obstacle.png": "Fig 6: distance to the closest obstacle",
+    "fig7_airspeed.png": "Fig 7: airspeed vs time",
+    "fig8_heading.png": "Fig 8: heading vs time",
+    "fig9_bank.png": "Fig 9: bank angle vs time",
+    "fig10_image_projection.png": "Fig 10: trajectory projected on the image plane",
+}
+
+
+def default_view(
+    res: SimulationResult,
+    *,
+    hfov_deg: float = 60.0,
+    size: tuple[int, int] = (512, 512),
+    depression_deg: float = 3.0,
+) -> tuple[PinholeCamera, MotionIncrement]:
+    """A nose camera at the initial state, looking along the initial heading.
+
+    The report's camera data for Fig 10 are not given; this camera (assumption) has a
+    60° horizontal field of view so that the whole manoeuvre is in view, and is
+    depressed 3° below the horizon like the ``runway`` scene's.
+    """
+    v0 = res.bc.v0
+    psi = math.atan2(v0[1], v0[0])
+    motion = MotionIncrement.from_attitudes(
+        camera_angles=(0.0, math.radians(-depression_deg), 0.0),
+        attitude1=(psi, 0.0, 0.0),
+        position1=tuple(ned_from_guidance(res.bc.r0)),
+    )
+    return PinholeCamera.from_fov(size[1], size[0], hfov_deg), motion
+
+
+def project_to_image(
+    points_ned: np.ndarray, camera: PinholeCamera, motion: MotionIncrement
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pixel column/row of NED points seen by camera 1 (eqs 8-9, 12, 15); ``in_front`` mask."""
+    xc = camera_from_inertial(motion, points_ned)
+    cx, cy = camera.principal_point
+    front = xc[..., 0] > 1e-6
+    with np.errstate(divide="ignore", invalid="ignore"):
+        col = np.where(front, camera.f_px * xc[..., 1] / xc[..., 0] + cx, np.nan)
+        row = np.where(front, camera.f_px * xc[..., 2] / xc[..., 0] + cy, np.nan)
+    return col, row, front
+
+
+def _save(fig, path: Path) -> None:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    path.write_bytes(buf.getvalue())
+
+
+def save_figures(
+    res: SimulationResult,
+    out_dir: str | Path,
+    *,
+    title: str = "",
+    image: np.ndarray | None = None,
+    view: tuple[PinholeCamera, MotionIncrement] | None = None,
+    to_ned=ned_from_guidance,
+) -> list[Path]:
+    """Write Figs 4-10 for a run into ``out_dir`` (which must exist).
+
+    Parameters
+    ----------
+    res
+        A closed-loop run.
+    out_dir
+        Destination directory.
+    title
+        Prefix for the figure titles.
+    image
+        Background image for Fig 10 (e.g. the ``runway`` scene's ``image1``), drawn in
+        the camera ``view``; ``None`` draws the ground grid and horizon only.
+    view
+        ``(camera, motion)`` for Fig 10; default :func:`default_view`.
+    to_ned
+        Map from guidance-frame points to the camera's NED frame (default: flip ``z``;
+        for the ``runway`` scene, :meth:`FrameMap.to_scene`).
+    """
+    out = Path(out_dir)
+    pos = res.positions
+    t = res.t
+    obs = res.obstacles
+    pre = f"{title}: " if title else ""
+    written: list[Path] = []
+
+    def finish(fig, ax, name):
+        ax.set_title(pre + FIGURES[name].split(": ", 1)[1], fontsize=10)
+        ax.grid(True, alpha=0.3)
+        fig.tight_layout()
+        _save(fig, out / name)
+        written.append(out / name)
+
+    fig, ax = plt.subplots(figsize=(7, 3.5))  # Fig 4
+    ax.plot(pos[:, 0], pos[:, 2], "b-", label="trajectory")
+    ax.plot(obs[:, 0], obs[:, 2], "o", mfc="none", ms=4, color="0.4", label="obstacle points")
+    ax.set_xlabel("down range x (ft)")
+    ax.set_ylabel("altitude z (ft)")
+    ax.legend(loc="best", fontsize=8)
+    finish(fig, ax, "fig4_altitude_vs_downrange.png")
+
+    fig, ax = plt.subplots(figsize=(6, 6))  # Fig 5
+    ax.plot(pos[:, 1], pos[:, 0], "b-", label="trajectory")
+    ax.plot(obs[:, 1], obs[:, 0], "o", mfc="none", ms=4, color="0.4", label="obstacle points")
+    ax.plot(*res.bc.r0[[1, 0]], "g^", label="start")
+    ax.plot(*res.bc.rf[[1, 0]], "rv", label="touch-down")
+    ax.set_xlabel("cross range y (ft)")
+    ax.set_ylabel("down range x (ft)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(loc="best", fontsize=8)
+    finish(fig, ax, "fig5_horizontal_projection.png")
+
+    dist = res.closest_obstacle_distance()
+    fig, ax = plt.subplots(figsize=(7, 3.5))  # Fig 6
+    ax.plot(t, dist, "b-")
+    k = int(np.argmin(dist))
+    ax.plot(t[k], dist[k], "r.", label=f"min {dist[k]:.2f} ft at {t[k]:.2f} s")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("distance to closest obstacle (ft)")
+    ax.legend(loc="best", fontsize=8)
+    finish(fig, ax, "fig6_closest_obstacle.png")
+
+    fig, ax = plt.subplots(figsize=(7, 3.5))  # Fig 7
+    ax.plot(t, res.states[:, 3], "b-")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("airspeed V (ft/s)")
+    finish(fig, ax, "fig7_airspeed.png")
+
+    fig, ax = plt.subplots(figsize=(7, 3.5))  # Fig 8
+    ax.plot(t, np.degrees(np.unwrap(res.states[:, 5])), "b-")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("heading χ (deg)")
+    finish(fig, ax, "fig8_heading.png")
+
+    fig, ax = plt.subplots(figsize=(7, 3.5))  # Fig 9
+    ax.step(res.t_cmd, np.degrees(res.phi), where="post", color="b", label="bank φ")
+    ax.step(res.t_cmd, np.degrees(res.theta), where="post", color="g", label="thrust angle θ")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("angle (deg)")
+    ax.legend(loc="best", fontsize=8)
+    finish(fig, ax, "fig9_bank.png")
+
+    camera, motion = view or default_view(res)
+    fig, ax = plt.subplots(figsize=(6, 6))  # Fig 10
+    if image is not None:
+        ax.imshow(image, cmap="gray", vmin=0, vmax=255)
+    else:
+        ax.set_facecolor("0.92")
+    ground = pos.copy()
+    ground[:, 2] = 0.0
+    c_t, r_t, f_t = project_to_image(to_ned(pos), camera, motion)
+    c_g, r_g, f_g = project_to_image(to_ned(ground), camera, motion)
+    c_o, r_o, _ = project_to_image(to_ned(obs), camera, motion)
+    ax.plot(c_o, r_o, "s", ms=2, color="w" if image is not None else "0.3", label="obstacles")
+    ax.plot(c_t, r_t, "-", color="yellow" if image is not None else "b", label="trajectory")
+    step = max(1, len(pos) // 40)
+    for i in range(0, len(pos), step):  # vertical lines: altitude above the runway
+        if f_t[i] and f_g[i]:
+            ax.plot([c_t[i], c_g[i]], [r_t[i], r_g[i]], "-", lw=0.6, color="orange")
+    ax.plot(c_t[-1], r_t[-1], marker=7, ms=9, color="r", ls="none", label="touch-down")
+    ax.set_xlim(0, camera.width - 1)
+    ax.set_ylim(camera.height - 1, 0)
+    if image is None:  # no picture to show: zoom on the rows that hold the manoeuvre
+        rows = np.concatenate([r_t[f_t], r_g[f_g], r_o[np.isfinite(r_o)]])
+        rows = rows[(rows >= 0) & (rows < camera.height)]
+        if rows.size:
+            lo, hi = max(rows.min() - 30, 0), min(rows.max() + 30, camera.height - 1)
+            ax.set_ylim(hi, lo)
+    ax.set_xlabel("column i (px)")
+    ax.set_ylabel("row j (px)")
+    ax.legend(loc="lower left", fontsize=8)
+    finish(fig, ax, "fig10_image_projection.png")
+    return written

@@ -1,0 +1,97 @@
+"""Command-line tests of ``rangefx guide``."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from rangefx.tools.cli import main
+
+KEYS = {
+    "flight_time_s",
+    "min_obstacle_distance",
+    "max_load_factor",
+    "max_abs_theta_deg",
+    "max_abs_phi_deg",
+    "initial_t_go_s",
+    "final_position_error_ft",
+    "n_obstacles",
+}
+
+
+@pytest.fixture(scope="module")
+def guide_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("guide") / "out"
+    return out, main(["guide", "--out", str(out), "--json", "--guidance-interval", "0.25"])
+
+
+def test_guide_json_and_outputs(guide_run, capsys):
+    out, code = guide_run
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert KEYS <= set(summary)
+    assert summary["n_obstacles"] == 293
+    assert 10 < summary["flight_time_s"] < 30
+    assert summary["final_position_error_ft"] < 0.1
+    assert 1.0 < summary["max_load_factor"] < 1.2
+    names = {p.name for p in out.iterdir()}
+    assert set(summary["figures"]) <= names
+    assert {"trajectory.csv", "obstacles.csv", ".rangefx-output"} <= names
+    for png in out.glob("*.png"):
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    rows = (out / "obstacles.csv").read_text().splitlines()
+    assert rows[0] == "x_ft,y_ft,z_ft" and len(rows) == 294
+
+
+def test_guide_prints_one_json_object(tmp_path, capsys):
+    code = main(
+        [
+            "guide",
+            "--out",
+            str(tmp_path / "o"),
+            "--json",
+            "--guidance-interval",
+            "0.5",
+            "--shift",
+            "0",
+            "-10",
+            "0",
+        ]
+    )
+    assert code == 0
+    printed = capsys.readouterr().out.strip().splitlines()
+    assert len(printed) == 1
+    data = json.loads(printed[0])
+    assert KEYS <= set(data) and data["shift_ft"] == [0.0, -10.0, 0.0]
+
+
+@pytest.mark.parametrize(
+    "argv, culprit",
+    [
+        (["--guidance-interval", "-1"], "--guidance-interval"),
+        (["--guidance-interval", "nan"], "--guidance-interval"),
+        (["--shift", "nan", "0", "0"], "--shift"),
+    ],
+)
+def test_guide_bad_input_is_one_line_error(tmp_path, capsys, argv, culprit):
+    out = tmp_path / "o"
+    assert main(["guide", "--out", str(out), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rangefx: error:") and culprit in err[0]
+    assert not out.exists()
+
+
+def test_guide_refuses_foreign_output_dir(tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "keep.txt").write_text("user data")
+    assert main(["guide", "--out", str(out), "--guidance-interval", "0.5"]) == 2
+    assert (out / "keep.txt").read_text() == "user data"
+    assert "rangefx: error:" in capsys.readouterr().err
+
+
+def test_guide_unknown_obstacle_source_exits_2(tmp_path):
+    with pytest.raises(SystemExit) as exc:
+        main(["guide", "--out", str(tmp_path / "o"), "--obstacles", "moon"])
+    assert exc.value.code == 2
