@@ -25,6 +25,7 @@ __all__ = [
     "camera_from_inertial",
     "inertial_from_camera",
     "k_coefficients",
+    "k_matrix",
     "rotation_body_to_camera",
     "rotation_inertial_to_body",
 ]
@@ -207,16 +208,26 @@ def k_coefficients(motion: MotionIncrement, xp: np.ndarray, yp: np.ndarray, f_px
     k012 : ndarray, shape (3, *xp.shape)
     k345 : ndarray, shape (3,)
     """
-    M = motion.T1 @ motion.dT2 @ motion.T2.T @ motion.T1.T
+    M, k345 = k_matrix(motion)
     xp = np.asarray(xp, dtype=np.float64)
     yp = np.asarray(yp, dtype=np.float64)
     ray = np.stack([np.ones_like(xp), xp / f_px, yp / f_px])
     k012 = np.tensordot(M, ray, axes=1)
+    return k012, k345
+
+
+def k_matrix(motion: MotionIncrement) -> tuple[np.ndarray, np.ndarray]:
+    """Per-frame constants of eq 23 (SPEC §9): ``M = T1 ΔT2 T2^T T1^T`` and ``k3..k5``.
+
+    ``[k0, k1, k2] = M [1, xp/f, yp/f]``; a hardware range stage holds ``M`` (scaled by
+    ``1/f`` in its last two columns) and ``k3..k5`` in registers.
+    """
+    M = motion.T1 @ motion.dT2 @ motion.T2.T @ motion.T1.T
     k345 = (
         motion.T1 @ motion.dT2 @ motion.T2.T @ motion.l
         - motion.T1 @ (motion.T2 + motion.dT2) @ motion.dxv
     )
-    return k012, k345
+    return M, k345
 
 
 def camera_from_inertial(motion: MotionIncrement, x: np.ndarray, frame: int = 1) -> np.ndarray:

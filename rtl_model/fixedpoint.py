@@ -133,7 +133,7 @@ def _floor_shift(raw, shift):
     return np.int64(-1), 1, True
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def quantise_shift(raw, shift, quant):
     """Drop ``shift`` LSBs of ``raw`` with quantisation mode ``quant`` (SPEC §4).
 
@@ -162,6 +162,29 @@ def quantise_shift(raw, shift, quant):
         if shift <= -64:
             return np.int64(0)
         return raw << (-shift)
+    if shift <= 62:
+        # the common case, written without data-dependent branches (a mispredicted
+        # rounding branch costs more than the whole cast)
+        q = raw >> shift
+        rem = raw - (q << shift)
+        half = np.int64(1) << (shift - 1)
+        above = rem > half
+        tie = rem == half
+        if quant == _Q_TRN:
+            return q
+        if quant == _Q_TRN_ZERO:
+            return q + np.int64((q < 0) & (rem != 0))
+        if quant == _Q_RND:
+            up = True
+        elif quant == _Q_RND_ZERO:
+            up = q < 0
+        elif quant == _Q_RND_INF:
+            up = q >= 0
+        elif quant == _Q_RND_CONV:
+            up = (q & 1) == 1
+        else:
+            up = False
+        return q + np.int64(above | (tie & up))
     q, cmp, inexact = _floor_shift(raw, shift)
     if quant == _Q_TRN:
         return q
@@ -182,7 +205,7 @@ def quantise_shift(raw, shift, quant):
     return q
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def overflow_raw(raw, word, signed, mode):
     """Bring ``raw`` into the range of a ``word``-bit format with overflow ``mode`` (SPEC §4).
 

@@ -19,7 +19,7 @@ def demo_dir(tmp_path_factory):
 
 def test_demo_writes_every_output(demo_dir):
     names = {p.name for p in demo_dir.iterdir()}
-    for m in ("g3_paper", "g3_consistent"):
+    for m in ("g3_paper", "g3_consistent", "g2_central", "g5_riccati"):
         assert {f"range_{m}.png", f"points3d_{m}.png", f"table_{m}.csv"} <= names
     assert {"pair.png", "table.md", "summary.json", ".rangefx-output"} <= names
     for png in demo_dir.glob("*.png"):
@@ -29,7 +29,7 @@ def test_demo_writes_every_output(demo_dir):
 def test_demo_summary_meets_the_issue_budget(demo_dir):
     summary = json.loads((demo_dir / "summary.json").read_text())
     methods = summary["methods"]
-    assert set(methods) == {"g3_paper", "g3_consistent"}
+    assert {"g3_paper", "g3_consistent", "g2_central", "g5_riccati"} <= set(methods)
     keys = {"object", "actual", "estimated_median", "std", "n_points"}
     for m in methods.values():
         assert 0 < m["valid_fraction"] < 1

@@ -26,11 +26,11 @@ from rangefx.golden.methods import METHODS, SCENE_RANGING, run_method
 from rangefx.golden.ranging import RangeResult, RangingConfig
 from rangefx.golden.scenes import SCENE_NAMES, Scene, render_scene
 
-from . import report
+from . import cmd_eval, cmd_guide, cmd_track, pipeline, report
 from .errors import UserError
 from .outdir import atomic_output_dir, atomic_write_text
 
-DEMO_METHODS = ("g3_paper", "g3_consistent")
+DEMO_METHODS = ("g3_paper", "g3_consistent", "g2_central", "g5_riccati")
 
 
 def _version() -> str:
@@ -110,7 +110,7 @@ def _estimator(args: argparse.Namespace) -> EstimatorConfig:
 def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     est = _estimator(args)
-    steps = ["render lab", *DEMO_METHODS, "figures"]
+    steps = ["render lab", *DEMO_METHODS, "p1 fixed point", "figures"]
     bar = tqdm(total=len(steps), desc="rangefx demo", disable=args.json or not sys.stderr.isatty())
     with atomic_output_dir(out) as tmp:
         bar.set_postfix_str(steps[0])
@@ -131,6 +131,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
             )
             summary_methods[m] = _method_figures(scene, results[m])
             bar.update()
+        bar.set_postfix_str("p1 fixed point")
+        p1_summary = pipeline.demo_p1(scene, tmp, _clean)
+        bar.update()
         bar.set_postfix_str("figures")
         report.save_pair_png(
             tmp / "pair.png", scene.image1, scene.image2, ("left (E1)", "right (E2)")
@@ -159,6 +162,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
             rows = summary_methods[m]["table"]
             md.append(report.table_markdown(rows, scene.unit, title=m))
             atomic_write_text(tmp / f"table_{m}.csv", report.table_csv(rows))
+        for m, v in p1_summary.items():
+            md.append(report.table_markdown(v["table"], scene.unit, title=f"{m} (fixed point)"))
         atomic_write_text(tmp / "table.md", "\n".join(md))
         summary = {
             "rangefx_version": _version(),
@@ -173,6 +178,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
             "estimator": {"pole": est.pole, "order": est.order, "bias": est.bias, "init": est.init},
             "ranging": vars(ranging),
             "methods": summary_methods,
+            "fixed_point": p1_summary,
             "paper_diagnostics": _paper_diagnostics(scene, est, results["g3_paper"].valid),
         }
         atomic_write_text(tmp / "summary.json", json.dumps(_clean(summary), indent=2) + "\n")
@@ -190,6 +196,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
             print(
                 f"{m}: valid-pixel fraction {v['valid_fraction']:.3f}, "
                 f"median relative error vs truth {v['median_rel_error']:.3f}"
+            )
+        for m, v in p1_summary.items():
+            print(
+                f"{m} (fixed point, default config): overflows {v['overflows']['total']}, "
+                f"median |fixed - golden| / golden {v['median_rel_range_diff']:.2e}, "
+                f"valid agreement {v['valid_agreement']:.4f}"
             )
         print(f"results written to {out}/")
     return 0
@@ -242,6 +254,13 @@ def cmd_run(args: argparse.Namespace) -> int:
             "range_max": args.range_max,
         }
         ranging = replace(ranging, **{k: v for k, v in overrides.items() if v is not None})
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    if args.pipeline == "p1":
+        mode = pipeline.SCENE_MODE[scene.name] if scene is not None else "stereo"
+        case = pipeline.P1Case(e1, e2, camera, motion, ranging, mode, scene)
+        return pipeline.cmd_run_pipeline(args, case, _clean)
+    try:
         est = _estimator(args)
         result = run_method(args.method, e1, e2, camera, motion, estimator=est, ranging=ranging)
     except ValueError as exc:
@@ -270,6 +289,17 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_p1_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("fixed-point pipeline (--pipeline p1)")
+    g.add_argument("--config", help="word-length config TOML (default: the shipped default)")
+    g.add_argument("--variant", choices=("paper", "consistent"), help="estimator variant")
+    g.add_argument("--divider", choices=("restoring", "reciprocal"), help="divider model")
+    g.add_argument("--hblank", type=int, default=0, help="horizontal blanking, cycles")
+    g.add_argument("--vblank", type=int, default=0, help="vertical blanking, cycles")
+    g.add_argument("--gap-prob", type=float, default=0.0, help="input gap probability")
+    g.add_argument("--gap-seed", type=int, default=0, help="input gap seed")
+
+
 def _add_estimator_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--pole", type=float, default=0.5, help="filter pole c per pixel (default 0.5)")
     p.add_argument("--bias", type=float, default=EstimatorConfig.bias, help="input bias (eq 19)")
@@ -296,8 +326,32 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threshold-g", type=float, help="T_g, grey levels per pixel")
     p.add_argument("--range-max", type=float, help="maximum scene depth")
     p.add_argument("--out", help="write range.npy, valid.npy, range.png, summary.json here")
+    p.add_argument(
+        "--pipeline",
+        choices=("golden", "p1"),
+        default="golden",
+        help="golden (float64 method) or p1 (bit-accurate fixed-point pipeline)",
+    )
+    _add_p1_args(p)
     _add_estimator_args(p)
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("bench", help="P1 throughput (Mpixel/s) beside the float64 golden")
+    p.add_argument("--repeats", type=int, default=5, help="timed runs per figure (median)")
+    p.add_argument("--size", type=int, default=512, help="image side in pixels (default 512)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=lambda a: pipeline.cmd_bench(a, _clean))
+    p = sub.add_parser("config", help="P1 word-length config: show the default, or propose")
+    p.add_argument("action", choices=("show", "propose"))
+    p.add_argument("--config", help="start from this TOML (default: the shipped default)")
+    p.add_argument("--variant", choices=("paper", "consistent"))
+    p.add_argument("--scene", nargs="+", default=["lab", "runway"], help="scenes to log")
+    p.add_argument("--guard-bits", type=int, default=1, help="extra integer bits (propose)")
+    p.add_argument("--out", help="write the TOML here")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=lambda a: pipeline.cmd_config(a, _clean))
+    cmd_eval.add_parser(sub)
+    cmd_track.add_parser(sub)
+    cmd_guide.add_parser(sub)
     return parser
 
 

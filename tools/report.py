@@ -713,3 +713,31 @@ def save_points_3d_png(
     ax.set_zlabel("height" + suffix)
     ax.set_title(title)
     _save_png(fig, path)
+
+
+def save_error_histogram_png(
+    path: str | os.PathLike[str],
+    rel_diff: np.ndarray,
+    title: str,
+) -> None:
+    """Histogram of relative range differences (fixed vs golden), log-spaced bins.
+
+    ``rel_diff`` holds ``|r_fixed - r_golden| / r_golden`` on pixels valid in both; exact
+    zeros are counted in the first bin.
+    """
+    rel = np.asarray(rel_diff, dtype=np.float64).ravel()
+    if rel.size == 0 or not np.all(np.isfinite(rel)) or np.any(rel < 0):
+        raise ValueError("rel_diff must be a non-empty array of finite non-negative values")
+    floor = 1e-9
+    edges = np.logspace(np.log10(floor), np.log10(max(rel.max(), floor * 10)) + 0.1, 60)
+    fig = _new_figure((6.4, 3.6))
+    ax = fig.add_subplot()
+    ax.hist(np.maximum(rel, floor), bins=edges, color="0.3")
+    ax.set_xscale("log")
+    ax.axvline(float(np.median(rel)), color="k", linestyle="--", label="median")
+    ax.set_xlabel("|range fixed - range golden| / range golden")
+    ax.set_ylabel("pixels")
+    ax.set_title(title)
+    ax.legend()
+    fig.tight_layout()
+    _save_png(fig, path)

@@ -1,0 +1,677 @@
+"""P1: the bit-accurate, cycle-faithful derivative-based ranging pipeline (SPEC §4).
+
+Per stream, one pixel per clock in scan order: bias → row filter → column filter (line
+buffer, read before write) → x-derivative (``paper``: the divider ``s1 r2 / r1``;
+``consistent``: a second column filter on ``r2``); then the range stage of the obstacle
+paper's eq 28 with per-frame registers and pixel counters, the thresholds, and range +
+valid. ``docs/p1_datapath.md`` defines every signal; this module is the fast
+implementation of that page (numba kernels on raw int64 values), and
+``tests/oracle_p1.py`` an independent slow one.
+
+Stereo mode runs two synchronised streams (E1 left, E2 right); motion mode one stream
+carrying two frames, the first frame's stream outputs held in a frame store. The values
+do not depend on timing; cycle stamps come from the input beats plus declared latencies.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera, k_matrix
+from rangefx.golden.ranging import RangingConfig
+
+from .config import P1_SIGNALS, TimingConfig, WordLengthConfig
+from .fixedpoint import FixedFormat, cast_raw, overflow_raw, quantise_shift
+from .stream import make_stream
+
+__all__ = [
+    "FRONTEND_TAPS",
+    "RANGE_TAPS",
+    "P1Result",
+    "frame_registers",
+    "reciprocal_lut",
+    "run_p1",
+    "stage_latencies",
+]
+
+_SIG = {name: k for k, name in enumerate(P1_SIGNALS)}
+PIX_IN, BIAS_IN, ROW_STATE, ROW_R1, ROW_R2 = (
+    _SIG[s] for s in ("pix_in", "bias_in", "row_state", "row_r1", "row_r2")
+)
+COL_STATE, COL_S1, COL_S2, COL2_STATE, COL2_OUT, DIV_QUOT = (
+    _SIG[s] for s in ("col_state", "col_s1", "col_s2", "col2_state", "col2_out", "div_quot")
+)
+C1, GRAD_A, GRAD_B, COORD, K_ROT, GEOM_V, GEOM_W = (
+    _SIG[s] for s in ("c1", "grad_a", "grad_b", "coord", "k_rot", "geom_v", "geom_w")
+)
+GV, NUM, DEN, RANGE, V_SQ, GRAD_SQ = (
+    _SIG[s] for s in ("gv", "num", "den", "range", "v_sq", "grad_sq")
+)
+# register formats (their frac bits are read by the kernels)
+POLE_COEF, BIAS_REG, F_REG, K_T_REG, K_M_REG, TG2_REG = (
+    _SIG[s] for s in ("pole_coef", "bias_reg", "f_reg", "k_t_reg", "k_m_reg", "tg2_reg")
+)
+
+#: Stream taps, per stream (prefix ``e1.`` / ``e2.``), in kernel order.
+FRONTEND_TAPS = (
+    "bias_in",
+    "row_r1",
+    "row_r2",
+    "row_state",
+    "col_s1",
+    "col_s2",
+    "col_state",
+    "ex",
+    "col2_state",
+)
+#: Range-stage taps.
+RANGE_TAPS = (
+    "xp",
+    "yp",
+    "c1",
+    "a1",
+    "b1",
+    "k0",
+    "k1",
+    "k2",
+    "vx",
+    "vy",
+    "wx",
+    "wy",
+    "w0",
+    "gv",
+    "num",
+    "den",
+    "range_q",
+    "v_sq",
+    "g_sq",
+    "g_thr",
+    "valid",
+    "range",
+)
+_DIV_RESTORING, _DIV_RECIPROCAL = 0, 1
+_FMT_COLS = 5  # word, frac, signed, quant, overflow
+
+
+# --------------------------------------------------------------------------------------
+# kernels: raw int64 arithmetic only
+# --------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True, inline="always")
+def _cast(raw, frac_in, s, site, fm, st, ov):
+    """Cast ``raw * 2**-frac_in`` into signal ``s``; log the raw pre-quantisation value.
+
+    Min/max are kept per cast *site* as raw integers (each site has one ``frac_in``) and
+    turned into values on the host; float conversion per cast would cost more than the
+    cast itself.
+    """
+    if st.shape[0]:  # instrumentation on (unconditional stores: branches cost more)
+        st[site, 0] = min(st[site, 0], raw)
+        st[site, 1] = max(st[site, 1], raw)
+        st[site, 2] = frac_in
+        st[site, 3] = s
+    sh = frac_in - fm[s, 1]
+    if sh >= 0:  # dropping bits: the common case, inlined
+        out, flag = overflow_raw(quantise_shift(raw, sh, fm[s, 3]), fm[s, 0], fm[s, 2] != 0,
+                                 fm[s, 4])  # fmt: skip
+    else:
+        out, flag = cast_raw(raw, frac_in, fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4])
+    ov[s] += flag
+    return out
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _at(raw, frac, target):
+    """``raw`` re-expressed with ``target >= frac`` fraction bits (exact left shift)."""
+    return raw << (target - frac)
+
+
+@njit(cache=True, nogil=True)
+def _bitlen(x):
+    n = 0
+    while x >= (np.int64(1) << 32):
+        x >>= 32
+        n += 32
+    while x >= 256:
+        x >>= 8
+        n += 8
+    while x > 0:
+        x >>= 1
+        n += 1
+    return n
+
+
+@njit(cache=True, nogil=True)
+def _floor_div(t, d):
+    """``t // d`` for 0 <= t, 0 < d; float-assisted when exact (integer division is slow)."""
+    if t < 9007199254740992 and d < 9007199254740992:
+        q = np.int64(float(t) / float(d))
+        if q * d > t:
+            q -= 1
+        elif (q + 1) * d <= t:
+            q += 1
+        return q
+    return t // d
+
+
+@njit(cache=True, nogil=True)
+def _divide(n, fn, d, fd, s, kind, lut_bits, r_bits, lut, fm, dst, ov):
+    """``divide(N, D, S)`` of docs/p1_datapath.md; returns (raw, overflowed)."""
+    word, frac, signed, quant, ovf_mode = fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4]
+    if d == 0:
+        if n == 0:
+            return np.int64(0), False
+        big = np.int64(1) << 62  # beyond any format: the overflow mode decides
+        out, _ = overflow_raw(big if n > 0 else -big, word, signed, ovf_mode)
+        ov[s] += 1
+        return out, True
+    value = math.ldexp(float(n) / float(d), fd - fn)  # the exact quotient, logged
+    dst[s, 0] = min(dst[s, 0], value)
+    dst[s, 1] = max(dst[s, 1], value)
+    negative = (n < 0) != (d < 0)
+    an = abs(n)
+    ad = abs(d)
+    if kind == _DIV_RESTORING:
+        sh = frac + 1 + fd - fn
+        if sh >= 0:
+            t = an << sh
+            dd = ad
+        else:
+            t = an
+            dd = ad << (-sh)
+        q = _floor_div(t, dd)
+        sticky = 1 if t - q * dd != 0 else 0
+        cap = np.int64(1) << (word + 2)
+        if q > cap:  # far out of range: any larger value saturates identically
+            q = cap
+        raw = 2 * q + sticky
+        frac_in = frac + 2
+    else:
+        p = _bitlen(ad) - 1
+        if p >= lut_bits:
+            idx = (ad >> (p - lut_bits)) - (np.int64(1) << lut_bits)
+        else:
+            idx = (ad << (lut_bits - p)) - (np.int64(1) << lut_bits)
+        y0 = lut[idx]
+        if p >= r_bits:
+            m_r = ad >> (p - r_bits)
+        else:
+            m_r = ad << (r_bits - p)
+        t = (m_r * y0) >> r_bits
+        e = (np.int64(1) << (r_bits + 1)) - t
+        y1 = (y0 * e) >> r_bits
+        raw = an * y1
+        frac_in = fn - fd + p + r_bits
+    if negative:
+        raw = -raw
+    out, flag = cast_raw(raw, frac_in, word, frac, signed, quant, ovf_mode)
+    ov[s] += flag
+    return out, flag
+
+
+@njit(cache=True, nogil=True)
+def _frontend_kernel(
+    img, pole, bias, consistent, init_first, kind, lut_bits, r_bits, lut, fm, st, dst, ov,
+    out_e, out_ex, out_ey, taps, want_taps,
+):  # fmt: skip
+    """One stream: bias → row filter → column filter(s) → x-derivative, scan order."""
+    m, n = img.shape
+    f_pix, f_b, f_p = fm[PIX_IN, 1], fm[BIAS_IN, 1], fm[ROW_STATE, 1]
+    f_r1, f_r2, f_q = fm[ROW_R1, 1], fm[ROW_R2, 1], fm[COL_STATE, 1]
+    f_s1, f_q2, f_c = fm[COL_S1, 1], fm[COL2_STATE, 1], fm[POLE_COEF, 1]
+    f_breg = fm[BIAS_REG, 1]
+    lb1 = np.zeros(n, dtype=np.int64)  # line buffer of the column filter on r1
+    lb2 = np.zeros(n, dtype=np.int64)  # consistent: line buffer of the column filter on r2
+    fx = max(f_pix, f_breg)
+    fe_row = max(f_b, f_p)
+    fs_row = max(f_p, f_c + fe_row)
+    fe_col = max(f_r1, f_q)
+    fs_col = max(f_q, f_c + fe_col)
+    fe_col2 = max(f_r2, f_q2)
+    fs_col2 = max(f_q2, f_c + fe_col2)
+    for j in range(m):
+        p = np.int64(0)
+        for i in range(n):
+            x = _cast(img[j, i], 0, PIX_IN, 0, fm, st, ov)
+            b = _cast(_at(x, f_pix, fx) + _at(bias, f_breg, fx), fx, BIAS_IN, 1, fm, st, ov)
+            # row filter (one state register per line)
+            if i == 0:
+                p = _cast(b, f_b, ROW_STATE, 2, fm, st, ov) if init_first else np.int64(0)
+            prod = pole * (_at(b, f_b, fe_row) - _at(p, f_p, fe_row))
+            r2 = _cast(prod, f_c + fe_row, ROW_R2, 3, fm, st, ov)
+            p_next = _cast(_at(p, f_p, fs_row) + _at(prod, f_c + fe_row, fs_row), fs_row,
+                           ROW_STATE, 4, fm, st, ov)  # fmt: skip
+            if consistent:
+                r1 = _cast(p + p_next, f_p + 1, ROW_R1, 5, fm, st, ov)
+            else:
+                r1 = _cast(p, f_p, ROW_R1, 6, fm, st, ov)
+            p = p_next
+            # column filter on r1: read the line buffer, update, write back
+            if j == 0:
+                lb1[i] = _cast(r1, f_r1, COL_STATE, 7, fm, st, ov) if init_first else 0
+            q = lb1[i]
+            prod = pole * (_at(r1, f_r1, fe_col) - _at(q, f_q, fe_col))
+            s2 = _cast(prod, f_c + fe_col, COL_S2, 8, fm, st, ov)
+            q_next = _cast(_at(q, f_q, fs_col) + _at(prod, f_c + fe_col, fs_col), fs_col,
+                           COL_STATE, 9, fm, st, ov)  # fmt: skip
+            if consistent:
+                s1 = _cast(q + q_next, f_q + 1, COL_S1, 10, fm, st, ov)
+            else:
+                s1 = _cast(q, f_q, COL_S1, 11, fm, st, ov)
+            lb1[i] = q_next
+            q2_next = np.int64(0)
+            if consistent:
+                if j == 0:
+                    lb2[i] = _cast(r2, f_r2, COL2_STATE, 12, fm, st, ov) if init_first else 0
+                q2 = lb2[i]
+                prod = pole * (_at(r2, f_r2, fe_col2) - _at(q2, f_q2, fe_col2))
+                q2_next = _cast(_at(q2, f_q2, fs_col2) + _at(prod, f_c + fe_col2, fs_col2),
+                                fs_col2, COL2_STATE, 13, fm, st, ov)  # fmt: skip
+                lb2[i] = q2_next
+                ex = _cast(q2 + q2_next, f_q2 + 1, COL2_OUT, 14, fm, st, ov)
+            else:
+                ex, _ = _divide(s1 * r2, f_s1 + f_r2, r1, f_r1, DIV_QUOT, kind, lut_bits,
+                                r_bits, lut, fm, dst, ov)  # fmt: skip
+            out_e[j, i] = s1
+            out_ex[j, i] = ex
+            out_ey[j, i] = s2
+            if want_taps:
+                taps[0, j, i] = b
+                taps[1, j, i] = r1
+                taps[2, j, i] = r2
+                taps[3, j, i] = p_next
+                taps[4, j, i] = s1
+                taps[5, j, i] = s2
+                taps[6, j, i] = q_next
+                taps[7, j, i] = ex
+                taps[8, j, i] = q2_next
+
+
+@njit(cache=True, nogil=True)
+def _range_kernel(
+    e1, ex1, ey1, e2, ex2, ey2, regs, mreg, f_ex, kind, lut_bits, r_bits, lut, fm, st, dst, ov,
+    j0, j1, out_range, out_valid, taps, want_taps,
+):  # fmt: skip
+    """Eq 28 per pixel for rows ``j0 <= j < j1`` (docs/p1_datapath.md, range stage)."""
+    n = e1.shape[1]
+    cx, cy, fr, k3, k4, k5, te, tg2, dmin, rmax = (
+        regs[0], regs[1], regs[2], regs[3], regs[4], regs[5], regs[6], regs[7], regs[8], regs[9]
+    )  # fmt: skip
+    f_co, f_s1, f_ey = fm[COORD, 1], fm[COL_S1, 1], fm[COL_S2, 1]
+    f_c1, f_a, f_b = fm[C1, 1], fm[GRAD_A, 1], fm[GRAD_B, 1]
+    f_f, f_kt, f_km, f_kr = fm[F_REG, 1], fm[K_T_REG, 1], fm[K_M_REG, 1], fm[K_ROT, 1]
+    f_v, f_w, f_gv, f_num, f_den = fm[GEOM_V, 1], fm[GEOM_W, 1], fm[GV, 1], fm[NUM, 1], fm[DEN, 1]
+    f_vsq, f_tg2 = fm[V_SQ, 1], fm[TG2_REG, 1]
+    f_k = max(f_km, f_km + f_co)
+    f_gvv = max(f_f + f_kt, f_co + f_kt)
+    f_gww = max(f_f + f_kr, f_co + f_kr)
+    f_gvs = max(f_a + f_v, f_b + f_v)
+    f_ns = max(f_kt + f_c1, f_gv)
+    f_ds = max(f_a + f_w, f_b + f_w, f_c1 + f_w)
+    f_co0 = max(f_co, 0)  # pixel counters are integers: align at >= 0 fraction bits
+    f_w0 = max(f_kr, 0)
+    kk = np.zeros(3, dtype=np.int64)
+    for j in range(j0, j1):
+        yp = _cast(_at(np.int64(j), 0, f_co0) - _at(cy, f_co, f_co0), f_co0, COORD, 15, fm, st, ov)
+        for i in range(n):
+            xp = _cast(
+                _at(np.int64(i), 0, f_co0) - _at(cx, f_co, f_co0), f_co0, COORD, 16, fm, st, ov
+            )
+            c1 = _cast(e1[j, i] - e2[j, i], f_s1, C1, 17, fm, st, ov)
+            a1 = _cast(ex1[j, i] + ex2[j, i], f_ex + 1, GRAD_A, 18, fm, st, ov)
+            b1 = _cast(ey1[j, i] + ey2[j, i], f_ey + 1, GRAD_B, 19, fm, st, ov)
+            for r in range(3):
+                acc = _at(mreg[r, 0], f_km, f_k) + _at(mreg[r, 1] * xp, f_km + f_co, f_k)
+                acc += _at(mreg[r, 2] * yp, f_km + f_co, f_k)
+                kk[r] = _cast(acc, f_k, K_ROT, 20, fm, st, ov)
+            vx = _cast(_at(fr * k4, f_f + f_kt, f_gvv) - _at(xp * k3, f_co + f_kt, f_gvv), f_gvv,
+                       GEOM_V, 21, fm, st, ov)  # fmt: skip
+            vy = _cast(_at(fr * k5, f_f + f_kt, f_gvv) - _at(yp * k3, f_co + f_kt, f_gvv), f_gvv,
+                       GEOM_V, 22, fm, st, ov)  # fmt: skip
+            wx = _cast(_at(fr * kk[1], f_f + f_kr, f_gww) - _at(xp * kk[0], f_co + f_kr, f_gww),
+                       f_gww, GEOM_W, 23, fm, st, ov)  # fmt: skip
+            wy = _cast(_at(fr * kk[2], f_f + f_kr, f_gww) - _at(yp * kk[0], f_co + f_kr, f_gww),
+                       f_gww, GEOM_W, 24, fm, st, ov)  # fmt: skip
+            w0 = _cast(
+                _at(np.int64(1), 0, f_w0) + _at(kk[0], f_kr, f_w0), f_w0, GEOM_W, 25, fm, st, ov
+            )
+            gv = _cast(_at(a1 * vx, f_a + f_v, f_gvs) + _at(b1 * vy, f_b + f_v, f_gvs), f_gvs,
+                       GV, 26, fm, st, ov)  # fmt: skip
+            num = _cast(_at(k3 * c1, f_kt + f_c1, f_ns) - _at(gv, f_gv, f_ns), f_ns,
+                        NUM, 27, fm, st, ov)  # fmt: skip
+            den = _cast(_at(a1 * wx, f_a + f_w, f_ds) + _at(b1 * wy, f_b + f_w, f_ds)
+                        - _at(c1 * w0, f_c1 + f_w, f_ds), f_ds, DEN, 28, fm, st, ov)  # fmt: skip
+            # the divider is fed (0, 1) where |den| < DMIN: the pixel is invalid anyway, and
+            # tiny denominators would only saturate the quotient
+            den_ok = abs(den) >= dmin and den != 0
+            num_d = num if den_ok else np.int64(0)
+            den_d = den if den_ok else np.int64(1) << f_den
+            rq, dovf = _divide(num_d, f_num, den_d, f_den, RANGE, kind, lut_bits, r_bits, lut,
+                               fm, dst, ov)  # fmt: skip
+            v_sq = _cast(vx * vx + vy * vy, 2 * f_v, V_SQ, 29, fm, st, ov)
+            g_sq = _cast(gv * gv, 2 * f_gv, GRAD_SQ, 30, fm, st, ov)
+            g_thr = _cast(tg2 * v_sq, f_tg2 + f_vsq, GRAD_SQ, 31, fm, st, ov)
+            ok = abs(c1) >= te and g_sq >= g_thr and den_ok and not dovf and rq > 0 and rq <= rmax
+            out_valid[j, i] = ok
+            out_range[j, i] = rq if ok else rmax
+            if want_taps:
+                vals = (xp, yp, c1, a1, b1, kk[0], kk[1], kk[2], vx, vy, wx, wy, w0, gv, num,
+                        den, rq, v_sq, g_sq, g_thr, np.int64(ok), out_range[j, i])  # fmt: skip
+                for t in range(22):
+                    taps[t, j, i] = vals[t]
+
+
+# --------------------------------------------------------------------------------------
+# host side
+# --------------------------------------------------------------------------------------
+def reciprocal_lut(lut_bits: int, r_bits: int) -> np.ndarray:
+    """``y0[idx] = round_half_up(2^(R+L+1) / (2^(L+1) + 2 idx + 1))``: 1/m at the midpoint."""
+    idx = np.arange(1 << lut_bits, dtype=object)
+    num = 1 << (r_bits + lut_bits + 1)
+    den = (1 << (lut_bits + 1)) + 2 * idx + 1
+    return np.array([(2 * num + d) // (2 * d) for d in den], dtype=np.int64)
+
+
+def _format_table(config: WordLengthConfig) -> np.ndarray:
+    fm = np.zeros((len(P1_SIGNALS), _FMT_COLS), dtype=np.int64)
+    for k, name in enumerate(P1_SIGNALS):
+        f = config.formats[name]
+        fm[k] = (f.word, f.frac, int(f.signed), int(f.quant), int(f.overflow))
+    return fm
+
+
+@dataclass(frozen=True)
+class FrameRegisters:
+    """Per-frame constants as written by the host, raw codes in their register formats."""
+
+    pole: int
+    bias: int
+    scalars: np.ndarray  # cx, cy, f, k3, k4, k5, T_E, T_g^2, min_den, range_max
+    rotation: np.ndarray  # (3, 3): R_i0, R_i1 / f, R_i2 / f
+    values: dict[str, tuple[float, float]]  # name -> (float requested, value held)
+
+
+def frame_registers(
+    camera: PinholeCamera,
+    motion: MotionIncrement,
+    ranging: RangingConfig,
+    config: WordLengthConfig,
+) -> FrameRegisters:
+    """Quantise the host's float64 constants into their register formats (SPEC §4)."""
+    R, k345 = k_matrix(motion)
+    f = camera.f_px
+    cx, cy = camera.principal_point
+    values: dict[str, tuple[float, float]] = {}
+
+    def reg(name: str, x: float, signal: str) -> int:
+        fmt: FixedFormat = config.formats[signal]
+        raw = fmt.from_float(x)
+        values[name] = (float(x), float(fmt.to_float(raw)))
+        return raw
+
+    scalars = np.array(
+        [
+            reg("cx", cx, "coord"),
+            reg("cy", cy, "coord"),
+            reg("f", f, "f_reg"),
+            reg("k3", k345[0], "k_t_reg"),
+            reg("k4", k345[1], "k_t_reg"),
+            reg("k5", k345[2], "k_t_reg"),
+            reg("T_E", ranging.threshold_e, "c1"),
+            reg("T_g^2", ranging.threshold_g**2, "tg2_reg"),
+            reg("min_denominator", ranging.min_denominator, "den"),
+            reg("range_max", ranging.range_max, "range"),
+        ],
+        dtype=np.int64,
+    )
+    rotation = np.array(
+        [[reg(f"R{i}{c}", R[i, c] / (1.0 if c == 0 else f), "k_m_reg") for c in range(3)]
+         for i in range(3)],
+        dtype=np.int64,
+    )  # fmt: skip
+    pole = reg("pole", config.pole, "pole_coef")
+    bias = reg("bias", config.bias, "bias_reg")
+    return FrameRegisters(pole, bias, scalars, rotation, values)
+
+
+def stage_latencies(config: WordLengthConfig) -> dict[str, int]:
+    """Declared latency in clock cycles of every stage (docs/p1_datapath.md, Timing)."""
+    div = (config.formats["div_quot"].word + 4) if config.divider == "restoring" else 8
+    rdiv = (config.formats["range"].word + 4) if config.divider == "restoring" else 8
+    x_derivative = 3 if config.variant == "consistent" else 2 + div  # product s1*r2 + divider
+    return {
+        "input": 1,
+        "bias": 1,
+        "row_filter": 2,
+        "column_filter": 3,
+        "x_derivative": x_derivative,
+        "range_coords": 2,  # k0..k2, then v, w
+        "range_products": 2,  # gv, num, den
+        "range_divider": rdiv,
+        "threshold": 1,
+    }
+
+
+@dataclass(frozen=True)
+class P1Result:
+    """Outputs, taps, instrumentation and timing of one P1 run.
+
+    ``range`` is float64 in the scene's unit (``range_max`` where invalid), ``valid`` a
+    bool map, ``range_raw`` the raw output codes. ``taps`` maps ``e1.<tap>``,
+    ``e2.<tap>`` (:data:`FRONTEND_TAPS`) and :data:`RANGE_TAPS` names to int64 raw arrays
+    of shape (m, n) (empty if taps were not requested). ``overflows`` and ``minmax`` are
+    per signal. ``in_cycles`` is the clock at which each pixel (of E2's frame) entered,
+    ``out_cycles`` when its range left; ``latency`` is the total declared latency.
+    """
+
+    range: np.ndarray
+    valid: np.ndarray
+    range_raw: np.ndarray
+    taps: dict[str, np.ndarray]
+    overflows: dict[str, int]
+    minmax: dict[str, tuple[float, float]]
+    in_cycles: np.ndarray
+    out_cycles: np.ndarray
+    latency: int
+    stage_latency: dict[str, int]
+    line_buffer_bits: int
+    frame_store_bits: int
+    total_cycles: int
+    registers: dict[str, tuple[float, float]]
+    mode: str
+    config: WordLengthConfig = field(repr=False)
+
+    @property
+    def overflow_total(self) -> int:
+        return int(sum(self.overflows.values()))
+
+    @property
+    def valid_fraction(self) -> float:
+        return float(np.count_nonzero(self.valid)) / self.valid.size
+
+
+def _check_images(image1: np.ndarray, image2: np.ndarray, camera: PinholeCamera) -> tuple:
+    out = []
+    for name, im in (("image1", image1), ("image2", image2)):
+        a = np.asarray(im)
+        if a.ndim != 2:
+            raise ValueError(f"{name} must be a 2-D array, got shape {a.shape}")
+        if a.dtype.kind not in "iu":
+            raise ValueError(
+                f"{name} must hold integer grey levels for the fixed-point pipeline, "
+                f"not dtype {a.dtype}"
+            )
+        if a.shape[0] < 2 or a.shape[1] < 2:
+            raise ValueError(f"{name} must be at least 2x2, got shape {a.shape}")
+        out.append(np.ascontiguousarray(a, dtype=np.int64))
+    if out[0].shape != out[1].shape:
+        raise ValueError(f"image pair shapes differ: {out[0].shape} vs {out[1].shape}")
+    if out[0].shape != (camera.height, camera.width):
+        raise ValueError(
+            f"images are {out[0].shape} but the camera is {camera.height}x{camera.width}"
+        )
+    return out[0], out[1]
+
+
+_N_SITES = 32  # cast sites in the kernels (each logs its own raw min/max)
+_I64 = np.iinfo(np.int64)
+
+
+def _new_stats() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-site raw (min, max, frac_in, signal), per-signal float divider (min, max),
+    per-signal overflow counts."""
+    st = np.zeros((_N_SITES, 4), dtype=np.int64)
+    st[:, 0] = _I64.max
+    st[:, 1] = _I64.min
+    st[:, 3] = -1
+    dst = np.empty((len(P1_SIGNALS), 2))
+    dst[:, 0] = np.inf
+    dst[:, 1] = -np.inf
+    return st, dst, np.zeros(len(P1_SIGNALS), dtype=np.int64)
+
+
+def _merge_stats(parts) -> tuple[dict[str, int], dict[str, tuple[float, float]]]:
+    lo = np.full(len(P1_SIGNALS), np.inf)
+    hi = np.full(len(P1_SIGNALS), -np.inf)
+    ovf = np.zeros(len(P1_SIGNALS), dtype=np.int64)
+    for st, dst, ov in parts:
+        ovf += ov
+        lo = np.minimum(lo, dst[:, 0])
+        hi = np.maximum(hi, dst[:, 1])
+        for raw_lo, raw_hi, frac, sig in st:
+            if sig >= 0:
+                lo[sig] = min(lo[sig], math.ldexp(float(raw_lo), -int(frac)))
+                hi[sig] = max(hi[sig], math.ldexp(float(raw_hi), -int(frac)))
+    overflows = {name: int(ovf[k]) for k, name in enumerate(P1_SIGNALS)}
+    minmax = {
+        name: (float(lo[k]), float(hi[k])) for k, name in enumerate(P1_SIGNALS) if lo[k] <= hi[k]
+    }
+    return overflows, minmax
+
+
+def run_p1(
+    image1: np.ndarray,
+    image2: np.ndarray,
+    camera: PinholeCamera,
+    motion: MotionIncrement,
+    config: WordLengthConfig | None = None,
+    ranging: RangingConfig | None = None,
+    *,
+    timing: TimingConfig | None = None,
+    mode: str = "stereo",
+    taps: bool = True,
+    threads: int = 2,
+) -> P1Result:
+    """Run P1 on an image pair: E1 = ``image1`` (left, or the previous frame in
+    ``mode="motion"``), E2 = ``image2``; integer grey levels.
+
+    ``threads`` (1 or 2): the two streams' front ends, then two row bands of the range
+    stage, run concurrently (the kernels release the GIL).
+    """
+    if mode not in ("stereo", "motion"):
+        raise ValueError(f"unknown P1 mode {mode!r}; choose 'stereo' or 'motion'")
+    if threads not in (1, 2):
+        raise ValueError(f"threads must be 1 or 2, not {threads!r}")
+    config = config or WordLengthConfig.default()
+    ranging = ranging or RangingConfig()
+    timing = timing or TimingConfig()
+    im1, im2 = _check_images(image1, image2, camera)
+    m, n = im1.shape
+    lat = stage_latencies(config)
+    if n + timing.hblank <= lat["column_filter"] - 1:
+        raise ValueError(
+            f"line period {n + timing.hblank} cycles is too short for the column filter's "
+            f"read-modify-write latency ({lat['column_filter']} cycles): line-buffer hazard"
+        )
+    regs = frame_registers(camera, motion, ranging, config)
+    fm = _format_table(config)
+    lut = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
+    kind = _DIV_RESTORING if config.divider == "restoring" else _DIV_RECIPROCAL
+    consistent = config.variant == "consistent"
+    init_first = config.init == "first"
+    n_ft = len(FRONTEND_TAPS)
+    shape_t = (n_ft, m, n) if taps else (n_ft, 0, 0)
+
+    def frontend(img: np.ndarray):
+        st, dst, ov = _new_stats()
+        outs = [np.empty((m, n), dtype=np.int64) for _ in range(3)]
+        tp = np.zeros(shape_t, dtype=np.int64)
+        _frontend_kernel(
+            img, np.int64(regs.pole), np.int64(regs.bias), consistent, init_first, kind,
+            config.recip_lut_bits, config.recip_bits, lut, fm, st, dst, ov, *outs, tp, taps,
+        )  # fmt: skip
+        return outs, tp, (st, dst, ov)
+
+    out_range = np.empty((m, n), dtype=np.int64)
+    out_valid = np.empty((m, n), dtype=np.bool_)
+    rtaps = np.zeros((len(RANGE_TAPS), m, n) if taps else (len(RANGE_TAPS), 0, 0), np.int64)
+    f_ex = config.formats["col2_out" if consistent else "div_quot"].frac
+
+    def range_band(j0: int, j1: int, s1, s2):
+        st, dst, ov = _new_stats()
+        _range_kernel(
+            s1[0][0], s1[0][1], s1[0][2], s2[0][0], s2[0][1], s2[0][2], regs.scalars,
+            regs.rotation, f_ex, kind, config.recip_lut_bits, config.recip_bits, lut, fm,
+            st, dst, ov, j0, j1, out_range, out_valid, rtaps, taps,
+        )  # fmt: skip
+        return st, dst, ov
+
+    if threads == 2:
+        with ThreadPoolExecutor(2) as pool:
+            r1, r2 = pool.map(frontend, (im1, im2))
+            half = m // 2
+            parts = list(pool.map(lambda b: range_band(*b, r1, r2), ((0, half), (half, m))))
+    else:
+        r1, r2 = frontend(im1), frontend(im2)
+        parts = [range_band(0, m, r1, r2)]
+
+    overflows, minmax = _merge_stats([r1[2], r2[2], *parts])
+    tap_dict: dict[str, np.ndarray] = {}
+    if taps:
+        for prefix, r in (("e1", r1), ("e2", r2)):
+            for k, name in enumerate(FRONTEND_TAPS):
+                if name == "col2_state" and not consistent:
+                    continue
+                tap_dict[f"{prefix}.{name}"] = r[1][k]
+        for k, name in enumerate(RANGE_TAPS):
+            tap_dict[name] = rtaps[k]
+
+    # timing: the beats of the input stream(s) give each pixel's input cycle
+    frames = np.stack([im1, im2]) if mode == "motion" else im2
+    stream = make_stream(frames, timing)
+    in_cycles = stream.pixel_cycles()[-1]
+    latency = int(sum(lat.values()))
+    out_cycles = in_cycles + latency
+    lb_bits = n * config.formats["col_state"].word
+    if consistent:
+        lb_bits += n * config.formats["col2_state"].word
+    streams = 2 if mode == "stereo" else 1
+    ex_fmt = config.formats["col2_out" if consistent else "div_quot"]
+    store_bits = 0
+    if mode == "motion":
+        store_bits = (
+            m * n * (config.formats["col_s1"].word + ex_fmt.word + config.formats["col_s2"].word)
+        )
+    rfmt = config.formats["range"]
+    return P1Result(
+        range=rfmt.to_float(out_range),
+        valid=out_valid,
+        range_raw=out_range,
+        taps=tap_dict,
+        overflows=overflows,
+        minmax=minmax,
+        in_cycles=in_cycles,
+        out_cycles=out_cycles,
+        latency=latency,
+        stage_latency=lat,
+        line_buffer_bits=streams * lb_bits,
+        frame_store_bits=store_bits,
+        total_cycles=int(out_cycles.max()) + 1,
+        registers=regs.values,
+        mode=mode,
+        config=config,
+    )

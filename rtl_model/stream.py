@@ -1,0 +1,105 @@
+"""AXI4-Stream-video-like input streams (SPEC §4 "Cycle faithfulness").
+
+A stream is one beat per clock: ``valid``, ``data``, ``sof`` (TUSER, first pixel of a
+frame) and ``eol`` (TLAST, last pixel of a line). Blanking and seeded input gaps are
+clocks with ``valid`` low; they never change a value, only when pixels arrive.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import TimingConfig
+
+__all__ = ["Stream", "make_stream", "pixel_cycles"]
+
+
+@dataclass(frozen=True)
+class Stream:
+    """Beats of one or more frames, one entry per clock cycle.
+
+    ``valid``, ``sof``, ``eol`` are bool arrays and ``data`` an int64 array of length
+    ``cycles``; ``data`` is 0 where ``valid`` is low. ``shape`` is the active frame size.
+    """
+
+    valid: np.ndarray
+    data: np.ndarray
+    sof: np.ndarray
+    eol: np.ndarray
+    shape: tuple[int, int]
+    frames: int
+
+    @property
+    def cycles(self) -> int:
+        return int(self.valid.size)
+
+    def pixel_cycles(self) -> np.ndarray:
+        """Clock cycle of every valid beat, shape (frames, m, n), in scan order."""
+        m, n = self.shape
+        return np.flatnonzero(self.valid).astype(np.int64).reshape(self.frames, m, n)
+
+    def frames_data(self) -> np.ndarray:
+        """The pixels carried by the valid beats, shape (frames, m, n)."""
+        m, n = self.shape
+        return self.data[self.valid].reshape(self.frames, m, n)
+
+
+def _gaps(count: int, timing: TimingConfig, rng: np.random.Generator) -> np.ndarray:
+    if timing.gap_prob == 0:
+        return np.zeros(count, dtype=np.int64)
+    # idle cycles before a pixel: failures before the first success, success = no stall
+    return rng.geometric(1.0 - timing.gap_prob, size=count).astype(np.int64) - 1
+
+
+def make_stream(frames: np.ndarray, timing: TimingConfig | None = None) -> Stream:
+    """Serialise frames (shape (m, n) or (k, m, n), integers) into beats.
+
+    Each line is its pixels (each preceded by its input gap) followed by ``hblank``
+    idle cycles; each frame is followed by ``vblank`` idle cycles.
+    """
+    timing = timing or TimingConfig()
+    arr = np.asarray(frames)
+    if arr.ndim == 2:
+        arr = arr[None]
+    if arr.ndim != 3 or arr.dtype.kind not in "iu":
+        raise ValueError(
+            "frames must be integer arrays of shape (m, n) or (k, m, n), "
+            f"not {arr.shape} {arr.dtype}"
+        )
+    k, m, n = arr.shape
+    rng = np.random.default_rng(timing.seed)
+    gaps = _gaps(k * m * n, timing, rng).reshape(k, m, n)
+    # cycle of each pixel = pixels and idle cycles before it
+    step = gaps + 1
+    line_extra = np.zeros((k, m, n), dtype=np.int64)
+    line_extra[:, 1:, 0] = timing.hblank  # after every line but the last of a frame...
+    line_extra[1:, 0, 0] = timing.hblank + timing.vblank  # ...and between frames
+    offsets = np.cumsum((step + line_extra).ravel()) - 1
+    total = int(offsets[-1]) + 1 + timing.hblank + timing.vblank
+    valid = np.zeros(total, dtype=bool)
+    valid[offsets] = True
+    data = np.zeros(total, dtype=np.int64)
+    data[offsets] = arr.ravel()
+    sof = np.zeros(total, dtype=bool)
+    sof[offsets.reshape(k, m, n)[:, 0, 0]] = True
+    eol = np.zeros(total, dtype=bool)
+    eol[offsets.reshape(k, m, n)[:, :, -1].ravel()] = True
+    return Stream(valid, data, sof, eol, (m, n), k)
+
+
+def pixel_cycles(shape: tuple[int, int], timing: TimingConfig, frames: int = 1) -> np.ndarray:
+    """Closed-form input cycle of every pixel when there are no gaps, shape (frames, m, n).
+
+    ``t(f, j, i) = f (m (n + hblank) + vblank) + j (n + hblank) + i``.
+    """
+    if timing.gap_prob:
+        raise ValueError("pixel_cycles has a closed form only without input gaps")
+    m, n = shape
+    f = np.arange(frames)[:, None, None]
+    j = np.arange(m)[None, :, None]
+    i = np.arange(n)[None, None, :]
+    return (f * (m * (n + timing.hblank) + timing.vblank) + j * (n + timing.hblank) + i).astype(
+        np.int64
+    )

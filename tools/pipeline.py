@@ -1,0 +1,368 @@
+"""Orchestration of the bit-accurate pipelines: run, compare with golden, benchmark.
+
+``rangefx run --pipeline p1`` (this module's :func:`cmd_run_pipeline`), ``rangefx bench``
+(:func:`cmd_bench`) and ``rangefx config`` (:func:`cmd_config`). The golden reference of
+P1 is the float64 eq-28 method (``g4_<variant>``) with the same estimator settings, so
+that "fixed vs golden" isolates the word lengths.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rangefx.golden.estimator import EstimatorConfig
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.golden.methods import SCENE_RANGING, run_method
+from rangefx.golden.ranging import RangeResult, RangingConfig
+from rangefx.golden.scenes import Scene, render_scene
+from rangefx.rtl_model.config import P1_SIGNALS, TimingConfig, WordLengthConfig, propose_config
+from rangefx.rtl_model.p1 import P1Result, run_p1
+
+from . import report
+from .errors import UserError
+from .outdir import atomic_output_dir, atomic_write_text
+
+__all__ = [
+    "P1Case",
+    "compare_ranges",
+    "golden_for",
+    "p1_case_from_scene",
+    "run_case",
+]
+
+#: P1 mode of each scene preset: the lab pair is a stereo rig, the runway pair two frames.
+SCENE_MODE = {"lab": "stereo", "runway": "motion"}
+
+
+@dataclass(frozen=True)
+class P1Case:
+    """Everything one P1 run needs besides the word-length config."""
+
+    image1: np.ndarray
+    image2: np.ndarray
+    camera: PinholeCamera
+    motion: MotionIncrement
+    ranging: RangingConfig
+    mode: str
+    scene: Scene | None = None
+
+
+def p1_case_from_scene(name: str, seed: int = 0) -> P1Case:
+    try:
+        scene = render_scene(name, seed=seed)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    return P1Case(
+        scene.image1,
+        scene.image2,
+        scene.camera,
+        scene.motion,
+        SCENE_RANGING[name],
+        SCENE_MODE[name],
+        scene,
+    )
+
+
+def golden_for(case: P1Case, config: WordLengthConfig) -> RangeResult:
+    """The float64 reference of P1: eq 28 with the same estimator settings."""
+    est = EstimatorConfig(pole=config.pole, bias=config.bias, init=config.init)
+    return run_method(
+        f"g4_{config.variant}",
+        case.image1,
+        case.image2,
+        case.camera,
+        case.motion,
+        estimator=est,
+        ranging=case.ranging,
+    )
+
+
+def compare_ranges(fixed: P1Result | RangeResult, golden: RangeResult) -> dict[str, float]:
+    """Fixed vs golden on one pair: relative range difference on pixels valid in both
+    (median and 95th percentile) and the fraction of pixels whose valid flags agree."""
+    both = fixed.valid & golden.valid
+    n_both = int(np.count_nonzero(both))
+    rel = np.abs(fixed.range[both] - golden.range[both]) / golden.range[both]
+    return {
+        "median_rel_range_diff": float(np.median(rel)) if n_both else float("nan"),
+        "p95_rel_range_diff": float(np.percentile(rel, 95)) if n_both else float("nan"),
+        "valid_agreement": float(np.mean(fixed.valid == golden.valid)),
+        "n_valid_both": n_both,
+    }
+
+
+def run_case(
+    case: P1Case,
+    config: WordLengthConfig,
+    timing: TimingConfig | None = None,
+    *,
+    taps: bool = False,
+) -> P1Result:
+    try:
+        return run_p1(
+            case.image1,
+            case.image2,
+            case.camera,
+            case.motion,
+            config,
+            case.ranging,
+            timing=timing,
+            mode=case.mode,
+            taps=taps,
+        )
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def load_config(path: str | None, variant: str | None, divider: str | None) -> WordLengthConfig:
+    try:
+        config = WordLengthConfig.load(path) if path else WordLengthConfig.default()
+        changes = {k: v for k, v in (("variant", variant), ("divider", divider)) if v}
+        return config.with_(**changes) if changes else config
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def _integer_image(image: np.ndarray, name: str) -> np.ndarray:
+    if not np.array_equal(image, np.round(image)):
+        raise UserError(f"{name} must hold integer grey levels for the fixed-point pipeline")
+    return image.astype(np.int64)
+
+
+def timing_from_args(args: argparse.Namespace) -> TimingConfig:
+    try:
+        return TimingConfig(
+            hblank=args.hblank, vblank=args.vblank, gap_prob=args.gap_prob, seed=args.gap_seed
+        )
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def p1_figures(result: P1Result, golden: RangeResult, scene: Scene | None) -> dict:
+    figures: dict = {
+        "pipeline": "p1",
+        "mode": result.mode,
+        "config": result.config.name,
+        "variant": result.config.variant,
+        "divider": result.config.divider,
+        "overflows": {"total": result.overflow_total, **result.overflows},
+        **compare_ranges(result, golden),
+        "valid_fraction": result.valid_fraction,
+        "golden_valid_fraction": golden.valid_fraction,
+        "latency_cycles": result.latency,
+        "stage_latency": result.stage_latency,
+        "total_cycles": result.total_cycles,
+        "line_buffer_bits": result.line_buffer_bits,
+        "frame_store_bits": result.frame_store_bits,
+        "signal_minmax": {k: list(v) for k, v in result.minmax.items()},
+    }
+    if scene is not None:
+        figures["scene"] = scene.name
+        figures["unit"] = scene.unit
+        figures["table"] = report.object_table(
+            result.range, result.valid, scene.labels1, scene.objects, scene.depth1
+        )
+        figures["golden_table"] = report.object_table(
+            golden.range, golden.valid, scene.labels1, scene.objects, scene.depth1
+        )
+    return figures
+
+
+def cmd_run_pipeline(
+    args: argparse.Namespace, case: P1Case, clean, write_outputs: bool = True
+) -> int:
+    """``rangefx run --pipeline p1``: range map + taps + report (SPEC §8)."""
+    if case.scene is None:
+        case = P1Case(
+            _integer_image(case.image1, args.left),
+            _integer_image(case.image2, args.right),
+            case.camera,
+            case.motion,
+            case.ranging,
+            "stereo",
+        )
+    config = load_config(args.config, args.variant, args.divider)
+    timing = timing_from_args(args)
+    result = run_case(case, config, timing, taps=bool(args.out))
+    golden = golden_for(case, config)
+    figures = p1_figures(result, golden, case.scene)
+    if args.out and write_outputs:
+        with atomic_output_dir(Path(args.out)) as tmp:
+            np.save(tmp / "range.npy", result.range)
+            np.save(tmp / "valid.npy", result.valid)
+            np.savez_compressed(tmp / "taps.npz", **result.taps)
+            report.save_range_map_png(
+                tmp / "range.png", result.range, result.valid, case.ranging.range_max, "P1 range"
+            )
+            atomic_write_text(tmp / "config.toml", config.to_toml())
+            atomic_write_text(tmp / "summary.json", json.dumps(clean(figures), indent=2) + "\n")
+    if args.json:
+        print(json.dumps(clean(figures)))
+        return 0
+    if case.scene is not None:
+        print(
+            report.format_side_by_side(
+                {"golden g4": figures["golden_table"], "p1 fixed": figures["table"]},
+                case.scene.unit,
+            )
+        )
+    print(
+        f"P1 {result.mode} ({config.variant}, {config.divider} divider): "
+        f"overflows {result.overflow_total}, median |fixed-golden|/golden "
+        f"{figures['median_rel_range_diff']:.2e}, valid agreement "
+        f"{figures['valid_agreement']:.4f}, latency {result.latency} cycles, "
+        f"line buffers {result.line_buffer_bits} bits, frame store {result.frame_store_bits} bits"
+    )
+    return 0
+
+
+# -- benchmark -------------------------------------------------------------------------
+def _median_time(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def bench_figures(repeats: int = 5, size: int = 512) -> dict:
+    """Mpixel/s of P1 (stereo, 512x512) vs the float64 golden on the same pair."""
+    scene = render_scene("lab", size=(size, size)) if size != 512 else render_scene("lab")
+    case = P1Case(
+        scene.image1, scene.image2, scene.camera, scene.motion, SCENE_RANGING["lab"], "stereo"
+    )
+    out = {"size": [size, size], "repeats": repeats, "cpu_count": os.cpu_count()}
+    pixels = size * size
+    for variant in ("paper", "consistent"):
+        config = WordLengthConfig.default(variant)
+        run_case(case, config)  # JIT warm-up
+        t = _median_time(lambda c=config: run_case(case, c), repeats)
+        out[f"p1_stereo_{variant}_mpix_s"] = pixels / t / 1e6
+        t = _median_time(lambda c=config: run_case(case, c, taps=True), repeats)
+        out[f"p1_stereo_{variant}_taps_mpix_s"] = pixels / t / 1e6
+        t = _median_time(lambda c=config: golden_for(case, c), repeats)
+        out[f"golden_p1_{variant}_mpix_s"] = pixels / t / 1e6
+    out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
+    out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
+    code = (
+        "import time; t=time.perf_counter(); import numpy as np;"
+        "from rangefx.tools.pipeline import _cold_run; _cold_run();"
+        "print(time.perf_counter()-t)"
+    )
+    t = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+    out["cold_process_s"] = time.perf_counter() - t
+    return out
+
+
+def _cold_run() -> None:
+    """A second process's first P1 run on a 64x64 pair (numba cache warm)."""
+    rng = np.random.default_rng(0)
+    a = rng.integers(0, 256, (64, 64))
+    cam = PinholeCamera(64, 64, 100.0)
+    run_p1(a, np.roll(a, 1, axis=1), cam, MotionIncrement.stereo(0.1), taps=False)
+
+
+def cmd_bench(args: argparse.Namespace, clean) -> int:
+    if args.repeats < 1 or args.size < 16:
+        raise UserError("bench needs --repeats >= 1 and --size >= 16")
+    figures = bench_figures(repeats=args.repeats, size=args.size)
+    if args.json:
+        print(json.dumps(clean(figures)))
+    else:
+        for k, v in figures.items():
+            print(f"{k}: {v:.3f}" if isinstance(v, float) else f"{k}: {v}")
+    return 0
+
+
+# -- word-length config ------------------------------------------------------------------
+def cmd_config(args: argparse.Namespace, clean) -> int:
+    """``rangefx config show|propose``: the default TOML, or integer bits from ranges."""
+    config = load_config(args.config, args.variant, None)
+    if args.action == "show":
+        text = config.to_toml()
+        if args.out:
+            atomic_write_text(Path(args.out), text)
+        else:
+            sys.stdout.write(text)
+        return 0
+    cases = [p1_case_from_scene(name) for name in args.scene]
+    proposed = config
+    for _ in range(4):  # a clipped signal hides its consumers' ranges: iterate to a fixpoint
+        minmax: dict[str, tuple[float, float]] = {}
+        overflows = 0
+        for case in cases:
+            result = run_case(case, proposed)
+            overflows += result.overflow_total
+            for sig, (lo, hi) in result.minmax.items():
+                old = minmax.get(sig, (lo, hi))
+                minmax[sig] = (min(old[0], lo), max(old[1], hi))
+        try:
+            step = propose_config(proposed, minmax, guard_bits=args.guard_bits)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+        if step == proposed and overflows == 0:
+            break
+        proposed = step
+    if args.out:
+        proposed.save(args.out)
+    rows = {
+        sig: {
+            "min": minmax.get(sig, (None, None))[0],
+            "max": minmax.get(sig, (None, None))[1],
+            "current": str(config.formats[sig]),
+            "proposed": str(proposed.formats[sig]),
+        }
+        for sig in P1_SIGNALS
+    }
+    if args.json:
+        print(json.dumps(clean(rows)))
+    else:
+        for sig, r in rows.items():
+            lo, hi = r["min"], r["max"]
+            print(f"{sig:12s} {r['current']:>8s} -> {r['proposed']:>8s}  range [{lo}, {hi}]")
+    return 0
+
+
+def demo_p1(scene: Scene, out_dir: Path, clean) -> dict:
+    """The fixed-point P1 (stereo, default config, both variants) beside golden, for
+    ``rangefx demo``: range maps, Table-1 tables, error histograms; returns the figures."""
+    case = P1Case(
+        scene.image1, scene.image2, scene.camera, scene.motion, SCENE_RANGING[scene.name],
+        SCENE_MODE[scene.name], scene,
+    )  # fmt: skip
+    summary = {}
+    for variant in ("paper", "consistent"):
+        config = WordLengthConfig.default(variant)
+        result = run_case(case, config)
+        golden = golden_for(case, config)
+        figures = p1_figures(result, golden, scene)
+        figures.pop("signal_minmax")
+        name = f"p1_{variant}"
+        report.save_range_map_png(
+            out_dir / f"range_{name}.png",
+            result.range,
+            result.valid,
+            case.ranging.range_max,
+            f"P1 fixed point ({variant})",
+            unit=scene.unit,
+        )
+        both = result.valid & golden.valid
+        rel = np.abs(result.range[both] - golden.range[both]) / golden.range[both]
+        report.save_error_histogram_png(
+            out_dir / f"hist_{name}.png", rel, f"P1 {variant}: fixed vs golden g4_{variant}"
+        )
+        atomic_write_text(out_dir / f"table_{name}.csv", report.table_csv(figures["table"]))
+        summary[name] = figures
+    return clean(summary)
