@@ -54,6 +54,21 @@ def test_demo_summary_meets_the_issue_budget(demo_dir):
     assert 0.3 <= diag["ex_offset_px"] <= 0.8  # r2 sits about half a pixel ahead
 
 
+def test_demo_shows_fixed_point_and_end_to_end(demo_dir):
+    summary = json.loads((demo_dir / "summary.json").read_text())
+    for name in ("p1_paper", "p1_consistent"):
+        p1 = summary["fixed_point"][name]
+        assert p1["overflows"]["total"] == 0
+        assert p1["median_rel_range_diff"] <= 0.005 and p1["valid_agreement"] >= 0.99
+        assert [r["object"] for r in p1["table"]][0] == "Left pencil"
+        for f in (f"range_{name}.png", f"hist_{name}.png", f"table_{name}.csv"):
+            assert (demo_dir / f).is_file()
+    e2e = summary["end_to_end"]
+    assert e2e["obstacles"]["source"] == "runway-p1" and e2e["n_obstacles"] > 50
+    assert e2e["final_position_error_ft"] < 1.0
+    assert (demo_dir / "guide" / "fig5_horizontal_projection.png").is_file()
+
+
 def test_runway_g4_with_rotation_ranges_vehicles_within_15_percent(capsys):
     assert main(["run", "--scene", "runway", "--method", "g4_consistent", "--json"]) == 0
     figures = json.loads(capsys.readouterr().out)

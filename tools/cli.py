@@ -26,7 +26,7 @@ from rangefx.golden.methods import METHODS, SCENE_RANGING, run_method
 from rangefx.golden.ranging import RangeResult, RangingConfig
 from rangefx.golden.scenes import SCENE_NAMES, Scene, render_scene
 
-from . import cmd_eval, cmd_guide, cmd_track, pipeline, report
+from . import cmd_eval, cmd_guide, cmd_sweep, cmd_track, cmd_vectors, p2_pipeline, pipeline, report
 from .errors import UserError
 from .outdir import atomic_output_dir, atomic_write_text
 
@@ -110,7 +110,7 @@ def _estimator(args: argparse.Namespace) -> EstimatorConfig:
 def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     est = _estimator(args)
-    steps = ["render lab", *DEMO_METHODS, "p1 fixed point", "figures"]
+    steps = ["render lab", *DEMO_METHODS, "p1 fixed point", "end to end", "figures"]
     bar = tqdm(total=len(steps), desc="rangefx demo", disable=args.json or not sys.stderr.isatty())
     with atomic_output_dir(out) as tmp:
         bar.set_postfix_str(steps[0])
@@ -133,6 +133,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
             bar.update()
         bar.set_postfix_str("p1 fixed point")
         p1_summary = pipeline.demo_p1(scene, tmp, _clean)
+        bar.update()
+        bar.set_postfix_str("end to end")
+        (tmp / "guide").mkdir()
+        e2e, e2e_notes, _ = cmd_guide.guide_into(tmp / "guide", "runway-p1")
         bar.update()
         bar.set_postfix_str("figures")
         report.save_pair_png(
@@ -179,6 +183,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
             "ranging": vars(ranging),
             "methods": summary_methods,
             "fixed_point": p1_summary,
+            "end_to_end": e2e,
             "paper_diagnostics": _paper_diagnostics(scene, est, results["g3_paper"].valid),
         }
         atomic_write_text(tmp / "summary.json", json.dumps(_clean(summary), indent=2) + "\n")
@@ -203,6 +208,16 @@ def cmd_demo(args: argparse.Namespace) -> int:
                 f"median |fixed - golden| / golden {v['median_rel_range_diff']:.2e}, "
                 f"valid agreement {v['valid_agreement']:.4f}"
             )
+        print(
+            "end to end (runway -> P1 motion mode -> obstacles -> guidance): "
+            f"{e2e['n_obstacles']} obstacle points, flight time {e2e['flight_time_s']:.2f} s, "
+            f"min obstacle distance {e2e['min_obstacle_distance']:.2f} ft, "
+            f"max load factor {e2e['max_load_factor']:.3f}, "
+            f"max |theta| {e2e['max_abs_theta_deg']:.1f} deg, "
+            f"max |phi| {e2e['max_abs_phi_deg']:.1f} deg (figures in guide/)"
+        )
+        for note in e2e_notes:
+            print(f"rangefx: warning: {note}", file=sys.stderr)
         print(f"results written to {out}/")
     return 0
 
@@ -256,6 +271,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         ranging = replace(ranging, **{k: v for k, v in overrides.items() if v is not None})
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    if args.pipeline == "p2":
+        case = pipeline.P1Case(e1, e2, camera, motion, ranging, "stereo", scene)
+        return p2_pipeline.cmd_run_p2(args, case, _clean)
     if args.pipeline == "p1":
         mode = pipeline.SCENE_MODE[scene.name] if scene is not None else "stereo"
         case = pipeline.P1Case(e1, e2, camera, motion, ranging, mode, scene)
@@ -328,9 +346,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="write range.npy, valid.npy, range.png, summary.json here")
     p.add_argument(
         "--pipeline",
-        choices=("golden", "p1"),
+        choices=("golden", "p1", "p2"),
         default="golden",
-        help="golden (float64 method) or p1 (bit-accurate fixed-point pipeline)",
+        help="golden (float64 method), p1 or p2 (bit-accurate fixed-point pipelines)",
     )
     _add_p1_args(p)
     _add_estimator_args(p)
@@ -352,6 +370,8 @@ def build_parser() -> argparse.ArgumentParser:
     cmd_eval.add_parser(sub)
     cmd_track.add_parser(sub)
     cmd_guide.add_parser(sub)
+    cmd_vectors.add_parser(sub)
+    cmd_sweep.add_parser(sub)
     return parser
 
 

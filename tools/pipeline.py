@@ -366,3 +366,19 @@ def demo_p1(scene: Scene, out_dir: Path, clean) -> dict:
         atomic_write_text(out_dir / f"table_{name}.csv", report.table_csv(figures["table"]))
         summary[name] = figures
     return clean(summary)
+
+
+def p1_range_source(variant: str = "consistent", config: WordLengthConfig | None = None):
+    """A range-map source for :func:`rangefx.guidance.obstacles.runway_scene_obstacles`:
+    the fixed-point P1 pipeline (the scene's mode: motion for ``runway``)."""
+    config = config or WordLengthConfig.default(variant)
+
+    def source(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+        case = P1Case(
+            scene.image1, scene.image2, scene.camera, scene.motion, SCENE_RANGING[scene.name],
+            SCENE_MODE[scene.name], scene,
+        )  # fmt: skip
+        result = run_case(case, config)
+        return result.range, result.valid
+
+    return source
