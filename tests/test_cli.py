@@ -60,7 +60,7 @@ def test_demo_shows_fixed_point_and_end_to_end(demo_dir):
         p1 = summary["fixed_point"][name]
         assert p1["overflows"]["total"] == 0
         assert p1["median_rel_range_diff"] <= 0.005 and p1["valid_agreement"] >= 0.99
-        assert [r["object"] for r in p1["table"]][0] == "Left pencil"
+        assert p1["table"][0]["object"] == "Left pencil"
         for f in (f"range_{name}.png", f"hist_{name}.png", f"table_{name}.csv"):
             assert (demo_dir / f).is_file()
     e2e = summary["end_to_end"]
