@@ -1,0 +1,175 @@
+"""Independent, deliberately slow test oracle of the P2 datapath (issue 5).
+
+Written from ``docs/p2_datapath.md`` only: it shares nothing with the numba kernels of
+``rangefx.rtl_model.p2`` but the word-length config (:class:`P2Config`). Signal values
+are :class:`apytypes.APyFixed` (exact arithmetic, growing word length); every cast goes
+through the apytypes-based :func:`oracle_p1.cast_exact`, and the divider is the P1
+oracle's bit-level restoring loop or LUT + Newton reciprocal. Registers are computed here
+from the float64 settings by the rules of the page. Python loops per pixel: small
+images only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+import numpy as np
+from apytypes import APyFixed
+from oracle_p1 import (
+    _apy,
+    _div_zero,
+    _exact,
+    _fraction,
+    _recip_lut,
+    _reciprocal_value,
+    _restoring_value,
+    cast_exact,
+    reg_raw,
+)
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.golden.riccati import RiccatiConfig
+from rangefx.rtl_model.p2_config import P2_SIGNALS, P2Config
+
+__all__ = ["TAPS", "OracleP2", "oracle_p2"]
+
+TAPS = (
+    "d", "g_hat", "a", "c", "den", "r", "s", "h", "q", "w", "lam", "z", "e", "valid", "range",
+)  # fmt: skip
+
+
+@dataclass
+class OracleP2:
+    taps: dict[str, np.ndarray]
+    overflows: dict[str, int]
+    minmax: dict[str, tuple[float, float]]
+
+
+@dataclass
+class _Sig:
+    raw: int
+    v: APyFixed
+
+
+@dataclass
+class _Ctx:
+    config: P2Config
+    overflows: dict[str, int] = field(default_factory=dict)
+    lo: dict[str, Fraction] = field(default_factory=dict)
+    hi: dict[str, Fraction] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.overflows = dict.fromkeys(P2_SIGNALS, 0)
+
+    def _log(self, name: str, x: Fraction) -> None:
+        if name not in self.lo or x < self.lo[name]:
+            self.lo[name] = x
+        if name not in self.hi or x > self.hi[name]:
+            self.hi[name] = x
+
+    def sig(self, raw: int, name: str) -> _Sig:
+        return _Sig(raw, _apy(raw, self.config.fmt(name).frac))
+
+    def cast(self, v: APyFixed | int, name: str, *, log: bool = True) -> _Sig:
+        n, f = (v, 0) if isinstance(v, int) else _exact(v)
+        if log:
+            self._log(name, _fraction(n, f))
+        raw, acted = cast_exact(n, f, self.config.fmt(name))
+        self.overflows[name] += acted
+        return self.sig(raw, name)
+
+    def reciprocal(self, den: _Sig) -> _Sig:
+        """``r = divide(1, den, p2_r)`` with the configured P1 divider model."""
+        cfg = self.config
+        fmt, fd = cfg.fmt("p2_r"), cfg.fmt("p2_den").frac
+        if den.raw == 0:  # not a cast: nothing logged, one overflow
+            self.overflows["p2_r"] += 1
+            return self.sig(_div_zero(1, fmt), "p2_r")
+        self._log("p2_r", Fraction(math.ldexp(1.0 / float(den.raw), fd)))
+        if cfg.divider == "restoring":
+            m, f = _restoring_value(1, 0, den.raw, fd, fmt)
+        else:
+            lut = _recip_lut(cfg.recip_lut_bits, cfg.recip_bits)
+            m, f = _reciprocal_value(1, 0, den.raw, fd, lut, cfg.recip_lut_bits, cfg.recip_bits)
+        return self.cast(_apy(m, f), "p2_r", log=False)
+
+
+def oracle_p2(
+    image1: np.ndarray,
+    image2: np.ndarray,
+    camera: PinholeCamera,
+    motion: MotionIncrement,
+    config: P2Config,
+    riccati: RiccatiConfig,
+) -> OracleP2:
+    """Run the P2 datapath of ``docs/p2_datapath.md`` on a small stereo pair."""
+    ctx = _Ctx(config)
+    fmt = config.fmt
+    # registers (host, float64 -> register format; neither logged nor counted)
+    fwd, right, down = motion.camera_displacement
+    assert right != 0 and fwd == 0 and down == 0
+    dx = -float(right)  # camera 2 at +b: eq 8 with dx = -b (SPEC §9)
+    ratio = riccati.alpha / riccati.beta
+    KA = ctx.sig(reg_raw(1.0 / (camera.f_px * dx), fmt("p2_ka_reg")), "p2_ka_reg")
+    M = ctx.sig(reg_raw(ratio, fmt("p2_m_reg")), "p2_m_reg")
+    CMIN = ctx.sig(reg_raw(config.kappa_min / ratio, fmt("p2_c")), "p2_c")
+    st = fmt("p2_st")
+    gamma_t = riccati.gamma / (riccati.beta * riccati.pixel_pitch)
+    S_END = ctx.sig(reg_raw(min(gamma_t, (2**st.word - 1) * 2.0**-st.frac), st), "p2_st")
+    TD = math.ceil(Fraction(2) * Fraction(riccati.threshold_e) * Fraction(2) ** fmt("p2_d").frac)
+    RMAX = ctx.sig(reg_raw(riccati.range_max, fmt("p2_z")), "p2_z")
+    one = _apy(1, 0)
+
+    im1, im2 = np.asarray(image1), np.asarray(image2)
+    m, n = im1.shape
+    taps = {k: np.zeros((m, n), dtype=np.int64) for k in TAPS}
+    for j in range(m):
+        d: list[_Sig] = []
+        g: list[_Sig] = []
+        for i in range(n):  # input stage: line buffer
+            x1 = ctx.cast(int(im1[j, i]), "p2_pix")
+            x2 = ctx.cast(int(im2[j, i]), "p2_pix")
+            d.append(ctx.cast(x1.v - x2.v, "p2_d"))
+            g.append(ctx.cast(x1.v + x2.v, "p2_ghat"))
+        # backward sweep
+        s1, q1 = S_END, ctx.sig(0, "p2_q")
+        step: dict[int, tuple[_Sig, _Sig, _Sig, _Sig]] = {}
+        taps["s"][j, n - 1] = s1.raw
+        for k in range(n - 2, -1, -1):
+            dsum = d[k].v + d[k + 1].v
+            dg = g[k + 1].v - g[k].v
+            a = ctx.cast(KA.v * dsum, "p2_a")
+            c = ctx.cast(a.v * a.v, "p2_c")
+            if c.raw < CMIN.raw:  # the floor on c (kappa_min)
+                c = CMIN
+            den = ctx.cast(one + c.v * s1.v, "p2_den")
+            r = ctx.reciprocal(den)
+            s0 = ctx.cast(M.v + r.v * s1.v, "p2_st")
+            h = ctx.cast(q1.v - s1.v * dg, "p2_h")
+            q0 = ctx.cast(r.v * h.v, "p2_q")
+            step[k] = (a, r, s1, q1)
+            for key, sg in (("a", a), ("c", c), ("den", den), ("r", r), ("s", s0), ("h", h),
+                            ("q", q0)):  # fmt: skip
+                taps[key][j, k] = sg.raw
+            s1, q1 = s0, q0
+        # forward pass
+        e = ctx.sig(0, "p2_e")
+        for k in range(n - 1):
+            a, r, sk1, qk1 = step[k]
+            u = e.v - (g[k + 1].v - g[k].v)
+            w = ctx.cast(sk1.v * u + qk1.v, "p2_w")
+            lam = ctx.cast(r.v * w.v, "p2_lam")
+            z = ctx.cast(-(a.v * lam.v), "p2_z")
+            e = ctx.cast(u + a.v * z.v, "p2_e")
+            ok = abs(d[k].raw + d[k + 1].raw) >= TD and 0 < z.raw <= RMAX.raw
+            taps["w"][j, k], taps["lam"][j, k], taps["z"][j, k] = w.raw, lam.raw, z.raw
+            taps["e"][j, k + 1] = e.raw
+            taps["valid"][j, k] = int(ok)
+            taps["range"][j, k] = z.raw if ok else RMAX.raw
+        taps["range"][j, n - 1] = RMAX.raw
+        for i in range(n):
+            taps["d"][j, i], taps["g_hat"][j, i] = d[i].raw, g[i].raw
+    minmax = {k: (float(ctx.lo[k]), float(ctx.hi[k])) for k in P2_SIGNALS if k in ctx.lo}
+    return OracleP2(taps=taps, overflows=dict(ctx.overflows), minmax=minmax)
