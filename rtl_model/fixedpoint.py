@@ -34,6 +34,7 @@ __all__ = [
     "rounding_doc_text",
     "rounding_table",
     "rounding_table_markdown",
+    "shift_left_raw",
     "write_rounding_doc",
 ]
 
@@ -249,14 +250,40 @@ def overflow_raw(raw, word, signed, mode):
     return lo, True
 
 
+@njit(cache=True, nogil=True, inline="always")
+def shift_left_raw(raw, n, word, signed, overflow):
+    """Exact ``raw * 2**n`` (``n >= 1``) brought into a ``word``-bit format by ``overflow``.
+
+    A product that does not fit int64 is an overflow: saturated by sign, or wrapped to the
+    low ``word`` bits of the exact product. Returns (int64, overflowed).
+    """
+    if raw == 0:
+        return np.int64(0), False
+    if n >= 63:
+        fits = False
+    else:
+        fits = (_I64_MIN >> n) <= raw <= (_I64_MAX >> n)
+    if fits:
+        return overflow_raw(raw << n, word, signed, overflow)
+    if overflow == _O_WRAP:
+        if n >= word:
+            low = np.int64(0)
+        else:
+            low = (raw & ((np.int64(1) << (word - n)) - 1)) << n
+        value, _ = overflow_raw(low, word, signed, overflow)
+        return value, True
+    sentinel = np.int64(_I64_MAX) if raw > 0 else np.int64(_I64_MIN)
+    value, _ = overflow_raw(sentinel, word, signed, overflow)
+    return value, True
+
+
 @njit(cache=True, nogil=True)
 def cast_raw(raw, frac_in, word_out, frac_out, signed_out, quant, overflow):
     """Cast ``raw * 2**-frac_in`` to format (signed_out, word_out, frac_out) (SPEC §4).
 
     Quantises with :func:`quantise_shift` (``shift = frac_in - frac_out``), then applies
-    :func:`overflow_raw`.  Exact for every int64 ``raw`` and any fraction bits: a left
-    shift whose product does not fit int64 is an overflow, saturated by sign, or wrapped
-    to the low ``word_out`` bits of the exact product.
+    :func:`overflow_raw`; a negative shift is :func:`shift_left_raw`. Exact for every int64
+    ``raw`` and any fraction bits.
 
     Returns
     -------
@@ -266,25 +293,7 @@ def cast_raw(raw, frac_in, word_out, frac_out, signed_out, quant, overflow):
     shift = frac_in - frac_out
     if shift >= 0:
         return overflow_raw(quantise_shift(raw, shift, quant), word_out, signed_out, overflow)
-    n = -shift
-    if raw == 0:
-        return np.int64(0), False
-    if n >= 63:
-        fits = False
-    else:
-        fits = (_I64_MIN >> n) <= raw <= (_I64_MAX >> n)
-    if fits:
-        return overflow_raw(raw << n, word_out, signed_out, overflow)
-    if overflow == _O_WRAP:
-        if n >= word_out:
-            low = np.int64(0)
-        else:
-            low = (raw & ((np.int64(1) << (word_out - n)) - 1)) << n
-        value, _ = overflow_raw(low, word_out, signed_out, overflow)
-        return value, True
-    sentinel = np.int64(_I64_MAX) if raw > 0 else np.int64(_I64_MIN)
-    value, _ = overflow_raw(sentinel, word_out, signed_out, overflow)
-    return value, True
+    return shift_left_raw(raw, -shift, word_out, signed_out, overflow)
 
 
 @njit(cache=True, nogil=True)

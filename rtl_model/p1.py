@@ -26,7 +26,7 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera, k_matrix
 from rangefx.golden.ranging import RangingConfig
 
 from .config import P1_SIGNALS, TimingConfig, WordLengthConfig
-from .fixedpoint import FixedFormat, cast_raw, overflow_raw, quantise_shift
+from .fixedpoint import FixedFormat, cast_raw, overflow_raw, quantise_shift, shift_left_raw
 from .stream import make_stream
 
 __all__ = [
@@ -109,17 +109,19 @@ def _cast(raw, frac_in, s, site, fm, st, ov):
     turned into values on the host; float conversion per cast would cost more than the
     cast itself.
     """
-    if st.shape[0]:  # instrumentation on (unconditional stores: branches cost more)
-        st[site, 0] = min(st[site, 0], raw)
-        st[site, 1] = max(st[site, 1], raw)
-        st[site, 2] = frac_in
-        st[site, 3] = s
+    # Unconditional stores and no non-inlined call below: a branch around them, or a call
+    # to cast_raw, defeats numba's reference-count pruning of the arrays and makes every
+    # cast ~8x slower (measured).
+    st[site, 0] = min(st[site, 0], raw)
+    st[site, 1] = max(st[site, 1], raw)
+    st[site, 2] = frac_in
+    st[site, 3] = s
     sh = frac_in - fm[s, 1]
     if sh >= 0:  # dropping bits: the common case, inlined
         out, flag = overflow_raw(quantise_shift(raw, sh, fm[s, 3]), fm[s, 0], fm[s, 2] != 0,
                                  fm[s, 4])  # fmt: skip
     else:
-        out, flag = cast_raw(raw, frac_in, fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4])
+        out, flag = shift_left_raw(raw, -sh, fm[s, 0], fm[s, 2] != 0, fm[s, 4])
     ov[s] += flag
     return out
 
@@ -132,16 +134,10 @@ def _at(raw, frac, target):
 
 @njit(cache=True, nogil=True)
 def _bitlen(x):
-    n = 0
-    while x >= (np.int64(1) << 32):
-        x >>= 32
-        n += 32
-    while x >= 256:
-        x >>= 8
-        n += 8
-    while x > 0:
-        x >>= 1
-        n += 1
+    """Bit length of ``x > 0`` (a leading-zero count in hardware)."""
+    n = math.frexp(float(x))[1]  # exact below 2**53; above, rounding may add one
+    if n > 53 and (np.int64(1) << (n - 1)) > x:
+        n -= 1
     return n
 
 
@@ -159,19 +155,20 @@ def _floor_div(t, d):
 
 
 @njit(cache=True, nogil=True)
-def _divide(n, fn, d, fd, s, kind, lut_bits, r_bits, lut, fm, dst, ov):
-    """``divide(N, D, S)`` of docs/p1_datapath.md; returns (raw, overflowed)."""
-    word, frac, signed, quant, ovf_mode = fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4]
+def _divide(n, fn, d, fd, word, frac, signed, quant, ovf_mode, kind, lut_bits, r_bits):
+    """``divide(N, D, S)`` of docs/p1_datapath.md on scalars (no arrays: see ``_cast``).
+
+    Returns ``(raw, overflowed, lo, hi)``: ``lo``/``hi`` are the value to log into the
+    signal's min/max (the quotient ``fl(fl(N)/fl(D)) 2**(F_D - F_N)``; ``+inf``/``-inf``,
+    i.e. nothing, for ``D = 0``).
+    """
     if d == 0:
         if n == 0:
-            return np.int64(0), False
+            return np.int64(0), False, np.inf, -np.inf
         big = np.int64(1) << 62  # beyond any format: the overflow mode decides
         out, _ = overflow_raw(big if n > 0 else -big, word, signed, ovf_mode)
-        ov[s] += 1
-        return out, True
-    value = math.ldexp(float(n) / float(d), fd - fn)  # the exact quotient, logged
-    dst[s, 0] = min(dst[s, 0], value)
-    dst[s, 1] = max(dst[s, 1], value)
+        return out, True, np.inf, -np.inf
+    value = math.ldexp(float(n) / float(d), fd - fn)
     negative = (n < 0) != (d < 0)
     an = abs(n)
     ad = abs(d)
@@ -196,7 +193,9 @@ def _divide(n, fn, d, fd, s, kind, lut_bits, r_bits, lut, fm, dst, ov):
             idx = (ad >> (p - lut_bits)) - (np.int64(1) << lut_bits)
         else:
             idx = (ad << (lut_bits - p)) - (np.int64(1) << lut_bits)
-        y0 = lut[idx]
+        # the LUT entry (reciprocal_lut) evaluated from its defining formula
+        lut_den = (np.int64(1) << (lut_bits + 1)) + 2 * idx + 1
+        y0 = _floor_div((np.int64(1) << (r_bits + lut_bits + 2)) + lut_den, 2 * lut_den)
         if p >= r_bits:
             m_r = ad >> (p - r_bits)
         else:
@@ -209,13 +208,23 @@ def _divide(n, fn, d, fd, s, kind, lut_bits, r_bits, lut, fm, dst, ov):
     if negative:
         raw = -raw
     out, flag = cast_raw(raw, frac_in, word, frac, signed, quant, ovf_mode)
+    return out, flag, value, value
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _divide_into(n, fn, d, fd, s, kind, lut_bits, r_bits, fm, dst, ov):
+    """:func:`_divide` into signal ``s``: logs min/max and counts overflows."""
+    out, flag, lo, hi = _divide(n, fn, d, fd, fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3],
+                                fm[s, 4], kind, lut_bits, r_bits)  # fmt: skip
+    dst[s, 0] = min(dst[s, 0], lo)
+    dst[s, 1] = max(dst[s, 1], hi)
     ov[s] += flag
     return out, flag
 
 
 @njit(cache=True, nogil=True)
 def _frontend_kernel(
-    img, pole, bias, consistent, init_first, kind, lut_bits, r_bits, lut, fm, st, dst, ov,
+    img, pole, bias, consistent, init_first, kind, lut_bits, r_bits, fm, st, dst, ov,
     out_e, out_ex, out_ey, taps, want_taps,
 ):  # fmt: skip
     """One stream: bias → row filter → column filter(s) → x-derivative, scan order."""
@@ -274,26 +283,29 @@ def _frontend_kernel(
                 lb2[i] = q2_next
                 ex = _cast(q2 + q2_next, f_q2 + 1, COL2_OUT, 14, fm, st, ov)
             else:
-                ex, _ = _divide(s1 * r2, f_s1 + f_r2, r1, f_r1, DIV_QUOT, kind, lut_bits,
-                                r_bits, lut, fm, dst, ov)  # fmt: skip
+                ex, _ = _divide_into(s1 * r2, f_s1 + f_r2, r1, f_r1, DIV_QUOT, kind, lut_bits,
+                                     r_bits, fm, dst, ov)  # fmt: skip
             out_e[j, i] = s1
             out_ex[j, i] = ex
             out_ey[j, i] = s2
-            if want_taps:
-                taps[0, j, i] = b
-                taps[1, j, i] = r1
-                taps[2, j, i] = r2
-                taps[3, j, i] = p_next
-                taps[4, j, i] = s1
-                taps[5, j, i] = s2
-                taps[6, j, i] = q_next
-                taps[7, j, i] = ex
-                taps[8, j, i] = q2_next
+            # taps: unconditional stores (into a 1x1 scratch plane when taps are off),
+            # since a branch around array stores defeats refcount pruning (see _cast)
+            tj = j if want_taps else 0
+            ti = i if want_taps else 0
+            taps[0, tj, ti] = b
+            taps[1, tj, ti] = r1
+            taps[2, tj, ti] = r2
+            taps[3, tj, ti] = p_next
+            taps[4, tj, ti] = s1
+            taps[5, tj, ti] = s2
+            taps[6, tj, ti] = q_next
+            taps[7, tj, ti] = ex
+            taps[8, tj, ti] = q2_next
 
 
 @njit(cache=True, nogil=True)
 def _range_kernel(
-    e1, ex1, ey1, e2, ex2, ey2, regs, mreg, f_ex, kind, lut_bits, r_bits, lut, fm, st, dst, ov,
+    e1, ex1, ey1, e2, ex2, ey2, regs, mreg, f_ex, kind, lut_bits, r_bits, fm, st, dst, ov,
     j0, j1, out_range, out_valid, taps, want_taps,
 ):  # fmt: skip
     """Eq 28 per pixel for rows ``j0 <= j < j1`` (docs/p1_datapath.md, range stage)."""
@@ -350,19 +362,20 @@ def _range_kernel(
             den_ok = abs(den) >= dmin and den != 0
             num_d = num if den_ok else np.int64(0)
             den_d = den if den_ok else np.int64(1) << f_den
-            rq, dovf = _divide(num_d, f_num, den_d, f_den, RANGE, kind, lut_bits, r_bits, lut,
-                               fm, dst, ov)  # fmt: skip
+            rq, dovf = _divide_into(num_d, f_num, den_d, f_den, RANGE, kind, lut_bits, r_bits,
+                                    fm, dst, ov)  # fmt: skip
             v_sq = _cast(vx * vx + vy * vy, 2 * f_v, V_SQ, 29, fm, st, ov)
             g_sq = _cast(gv * gv, 2 * f_gv, GRAD_SQ, 30, fm, st, ov)
             g_thr = _cast(tg2 * v_sq, f_tg2 + f_vsq, GRAD_SQ, 31, fm, st, ov)
             ok = abs(c1) >= te and g_sq >= g_thr and den_ok and not dovf and rq > 0 and rq <= rmax
             out_valid[j, i] = ok
             out_range[j, i] = rq if ok else rmax
-            if want_taps:
-                vals = (xp, yp, c1, a1, b1, kk[0], kk[1], kk[2], vx, vy, wx, wy, w0, gv, num,
-                        den, rq, v_sq, g_sq, g_thr, np.int64(ok), out_range[j, i])  # fmt: skip
-                for t in range(22):
-                    taps[t, j, i] = vals[t]
+            tj = j if want_taps else 0
+            ti = i if want_taps else 0
+            vals = (xp, yp, c1, a1, b1, kk[0], kk[1], kk[2], vx, vy, wx, wy, w0, gv, num,
+                    den, rq, v_sq, g_sq, g_thr, np.int64(ok), out_range[j, i])  # fmt: skip
+            for t in range(22):
+                taps[t, tj, ti] = vals[t]
 
 
 # --------------------------------------------------------------------------------------
@@ -589,12 +602,11 @@ def run_p1(
         )
     regs = frame_registers(camera, motion, ranging, config)
     fm = _format_table(config)
-    lut = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
     kind = _DIV_RESTORING if config.divider == "restoring" else _DIV_RECIPROCAL
     consistent = config.variant == "consistent"
     init_first = config.init == "first"
     n_ft = len(FRONTEND_TAPS)
-    shape_t = (n_ft, m, n) if taps else (n_ft, 0, 0)
+    shape_t = (n_ft, m, n) if taps else (n_ft, 1, 1)
 
     def frontend(img: np.ndarray):
         st, dst, ov = _new_stats()
@@ -602,20 +614,20 @@ def run_p1(
         tp = np.zeros(shape_t, dtype=np.int64)
         _frontend_kernel(
             img, np.int64(regs.pole), np.int64(regs.bias), consistent, init_first, kind,
-            config.recip_lut_bits, config.recip_bits, lut, fm, st, dst, ov, *outs, tp, taps,
+            config.recip_lut_bits, config.recip_bits, fm, st, dst, ov, *outs, tp, taps,
         )  # fmt: skip
         return outs, tp, (st, dst, ov)
 
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
-    rtaps = np.zeros((len(RANGE_TAPS), m, n) if taps else (len(RANGE_TAPS), 0, 0), np.int64)
+    rtaps = np.zeros((len(RANGE_TAPS), m, n) if taps else (len(RANGE_TAPS), 1, 1), np.int64)
     f_ex = config.formats["col2_out" if consistent else "div_quot"].frac
 
     def range_band(j0: int, j1: int, s1, s2):
         st, dst, ov = _new_stats()
         _range_kernel(
             s1[0][0], s1[0][1], s1[0][2], s2[0][0], s2[0][1], s2[0][2], regs.scalars,
-            regs.rotation, f_ex, kind, config.recip_lut_bits, config.recip_bits, lut, fm,
+            regs.rotation, f_ex, kind, config.recip_lut_bits, config.recip_bits, fm,
             st, dst, ov, j0, j1, out_range, out_valid, rtaps, taps,
         )  # fmt: skip
         return st, dst, ov

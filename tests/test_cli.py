@@ -63,6 +63,9 @@ def test_demo_shows_fixed_point_and_end_to_end(demo_dir):
         assert p1["table"][0]["object"] == "Left pencil"
         for f in (f"range_{name}.png", f"hist_{name}.png", f"table_{name}.csv"):
             assert (demo_dir / f).is_file()
+    p2 = summary["fixed_point"]["p2"]  # the Riccati pipeline beside golden G5
+    assert p2["overflows"]["total"] == 0 and p2["median_rel_range_diff"] <= 0.01
+    assert (demo_dir / "range_p2.png").is_file()
     e2e = summary["end_to_end"]
     assert e2e["obstacles"]["source"] == "runway-p1" and e2e["n_obstacles"] > 50
     assert e2e["final_position_error_ft"] < 1.0

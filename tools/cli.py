@@ -110,7 +110,7 @@ def _estimator(args: argparse.Namespace) -> EstimatorConfig:
 def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     est = _estimator(args)
-    steps = ["render lab", *DEMO_METHODS, "p1 fixed point", "end to end", "figures"]
+    steps = ["render lab", *DEMO_METHODS, "p1/p2 fixed point", "end to end", "figures"]
     bar = tqdm(total=len(steps), desc="rangefx demo", disable=args.json or not sys.stderr.isatty())
     with atomic_output_dir(out) as tmp:
         bar.set_postfix_str(steps[0])
@@ -131,8 +131,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
             )
             summary_methods[m] = _method_figures(scene, results[m])
             bar.update()
-        bar.set_postfix_str("p1 fixed point")
+        bar.set_postfix_str("p1/p2 fixed point")
         p1_summary = pipeline.demo_p1(scene, tmp, _clean)
+        p1_summary.update(p2_pipeline.demo_p2(scene, tmp, _clean))
         bar.update()
         bar.set_postfix_str("end to end")
         (tmp / "guide").mkdir()

@@ -255,6 +255,9 @@ def bench_figures(repeats: int = 5, size: int = 512) -> dict:
         out[f"golden_p1_{variant}_mpix_s"] = pixels / t / 1e6
     out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
     out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
+    from .p2_pipeline import bench_p2  # local: p2_pipeline imports this module
+
+    out.update(bench_p2(repeats, size))
     code = (
         "import time; t=time.perf_counter(); import numpy as np;"
         "from rangefx.tools.pipeline import _cold_run; _cold_run();"
