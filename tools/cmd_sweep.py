@@ -1,0 +1,233 @@
+"""``rangefx sweep`` and ``rangefx optimise``: word-length studies of P1 (SPEC §6, §8).
+
+``rangefx sweep DEF.toml --out DIR [--scheduler ADDR] [--workers N] [--json]`` runs a
+sweep definition (:mod:`rangefx.tools.sweep`; example ``tools/sweeps/p1_lab.toml``,
+``rangefx sweep --example`` prints its path) and writes to ``DIR``: ``results.jsonl``
+(one line per finished point, appended as it finishes: re-running the same command
+after an interruption computes only the missing points), then ``points.csv``,
+``pareto_<scene>.png/.csv``, ``sensitivity.png/.csv``, ``buildup_base.png`` + CSV and
+``summary.json`` (``complete: true``) once every point is in.
+
+``rangefx optimise --scene lab --budget 0.01 [--agreement 0.99] [--verify runway]
+[--config PATH] [--variant V] [--size H W] [--workers N] [--out DIR] [--json]`` finds
+the cheapest config meeting the budget (:mod:`rangefx.tools.wlopt`) and prints it
+(TOML), ``cost_bits``, ``default_cost_bits``, its accuracy on the tuning scene and on
+the verification scene.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from rangefx.golden.scenes import SCENE_NAMES
+from rangefx.rtl_model.config import P1_SIGNALS, WordLengthConfig
+
+from .cost import config_cost
+from .errors import UserError
+from .outdir import atomic_write_text
+from .pipeline import golden_for, load_config
+
+__all__ = ["add_parser", "cmd_optimise", "cmd_sweep", "example_path"]
+
+
+def _clean(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    return obj
+
+
+def example_path() -> Path:
+    """Path of the shipped example sweep definition."""
+    return Path(str(resources.files("rangefx.tools").joinpath("sweeps", "p1_lab.toml")))
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from .sweep import load_sweep, run_sweep, write_outputs
+
+    if args.example:
+        print(example_path())
+        return 0
+    if not args.definition or not args.out:
+        raise UserError("sweep needs a definition file and --out DIR (or --example)")
+    defn = load_sweep(args.definition)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"output path {str(out)!r} exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()) and not (out / "results.jsonl").exists():
+        raise UserError(
+            f"output directory {str(out)!r} is not empty and holds no sweep results; "
+            "choose a new directory"
+        )
+    summary_path = out / "summary.json"
+    if summary_path.exists():
+        summary_path.unlink()  # a resumed sweep is incomplete until it finishes
+    outcome = run_sweep(
+        defn, out, workers=args.workers, scheduler=args.scheduler, progress=not args.json
+    )
+    summary = write_outputs(defn, outcome, out)
+    if args.json:
+        print(json.dumps(_clean(summary)))
+    else:
+        print(
+            f"sweep {defn.name!r}: {summary['n_points']} points ({summary['n_ok']} ran, "
+            f"{summary['n_invalid']} invalid configs), {summary['computed_this_run']} computed "
+            f"now in {summary['wall_seconds_this_run']:.1f} s; results in {out}"
+        )
+        for scene, front in summary["pareto"].items():
+            print(f"Pareto front on {scene}: {len(front)} configs")
+    return 0
+
+
+def _scene_case(name: str, size: list[int] | None):
+    from .sweep import scene_case
+
+    return scene_case(name, size)
+
+
+def cmd_optimise(args: argparse.Namespace) -> int:
+    from .wlopt import Budget, evaluate, optimise
+
+    try:
+        budget = Budget(args.budget, args.agreement)
+    except ValueError as exc:
+        raise UserError(f"--budget/--agreement: {exc}") from None
+    if args.signals:
+        bad = [s for s in args.signals if s not in P1_SIGNALS]
+        if bad:
+            raise UserError(f"--signals: unknown signals {bad}")
+    start = load_config(args.config, args.variant, None)
+    default = WordLengthConfig.default(start.variant)
+    case = _scene_case(args.scene, args.size)
+    res = optimise(
+        case, start, budget, signals=args.signals, workers=args.workers, progress=not args.json
+    )
+    shape, mode = case.image1.shape, case.mode
+    cost = config_cost(res.config, shape, mode)
+    dcost = config_cost(default, shape, mode)
+    figures: dict[str, Any] = {
+        "scene": args.scene,
+        "mode": mode,
+        "size": list(shape),
+        "variant": start.variant,
+        "budget": {"median_rel_range_diff": budget.median, "valid_agreement": budget.agreement},
+        "config_toml": res.config.to_toml(),
+        "cost_bits": cost.cost_bits,
+        "default_cost_bits": dcost.cost_bits,
+        "bits_saved": dcost.cost_bits - cost.cost_bits,
+        "cost": cost.as_dict(),
+        "default_cost": dcost.as_dict(),
+        "median_rel_range_diff": res.figures["median_rel_range_diff"],
+        "p95_rel_range_diff": res.figures["p95_rel_range_diff"],
+        "valid_agreement": res.figures["valid_agreement"],
+        "start_median_rel_range_diff": res.start_figures["median_rel_range_diff"],
+        "start_valid_agreement": res.start_figures["valid_agreement"],
+        "evaluations": res.evaluations,
+        "seconds": res.seconds,
+        "steps": res.steps,
+    }
+    if args.verify:
+        vcase = _scene_case(args.verify, args.size)
+        golden = golden_for(vcase, res.config)
+        fig_opt = evaluate(vcase, res.config, golden)
+        fig_def = evaluate(vcase, default, golden)
+        if fig_opt is None:
+            raise UserError(f"the optimised config cannot run on {args.verify!r}")
+        figures["verify"] = {
+            "scene": args.verify,
+            "mode": vcase.mode,
+            "median_rel_range_diff": fig_opt["median_rel_range_diff"],
+            "p95_rel_range_diff": fig_opt["p95_rel_range_diff"],
+            "valid_agreement": fig_opt["valid_agreement"],
+            "meets_budget": budget.met(fig_opt),
+            "default_median_rel_range_diff": fig_def["median_rel_range_diff"] if fig_def else None,
+            "default_valid_agreement": fig_def["valid_agreement"] if fig_def else None,
+            "cost_bits": config_cost(res.config, vcase.image1.shape, vcase.mode).cost_bits,
+            "default_cost_bits": config_cost(default, vcase.image1.shape, vcase.mode).cost_bits,
+        }
+    if args.out:
+        _write_optimise_out(Path(args.out), res, figures, case)
+    if args.json:
+        print(json.dumps(_clean(figures)))
+        return 0
+    sys.stdout.write(res.config.to_toml())
+    print(
+        f"# cost_bits {cost.cost_bits} (default {dcost.cost_bits}, saved "
+        f"{figures['bits_saved']}); DSP {cost.dsp} (default {dcost.dsp}); BRAM18 {cost.bram18} "
+        f"(default {dcost.bram18})"
+    )
+    print(
+        f"# {args.scene}: median_rel_range_diff {figures['median_rel_range_diff']:.3e}, "
+        f"valid_agreement {figures['valid_agreement']:.5f} ({res.evaluations} runs, "
+        f"{res.seconds:.1f} s)"
+    )
+    if args.verify:
+        v = figures["verify"]
+        print(
+            f"# verify {args.verify} ({v['mode']}): median_rel_range_diff "
+            f"{v['median_rel_range_diff']:.3e}, valid_agreement {v['valid_agreement']:.5f}, "
+            f"meets budget: {v['meets_budget']}"
+        )
+    return 0
+
+
+def _write_optimise_out(out: Path, res, figures: dict[str, Any], case) -> None:
+    from .sweep import buildup_for
+    from .wlplots import save_buildup
+
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"cannot create output directory {str(out)!r}: {exc.strerror}") from None
+    atomic_write_text(out / "optimised.toml", res.config.to_toml())
+    for stem, cfg in (("buildup_optimised", res.config), ("buildup_start", res.start)):
+        profiles, notes = buildup_for(case, cfg)
+        save_buildup(out, stem, profiles, stem.replace("_", " ").replace("buildup", "build-up,"))
+        figures[f"{stem}_notes"] = notes
+    atomic_write_text(out / "summary.json", json.dumps(_clean(figures), indent=2) + "\n")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
+    return v
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("sweep", help="word-length sweep of P1 (resumable, local or dask)")
+    p.add_argument("definition", nargs="?", help="sweep definition TOML")
+    p.add_argument("--out", help="output directory (re-run the same command to resume)")
+    p.add_argument("--scheduler", help="address of a dask.distributed scheduler")
+    p.add_argument("--workers", type=_positive_int, default=2, help="local threads (default 2)")
+    p.add_argument("--example", action="store_true", help="print the example definition's path")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.set_defaults(func=cmd_sweep)
+    p = sub.add_parser("optimise", help="cheapest P1 word lengths meeting an accuracy budget")
+    p.add_argument("--scene", choices=SCENE_NAMES, default="lab", help="tuning scene")
+    p.add_argument("--budget", type=float, default=0.01,
+                   help="max median relative range error vs golden (default 0.01)")  # fmt: skip
+    p.add_argument("--agreement", type=float, default=0.99,
+                   help="min validity agreement with golden (default 0.99)")  # fmt: skip
+    p.add_argument("--verify", choices=SCENE_NAMES, help="scene to verify the result on")
+    p.add_argument("--config", help="starting (safe) config TOML (default: the shipped one)")
+    p.add_argument("--variant", choices=("paper", "consistent"))
+    p.add_argument("--size", type=_positive_int, nargs=2, metavar=("H", "W"),
+                   help="render the scenes at this size")  # fmt: skip
+    p.add_argument("--signals", nargs="+", help="only these signals (default: all but pix_in)")
+    p.add_argument("--workers", type=_positive_int, default=2, help="concurrent runs (default 2)")
+    p.add_argument("--out", help="write optimised.toml, build-up plots and summary.json here")
+    p.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    p.set_defaults(func=cmd_optimise)

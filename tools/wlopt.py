@@ -1,0 +1,219 @@
+"""Word-length optimiser: the cheapest P1 config meeting an accuracy budget (SPEC §6).
+
+Coordinate descent from a safe configuration (the default, which meets the budget by a
+wide margin). Signals are visited in decreasing order of their cost weight (bits of
+``cost_bits`` per bit of word: line-buffer signals first, :func:`cost_weights`). For
+each signal, first its fraction bits are lowered (integer bits kept, so the word
+shrinks), then its integer bits (fraction kept), each to the smallest value for which
+the *whole* config still meets the budget, found by a k-ary search (``workers``
+candidates evaluated concurrently per round; monotone error in the bits is assumed to
+steer the search, never to accept: every accepted config was run and met the budget).
+Hence the result meets the budget on the tuning scene by construction; it is then run on
+a verification scene it was not tuned on.
+
+The budget (:class:`Budget`): median relative range difference vs the float golden on
+pixels valid in both ``<= median`` and validity agreement ``>= agreement``.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from tqdm import tqdm
+
+from rangefx.golden.ranging import RangeResult
+from rangefx.rtl_model.config import P1_SIGNALS, WordLengthConfig
+from rangefx.rtl_model.fixedpoint import FixedFormat
+from rangefx.rtl_model.p1 import run_p1
+
+from .cost import REGISTER_INSTANCES, config_cost
+from .errors import UserError
+from .pipeline import P1Case, compare_ranges, golden_for
+
+__all__ = ["Budget", "OptimiseResult", "cost_weights", "evaluate", "optimise"]
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Accuracy budget against the float golden."""
+
+    median: float = 0.01
+    agreement: float = 0.99
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.median, int | float) and 0 < self.median < math.inf):
+            raise ValueError(f"budget must be a positive number, not {self.median!r}")
+        if not (isinstance(self.agreement, int | float) and 0 <= self.agreement <= 1):
+            raise ValueError(f"agreement must be in [0, 1], not {self.agreement!r}")
+
+    def met(self, figures: dict[str, Any]) -> bool:
+        med = figures.get("median_rel_range_diff")
+        agr = figures.get("valid_agreement")
+        if med is None or agr is None or not math.isfinite(med):
+            return False
+        return med <= self.median and agr >= self.agreement
+
+
+@dataclass(frozen=True)
+class OptimiseResult:
+    config: WordLengthConfig
+    start: WordLengthConfig
+    figures: dict[str, Any]
+    start_figures: dict[str, Any]
+    evaluations: int
+    seconds: float
+    steps: list[dict[str, Any]] = field(default_factory=list)
+
+
+def cost_weights(config: WordLengthConfig, shape: tuple[int, int], mode: str) -> dict[str, int]:
+    """``cost_bits`` added by one more bit of each signal's word (0: signal unused)."""
+    base = config_cost(config, shape, mode).cost_bits
+    out = {}
+    for name in P1_SIGNALS:
+        f = config.formats[name]
+        try:
+            wider = config.with_formats(**{name: replace(f, word=f.word + 1)})
+        except ValueError:
+            out[name] = sum(REGISTER_INSTANCES[name])
+            continue
+        out[name] = config_cost(wider, shape, mode).cost_bits - base
+    return out
+
+
+def evaluate(case: P1Case, config: WordLengthConfig, golden: RangeResult, threads: int = 2):
+    """Fixed vs golden figures of ``config`` (``None`` if the config cannot run)."""
+    try:
+        result = run_p1(
+            case.image1, case.image2, case.camera, case.motion, config, case.ranging,
+            mode=case.mode, taps=False, threads=threads,
+        )  # fmt: skip
+    except ValueError:
+        return None
+    figs = compare_ranges(result, golden)
+    figs["overflow_total"] = result.overflow_total
+    return figs
+
+
+def _candidates(lo: int, hi: int, k: int) -> list[int]:
+    """Up to ``k`` probe points in ``[lo, hi)`` splitting it into ``k + 1`` parts."""
+    return sorted({lo + ((hi - lo) * i) // (k + 1) for i in range(1, k + 1)})
+
+
+def _with(config: WordLengthConfig, name: str, word: int, frac: int) -> WordLengthConfig | None:
+    if word < 1 or word > 62:
+        return None
+    f = config.formats[name]
+    try:
+        return config.with_formats(**{name: FixedFormat(f.signed, word, frac, f.quant, f.overflow)})
+    except ValueError:
+        return None
+
+
+def optimise(
+    case: P1Case,
+    start: WordLengthConfig,
+    budget: Budget,
+    *,
+    signals: Sequence[str] | None = None,
+    workers: int = 2,
+    max_frac_drop: int = 40,
+    progress: bool = True,
+    on_eval: Callable[[WordLengthConfig, dict | None], None] | None = None,
+) -> OptimiseResult:
+    """Cheapest config (``cost_bits``) reachable from ``start`` meeting ``budget``."""
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise UserError(f"--workers must be a positive integer, not {workers!r}")
+    t0 = time.perf_counter()
+    golden = golden_for(case, start)
+    shape = case.image1.shape
+    threads = 2 if workers == 1 else 1
+    n_evals = 0
+
+    def run(cfgs: list[WordLengthConfig]) -> list[dict | None]:
+        nonlocal n_evals
+        n_evals += len(cfgs)
+        if len(cfgs) == 1 or workers == 1:
+            figs = [evaluate(case, c, golden, threads=2) for c in cfgs]
+        else:
+            with ThreadPoolExecutor(min(workers, len(cfgs))) as pool:
+                figs = list(pool.map(lambda c: evaluate(case, c, golden, threads), cfgs))
+        if on_eval is not None:
+            for c, f in zip(cfgs, figs, strict=True):
+                on_eval(c, f)
+        return figs
+
+    start_figs = run([start])[0]
+    if start_figs is None or not budget.met(start_figs):
+        raise UserError(
+            f"the starting config {start.name!r} misses the budget on this scene "
+            f"(figures {start_figs}); start from a wider config"
+        )
+    weights = cost_weights(start, shape, case.mode)
+    names = [s for s in (signals or P1_SIGNALS) if s != "pix_in" and weights.get(s, 0) > 0]
+    names.sort(key=lambda s: (-weights[s], P1_SIGNALS.index(s)))
+    current, cur_figs = start, start_figs
+    steps: list[dict[str, Any]] = []
+    bar = tqdm(
+        total=2 * len(names), desc="optimise", disable=not progress or not sys.stderr.isatty(),
+        file=sys.stderr,
+    )  # fmt: skip
+    try:
+        for name in names:
+            for dim in ("frac", "int"):
+                f = current.formats[name]
+                integer = f.word - f.frac
+                if dim == "frac":
+                    lo, hi = max(f.frac - max_frac_drop, f.frac - f.word + 1), f.frac
+
+                    def make(v: int, c=current, n=name, i=integer) -> WordLengthConfig | None:
+                        return _with(c, n, i + v, v)
+                else:
+                    lo, hi = max(integer - 62, 1 - f.frac), integer
+
+                    def make(v: int, c=current, n=name, fr=f.frac) -> WordLengthConfig | None:
+                        return _with(c, n, v + fr, fr)
+
+                best, best_figs = hi, cur_figs
+                while lo < hi:
+                    cands = _candidates(lo, hi, workers)
+                    cfgs = [make(v) for v in cands]
+                    figs: list[dict | None] = [None] * len(cands)
+                    runnable = [k for k, c in enumerate(cfgs) if c is not None]
+                    for k, r in zip(runnable, run([cfgs[k] for k in runnable]), strict=True):
+                        figs[k] = r
+                    passing = [k for k, r in enumerate(figs) if r is not None and budget.met(r)]
+                    if passing:
+                        k = passing[0]
+                        hi = cands[k]
+                        best, best_figs = hi, figs[k]
+                    failing = [cands[k] for k in range(len(cands)) if k not in passing]
+                    below = [v for v in failing if v < hi]
+                    lo = max(below) + 1 if below else lo
+                    if not passing and not below:
+                        break
+                if best != (f.frac if dim == "frac" else integer):
+                    new = make(best)
+                    assert new is not None
+                    old = str(current.formats[name])
+                    current, cur_figs = new, best_figs
+                    steps.append(
+                        {
+                            "signal": name, "dim": dim, "from": old,
+                            "to": str(current.formats[name]),
+                            "median_rel_range_diff": cur_figs["median_rel_range_diff"],
+                            "valid_agreement": cur_figs["valid_agreement"],
+                        }
+                    )  # fmt: skip
+                bar.update(1)
+    finally:
+        bar.close()
+    final = current.with_(name=f"{start.name}-optimised")
+    return OptimiseResult(
+        final, start, cur_figs, start_figs, n_evals, time.perf_counter() - t0, steps
+    )
