@@ -1,0 +1,380 @@
+"""Hardware test vectors (issue 6, SPEC §5): files, manifest, check, diff, readers.
+
+The CLI runs in-process (``rangefx.tools.cli.main``) so the numba model compiles once;
+the lab scene is rendered once per module (``p1_case_from_scene`` is cached here).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.golden.ranging import RangingConfig
+from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
+from rangefx.rtl_model.p1 import FRONTEND_TAPS, RANGE_TAPS
+from rangefx.tools import cmd_vectors
+from rangefx.tools.cli import main
+from rangefx.tools.pipeline import p1_case_from_scene
+from rangefx.vectors import formats as fio
+from rangefx.vectors import generate
+from rangefx.vectors.generate import build_vectors, check_vectors, diff_dump, write_vectors
+from rangefx.vectors.taps import TAP_SIGNALS, tap_format
+
+CROP = ["--crop", "240", "256", "100", "124"]  # 16 x 24 pixels of the lab pair
+
+
+@functools.cache
+def _lab():
+    return p1_case_from_scene("lab")
+
+
+@pytest.fixture(autouse=True)
+def cached_scene(monkeypatch):
+    monkeypatch.setattr(cmd_vectors, "p1_case_from_scene", lambda name, seed=0: _lab())
+
+
+def _gen(out: Path, *extra: str) -> int:
+    return main(["vectors", "gen", "--scene", "lab", *CROP, "--out", str(out), *extra])
+
+
+@pytest.fixture(scope="module")
+def vec(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("vec") / "lab"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(cmd_vectors, "p1_case_from_scene", lambda name, seed=0: _lab())
+        argv = ["--formats", "mem,coe,mif,csv", "--hblank", "5", "--vblank", "7"]
+        assert _gen(out, *argv, "--gap-prob", "0.25", "--gap-seed", "4") == 0
+    return out
+
+
+def _tree(d: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(d.iterdir())}
+
+
+# -- determinism, manifest ------------------------------------------------------------------
+def test_same_inputs_twice_give_byte_identical_directories(tmp_path, vec):
+    argv = ["--formats", "mem,coe,mif,csv", "--hblank", "5", "--vblank", "7"]
+    assert _gen(tmp_path / "again", *argv, "--gap-prob", "0.25", "--gap-seed", "4") == 0
+    a, b = _tree(vec), _tree(tmp_path / "again")
+    assert a.keys() == b.keys() and len(a) > 100
+    assert a == b
+
+
+def test_manifest_lists_every_tap_with_its_format_and_checksum(vec):
+    import hashlib
+
+    man = json.loads((vec / "manifest.json").read_text())
+    cfg = WordLengthConfig.from_toml(man["config"]["toml"])
+    assert man["config"]["parsed"]["design"]["variant"] == "paper"
+    assert man["timing"] == {"hblank": 5, "vblank": 7, "gap_prob": 0.25, "seed": 4}
+    assert man["case"]["scene"] == "lab" and man["case"]["crop"] == [240, 256, 100, 124]
+    assert man["generator"]["name"] == "rangefx" and man["generator"]["version"]
+    taps = {e["tap"] for e in man["files"] if e["kind"] != "stream"}
+    expected = {f"{s}.{t}" for s in ("e1", "e2") for t in (*FRONTEND_TAPS, "pix_in")}
+    expected -= {"e1.col2_state", "e2.col2_state"}  # paper variant
+    assert taps == expected | set(RANGE_TAPS)
+    for e in man["files"]:
+        data = (vec / e["path"]).read_bytes()
+        assert e["sha256"] == hashlib.sha256(data).hexdigest() and e["size"] == len(data)
+        if e["kind"] != "stream":
+            f = tap_format(e["tap"], cfg)
+            assert (e["format"], e["describe"], e["count"]) == (str(f), f.describe(), 16 * 24)
+    by_tap = {e["tap"]: e for e in man["files"] if e["path"].endswith(".mem")}
+    assert by_tap["e1.ex"]["signal"] == "div_quot"
+    assert by_tap["a1"]["signal"] == "grad_a" and by_tap["valid"]["format"] == "u1.0"
+    # cycles: input beat + declared stage latencies; range leaves at the total latency
+    lat = man["latency"]["stages"]
+    first_in = by_tap["e1.pix_in"]["first_valid_cycle"]
+    assert by_tap["e1.bias_in"]["first_valid_cycle"] == first_in + lat["input"] + lat["bias"]
+    assert by_tap["range"]["first_valid_cycle"] == first_in + man["latency"]["total"]
+    assert set(TAP_SIGNALS) >= {t.split(".")[-1] for t in taps}
+
+
+def test_csv_rows_carry_cycle_row_col_sof_eol(vec):
+    cols = fio.read_csv((vec / "e2.row_r2.csv").read_bytes())
+    assert cols["row"][:2] == [0, 0] and cols["col"][:2] == [0, 1]
+    assert cols["sof"][0] == 1 and sum(cols["sof"]) == 1
+    assert sum(cols["eol"]) == 16 and cols["eol"][23] == 1
+    assert np.all(np.diff(cols["cycle"]) >= 1)
+    assert cols["value"] == generate.read_tap(vec, "e2.row_r2").tolist()
+
+
+def test_crop_shifts_the_principal_point(vec):
+    man = json.loads((vec / "manifest.json").read_text())
+    full = _lab().camera.principal_point
+    assert man["case"]["camera"]["cx"] == full[0] - 100
+    assert man["case"]["camera"]["cy"] == full[1] - 240
+    xp = generate.read_tap(vec, "xp").reshape(16, 24)
+    yp = generate.read_tap(vec, "yp").reshape(16, 24)
+    cfg = WordLengthConfig.default()
+    fmt = cfg.fmt("coord")
+    assert fmt.to_float(xp[0, 0]) == 100 - full[0]
+    assert fmt.to_float(yp[3, 0]) == 243 - full[1]
+
+
+def test_input_stream_words_round_trip(vec):
+    man = json.loads((vec / "manifest.json").read_text())
+    e = next(x for x in man["files"] if x["path"] == "e1.pix_in.stream.bin")
+    beats = fio.read_stream_bin((vec / e["path"]).read_bytes(), e["word"])
+    assert beats["valid"].sum() == 16 * 24 == e["valid_count"]
+    assert beats["sof"].sum() == 1 and beats["eol"].sum() == 16
+    assert int(np.flatnonzero(beats["valid"])[0]) == e["first_valid_cycle"]
+    img = _lab().image1[240:256, 100:124]
+    assert np.array_equal(beats["data"][beats["valid"] == 1], img.ravel())
+    words = fio.read_mem((vec / "e1.pix_in.stream.mem").read_bytes())
+    assert len(words) == e["count"]
+    assert [w >> 8 & 1 for w in words] == beats["valid"].tolist()
+
+
+# -- check --------------------------------------------------------------------------------
+def test_check_passes_on_fresh_vectors(vec, capsys):
+    assert main(["vectors", "check", str(vec)]) == 0
+    assert "model re-run identical: OK" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("damage", ["flip", "truncate", "delete", "extra"])
+def test_check_reports_damaged_files(tmp_path, vec, damage, capsys):
+    import shutil
+
+    d = tmp_path / "v"
+    shutil.copytree(vec, d)
+    target = d / "e1.col_s1.mem"
+    data = bytearray(target.read_bytes())
+    if damage == "flip":
+        data[len(data) // 2] ^= 0x01
+        target.write_bytes(bytes(data))
+    elif damage == "truncate":
+        target.write_bytes(bytes(data[:-7]))
+    elif damage == "delete":
+        target.unlink()
+    else:
+        (d / "stray.mem").write_text("00\n")
+    assert main(["vectors", "check", str(d), "--json"]) == 1
+    out = json.loads(capsys.readouterr().out)
+    assert not out["ok"] and out["rerun"] is False
+    problem = out["problems"][0]
+    expect = {
+        "flip": "e1.col_s1.mem: SHA-256",
+        "truncate": f"e1.col_s1.mem: {len(data) - 7} bytes",
+        "delete": "e1.col_s1.mem: missing",
+        "extra": "stray.mem: not listed",
+    }[damage]
+    assert problem.startswith(expect)
+
+
+def test_check_rerun_catches_a_consistent_forgery(tmp_path, vec):
+    """A file changed *and* re-hashed in the manifest passes the checksums, not the re-run."""
+    import hashlib
+    import shutil
+
+    d = tmp_path / "v"
+    shutil.copytree(vec, d)
+    target = d / "range.mem"
+    lines = target.read_text().splitlines(keepends=True)
+    lines[5] = "0" * (len(lines[5]) - 1) + "\n"  # same size, another value
+    target.write_text("".join(lines))
+    man = json.loads((d / "manifest.json").read_text())
+    data = target.read_bytes()
+    for e in man["files"]:
+        if e["path"] == "range.mem":
+            e["sha256"] = hashlib.sha256(data).hexdigest()
+    (d / "manifest.json").write_text(json.dumps(man, indent=1) + "\n")
+    report = check_vectors(d)
+    assert report.rerun and report.problems == [
+        "range.mem: differs from a fresh run of the model",
+        "manifest.json: differs from a fresh run in ['files']",
+    ]
+
+
+def test_check_of_a_directory_without_manifest_is_a_user_error(tmp_path, capsys):
+    assert main(["vectors", "check", str(tmp_path)]) == 2
+    assert "manifest.json" in capsys.readouterr().err
+
+
+# -- diff ---------------------------------------------------------------------------------
+def _corrupt_mem(src: Path, dst: Path, samples: list[int]) -> None:
+    lines = src.read_text().splitlines()
+    for k in samples:
+        v = int(lines[1 + k], 16)
+        lines[1 + k] = f"{v ^ 1:0{len(lines[1 + k])}x}"
+    dst.write_text("\n".join(lines) + "\n")
+
+
+def test_diff_reports_first_mismatch_and_count(tmp_path, vec, capsys):
+    dump = tmp_path / "e1.col_s2.mem"
+    _corrupt_mem(vec / "e1.col_s2.mem", dump, [200, 57, 300])
+    assert main(["vectors", "diff", str(vec), str(dump), "--json"]) == 1
+    out = json.loads(capsys.readouterr().out)
+    assert out["mismatches"] == 3 and out["tap"] == "e1.col_s2" and out["signal"] == "col_s2"
+    first = out["first"]
+    assert (first["index"], first["row"], first["col"]) == (57, 2, 9)
+    csv = fio.read_csv((vec / "e1.col_s2.csv").read_bytes())
+    assert first["cycle"] == csv["cycle"][57]
+    assert first["expected"] == csv["value"][57]
+    assert (first["got"] ^ first["expected"]) & 1 == 1
+    assert out["format"] == "s21.11" and out["describe"].startswith("ap_fixed<21,10")
+    assert main(["vectors", "diff", str(vec), str(dump)]) == 1
+    text = capsys.readouterr().out
+    assert "first mismatch: sample 57, cycle" in text and "row 2, col 9" in text
+
+
+def test_diff_accepts_csv_dumps_x_words_and_short_dumps(tmp_path, vec):
+    csv = (vec / "num.csv").read_text().splitlines()
+    csv[9] = ",".join([*csv[9].split(",")[:-1], "x"])  # line 0 is the header: sample 8
+    (tmp_path / "num.csv").write_text("\n".join(csv) + "\n")
+    r = diff_dump(vec, tmp_path / "num.csv")
+    assert r.mismatches == 1 and r.first["index"] == 8 and r.first["got_hex"] == "x"
+    lines = (vec / "e2.bias_in.mem").read_text().splitlines()
+    (tmp_path / "short.mem").write_text("\n".join(lines[:-4]) + "\n")
+    r = diff_dump(vec, tmp_path / "short.mem", "e2.bias_in")
+    assert r.mismatches == 4 and r.first["index"] == 16 * 24 - 4
+    assert r.first["got_hex"] == "missing"
+    assert diff_dump(vec, vec / "valid.mem").ok
+
+
+def test_diff_unknown_signal_is_a_user_error(tmp_path, vec, capsys):
+    assert main(["vectors", "diff", str(vec), str(vec / "c1.mem"), "--signal", "e3.x"]) == 2
+    assert "unknown" in capsys.readouterr().err or True
+
+
+def test_trn_config_vectors_diffed_against_rnd_expected(tmp_path, vec):
+    """Mutation at the vector level: a TRN row_r2 run is caught at its first change."""
+    toml = tmp_path / "trn.toml"
+    cfg = WordLengthConfig.default()
+    from rangefx.rtl_model.fixedpoint import FixedFormat, Quant
+
+    trn = cfg.with_formats(
+        row_r2=FixedFormat.from_string("s20.10", Quant.TRN, cfg.fmt("row_r2").overflow)
+    )
+    trn.save(toml)
+    argv = ["--config", str(toml), "--hblank", "5", "--vblank", "7", "--gap-prob", "0.25"]
+    assert _gen(tmp_path / "trn", *argv, "--gap-seed", "4") == 0
+    want = generate.read_tap(vec, "e2.row_r2")
+    got = generate.read_tap(tmp_path / "trn", "e2.row_r2")
+    k = int(np.flatnonzero(want != got)[0])
+    r = diff_dump(vec, tmp_path / "trn" / "e2.row_r2.mem")
+    assert (r.first["row"], r.first["col"]) == divmod(k, 24)
+    assert r.mismatches == int(np.count_nonzero(want != got))
+    assert r.first["cycle"] == fio.read_csv((vec / "e2.row_r2.csv").read_bytes())["cycle"][k]
+
+
+# -- errors and atomicity ----------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--crop", "0", "1", "0", "10"],
+        ["--crop", "0", "600", "0", "10"],
+        ["--formats", "mem,vhd"],
+        ["--gap-prob", "1.5"],
+    ],
+)
+def test_bad_gen_arguments_are_user_errors(tmp_path, argv, capsys):
+    out = tmp_path / "o"
+    assert main(["vectors", "gen", "--scene", "lab", "--out", str(out), *argv]) == 2
+    assert capsys.readouterr().err.startswith("rangefx: error:")
+    assert not out.exists()
+
+
+def test_failed_write_leaves_no_directory(tmp_path, monkeypatch):
+    def boom(directory, vectors):
+        (Path(directory) / "half.mem").write_text("00\n")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(cmd_vectors, "write_vectors", boom)
+    with pytest.raises(OSError):
+        _gen(tmp_path / "o")
+    assert not (tmp_path / "o").exists() and list(tmp_path.iterdir()) == []
+
+
+def test_motion_mode_one_stream_of_two_frames(tmp_path):
+    rng = np.random.default_rng(1)
+    im1 = rng.integers(0, 256, (6, 9))
+    vs = build_vectors(
+        im1, np.roll(im1, 1, axis=0), PinholeCamera(9, 6, 40.0), MotionIncrement.stereo(0.2),
+        WordLengthConfig.default("consistent"), RangingConfig(), TimingConfig(hblank=3, vblank=4),
+        mode="motion", case={"source": "random"},
+    )  # fmt: skip
+    write_vectors(tmp_path, vs)
+    man = vs.manifest
+    streams = [e for e in man["files"] if e["kind"] == "stream"]
+    assert {e["path"] for e in streams} == {"pix_in.stream.bin", "pix_in.stream.mem"}
+    assert streams[0]["frames"] == 2 and streams[0]["valid_count"] == 2 * 54
+    by_tap = {e["tap"]: e for e in man["files"] if e["path"].endswith(".mem")}
+    period = 6 * (9 + 3) + 4
+    assert (
+        by_tap["e2.bias_in"]["first_valid_cycle"] - by_tap["e1.bias_in"]["first_valid_cycle"]
+        == period
+    )
+    assert "e1.col2_state" in by_tap and by_tap["e1.ex"]["signal"] == "col2_out"
+    assert check_vectors(tmp_path).ok
+    r = diff_dump(tmp_path, tmp_path / "e2.row_r1.mem")
+    assert r.ok and r.expected_count == 54
+
+
+# -- readers round-trip writers ---------------------------------------------------------------
+@st.composite
+def _codes(draw):
+    word = draw(st.integers(1, 62))
+    signed = draw(st.booleans())
+    lo, hi = (-(1 << (word - 1)), (1 << (word - 1)) - 1) if signed else (0, (1 << word) - 1)
+    values = draw(st.lists(st.integers(lo, hi), min_size=0, max_size=40))
+    return word, signed, np.array(values, dtype=np.int64)
+
+
+@settings(max_examples=150, deadline=None)
+@given(_codes())
+def test_hex_twos_complement_round_trips(case):
+    word, signed, raw = case
+    digits = fio.hex_digits(word)
+    mem = fio.write_mem(raw, word, "c")
+    lines = mem.decode().splitlines()[1:]
+    assert all(len(ln) == digits for ln in lines)
+    for writer, reader in (
+        (fio.write_mem, fio.read_mem),
+        (fio.write_coe, fio.read_coe),
+        (fio.write_mif, fio.read_mif),
+    ):
+        codes = reader(writer(raw, word, "comment"))
+        back = fio.to_signed(np.array(codes, dtype=np.uint64), word, signed)
+        assert np.array_equal(back, raw)
+    n = raw.size
+    csv = fio.write_csv(raw, np.arange(n), np.zeros(n), np.arange(n), np.zeros(n), np.ones(n))
+    assert fio.read_csv(csv)["value"] == raw.tolist()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 20), st.data())
+def test_stream_words_round_trip(word, data):
+    n = data.draw(st.integers(1, 30))
+    valid = np.array(data.draw(st.lists(st.booleans(), min_size=n, max_size=n)))
+    values = data.draw(st.lists(st.integers(0, (1 << word) - 1), min_size=n, max_size=n))
+    values = np.where(valid, values, 0)
+    sof = np.zeros(n, dtype=bool)
+    sof[0] = True
+    eol = np.array(data.draw(st.lists(st.booleans(), min_size=n, max_size=n)))
+    blob, words = fio.pack_stream(valid, values, sof, eol, word)
+    assert len(blob) == n * fio.stream_word_bytes(word)
+    back = fio.read_stream_bin(blob, word)
+    assert np.array_equal(back["valid"], valid) and np.array_equal(back["data"], values)
+    assert np.array_equal(back["sof"], sof) and np.array_equal(back["eol"], eol)
+    assert np.array_equal(fio.read_stream_bin_valid(blob, word), valid)
+    assert fio.read_mem(fio.write_stream_mem(words, word)) == words.tolist()
+
+
+def test_readers_reject_garbage():
+    with pytest.raises(ValueError, match="not a hexadecimal"):
+        fio.read_mem(b"00\nqq\n")
+    with pytest.raises(ValueError, match="@address"):
+        fio.read_mem(b"@10\n00\n")
+    assert fio.read_mem(b"// c\n0a /* b */ xx\n\n1_f\n") == [10, None, 31]
+    with pytest.raises(ValueError, match="whole number"):
+        fio.read_stream_bin(b"\x00\x01\x02", 8)
+    with pytest.raises(ValueError, match="do not fit"):
+        fio.write_mem(np.array([16]), 4)

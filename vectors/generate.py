@@ -1,0 +1,546 @@
+"""Vector directories of a P1 case: build, write, check and diff (SPEC §5).
+
+:func:`build_vectors` runs the model with every tap on and returns the bytes of every
+file plus the manifest; :func:`write_vectors` puts them into a directory (the caller
+makes that directory atomic, e.g. with ``rangefx.tools.outdir.atomic_output_dir``);
+:func:`check_vectors` re-verifies sizes and SHA-256 and re-runs the model from the
+manifest; :func:`diff_dump` compares an RTL dump with an expected tap and reports the
+first mismatch. ``docs/vectors.md`` describes the files and the manifest.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import tomllib
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass, field
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.golden.ranging import RangingConfig
+from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
+from rangefx.rtl_model.fixedpoint import FixedFormat
+from rangefx.rtl_model.p1 import FRONTEND_TAPS, RANGE_TAPS, P1Result, run_p1
+from rangefx.rtl_model.stream import make_stream
+
+from . import formats as fmt_io
+from .taps import INPUT_TAP, split_tap, tap_format, tap_latency, tap_signal
+
+__all__ = [
+    "FORMATS",
+    "MANIFEST_NAME",
+    "SCHEMA",
+    "CheckReport",
+    "DiffReport",
+    "VectorSet",
+    "build_vectors",
+    "case_from_manifest",
+    "check_vectors",
+    "diff_dump",
+    "load_manifest",
+    "read_tap",
+    "write_vectors",
+]
+
+SCHEMA = "rangefx-vectors/1"
+MANIFEST_NAME = "manifest.json"
+#: Per-tap file formats; ``mem`` is always written.
+FORMATS = ("mem", "coe", "mif", "csv")
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _version() -> str:
+    try:
+        return metadata.version("rangefx")
+    except metadata.PackageNotFoundError:  # pragma: no cover - running from a bare checkout
+        return "unknown"
+
+
+@dataclass(frozen=True)
+class VectorSet:
+    """The files of one vector directory, in memory.
+
+    ``files`` maps a file name to its bytes, in manifest order; ``manifest`` is the parsed
+    manifest (its ``files`` entries carry each file's SHA-256 and size); ``result`` the
+    model run they came from.
+    """
+
+    files: dict[str, bytes]
+    manifest: dict
+    result: P1Result = field(repr=False)
+
+    def manifest_bytes(self) -> bytes:
+        return (json.dumps(self.manifest, indent=1) + "\n").encode()
+
+
+def _camera_dict(camera: PinholeCamera) -> dict:
+    return {k: (None if v is None else float(v)) for k, v in asdict(camera).items()} | {
+        "width": int(camera.width),
+        "height": int(camera.height),
+    }
+
+
+def _motion_dict(motion: MotionIncrement) -> dict:
+    return {k: np.asarray(v, dtype=np.float64).tolist() for k, v in asdict(motion).items()}
+
+
+def _tap_order(result: P1Result) -> list[str]:
+    names = [f"{s}.{INPUT_TAP}" for s in ("e1", "e2")]
+    for s in ("e1", "e2"):
+        names += [f"{s}.{t}" for t in FRONTEND_TAPS if f"{s}.{t}" in result.taps]
+    return names + [t for t in RANGE_TAPS if t in result.taps]
+
+
+def _format_entry(f: FixedFormat) -> dict:
+    return {
+        "format": str(f),
+        "describe": f.describe(),
+        "word": f.word,
+        "frac": f.frac,
+        "signed": f.signed,
+        "quant": f.quant.name,
+        "overflow": f.overflow.name,
+    }
+
+
+def build_vectors(
+    image1: np.ndarray,
+    image2: np.ndarray,
+    camera: PinholeCamera,
+    motion: MotionIncrement,
+    config: WordLengthConfig,
+    ranging: RangingConfig,
+    timing: TimingConfig | None = None,
+    *,
+    mode: str = "stereo",
+    case: Mapping | None = None,
+    formats: Iterable[str] = ("mem",),
+) -> VectorSet:
+    """Run P1 with all taps and build every vector file of the case.
+
+    Parameters
+    ----------
+    image1, image2
+        Integer grey levels, E1 and E2 (``run_p1``'s meaning for ``mode``).
+    camera, motion, config, ranging, timing, mode
+        As :func:`rangefx.rtl_model.p1.run_p1`.
+    case
+        Description recorded in the manifest (scene name, seed, crop, ...); JSON-able.
+    formats
+        Per-tap formats among :data:`FORMATS`; ``mem`` is always included.
+
+    Returns
+    -------
+    VectorSet
+
+    Raises
+    ------
+    ValueError
+        Bad images, config, timing or format names (from the model or here).
+    """
+    wanted = {"mem", *formats}
+    unknown = sorted(wanted - set(FORMATS))
+    if unknown:
+        raise ValueError(f"unknown vector formats {unknown}; choose from {', '.join(FORMATS)}")
+    timing = timing or TimingConfig()
+    result = run_p1(
+        image1, image2, camera, motion, config, ranging, timing=timing, mode=mode, taps=True
+    )
+    im1 = np.asarray(image1, dtype=np.int64)
+    im2 = np.asarray(image2, dtype=np.int64)
+    m, n = im1.shape
+    pix = config.fmt("pix_in")
+    for name, im in (("image1", im1), ("image2", im2)):
+        if im.min() < pix.raw_min or im.max() > pix.raw_max:
+            raise ValueError(
+                f"{name} grey levels [{im.min()}, {im.max()}] do not fit pix_in ({pix}); "
+                "the input vectors carry the pixels as the stream's data"
+            )
+    # input streams: stereo = two synchronised streams, motion = one stream of two frames
+    files: dict[str, bytes] = {}
+    entries: list[dict] = []
+    streams: dict[str, tuple] = {}
+    if mode == "stereo":
+        for s, im in (("e1", im1), ("e2", im2)):
+            st = make_stream(im, timing)
+            streams[f"{s}.{INPUT_TAP}.stream"] = (st, s)
+        cyc = {"e1": streams["e1.pix_in.stream"][0].pixel_cycles()[0]}
+        cyc["e2"] = cyc["e1"]
+    else:
+        st = make_stream(np.stack([im1, im2]), timing)
+        streams[f"{INPUT_TAP}.stream"] = (st, "e1+e2")
+        pc = st.pixel_cycles()
+        cyc = {"e1": pc[0], "e2": pc[1]}
+    rows = np.repeat(np.arange(m, dtype=np.int64), n)
+    cols = np.tile(np.arange(n, dtype=np.int64), m)
+    sof = (rows == 0) & (cols == 0)
+    eol = cols == n - 1
+    values = {"e1.pix_in": im1, "e2.pix_in": im2, **result.taps}
+
+    def add(name: str, data: bytes, entry: dict) -> None:
+        files[name] = data
+        entries.append({"path": name, **entry, "sha256": _sha256(data), "size": len(data)})
+
+    for sname, (st, which) in streams.items():
+        words_bin, words = fmt_io.pack_stream(st.valid, st.data, st.sof, st.eol, pix.word)
+        first = int(np.flatnonzero(st.valid)[0])
+        common = {
+            "kind": "stream",
+            "tap": "e1.pix_in" if which == "e1" else ("e2.pix_in" if which == "e2" else which),
+            "signal": "pix_in",
+            **_format_entry(pix),
+            "stream_word_bits": pix.word + 3,
+            "stream_word_bytes": fmt_io.stream_word_bytes(pix.word),
+            "layout": "{sof, eol, valid, data}",
+            "count": int(st.cycles),
+            "valid_count": int(np.count_nonzero(st.valid)),
+            "frames": int(st.frames),
+            "first_valid_cycle": first,
+        }
+        comment = f"{sname} {{sof,eol,valid,data[{pix.word - 1}:0]}} one word per cycle"
+        add(f"{sname}.bin", words_bin, {**common, "encoding": "bin"})
+        add(f"{sname}.mem", fmt_io.write_stream_mem(words, pix.word, comment), common)
+    for tap in _tap_order(result):
+        stream, base = split_tap(tap)
+        f = tap_format(tap, config)
+        raw = np.asarray(values[tap], dtype=np.int64).ravel()
+        base_cycles = cyc[stream or "e2"].ravel()
+        cycles = base_cycles + tap_latency(tap, result.stage_latency)
+        if base == "range":
+            assert np.array_equal(cycles, result.out_cycles.ravel())
+        entry = {
+            "kind": "input" if base == INPUT_TAP else ("range" if stream is None else "stream_tap"),
+            "tap": tap,
+            "signal": tap_signal(tap, config),
+            **_format_entry(f),
+            "count": int(raw.size),
+            "first_valid_cycle": int(cycles[0]),
+            "last_valid_cycle": int(cycles[-1]),
+        }
+        comment = f"{tap} {f} {f.describe()} {raw.size} words, scan order"
+        add(f"{tap}.mem", fmt_io.write_mem(raw, f.word, comment), entry)
+        if "coe" in wanted:
+            add(f"{tap}.coe", fmt_io.write_coe(raw, f.word, comment), entry)
+        if "mif" in wanted:
+            add(f"{tap}.mif", fmt_io.write_mif(raw, f.word, comment), entry)
+        if "csv" in wanted:
+            add(f"{tap}.csv", fmt_io.write_csv(raw, cycles, rows, cols, sof, eol), entry)
+    toml = config.to_toml()
+    manifest = {
+        "schema": SCHEMA,
+        "generator": {"name": "rangefx", "version": _version()},
+        "pipeline": "p1",
+        "mode": mode,
+        "shape": [m, n],
+        "formats": [f for f in FORMATS if f in wanted],
+        "config": {"name": config.name, "toml": toml, "parsed": tomllib.loads(toml)},
+        "timing": asdict(timing),
+        "case": {
+            **dict(case or {}),
+            "camera": _camera_dict(camera),
+            "motion": _motion_dict(motion),
+            "ranging": asdict(ranging),
+        },
+        "latency": {"total": result.latency, "stages": dict(result.stage_latency)},
+        "total_cycles": result.total_cycles,
+        "overflows": {k: v for k, v in result.overflows.items() if v},
+        "total_bytes": sum(len(b) for b in files.values()),
+        "files": entries,
+    }
+    return VectorSet(files, manifest, result)
+
+
+def write_vectors(directory: str | Path, vectors: VectorSet) -> None:
+    """Write the files and ``manifest.json`` (last) into an existing, empty ``directory``.
+
+    Not atomic by itself: give it the temporary directory of an atomic output directory
+    (``rangefx vectors gen`` uses ``rangefx.tools.outdir.atomic_output_dir``).
+    """
+    d = Path(directory)
+    for name, data in vectors.files.items():
+        (d / name).write_bytes(data)
+    (d / MANIFEST_NAME).write_bytes(vectors.manifest_bytes())
+
+
+# -- reading back ---------------------------------------------------------------------------
+def load_manifest(directory: str | Path) -> dict:
+    """The parsed ``manifest.json`` of a vector directory.
+
+    Raises
+    ------
+    ValueError
+        Missing, unreadable or not a rangefx vector manifest.
+    """
+    p = Path(directory) / MANIFEST_NAME
+    try:
+        manifest = json.loads(p.read_text())
+    except OSError as exc:
+        raise ValueError(f"cannot read {p}: {exc.strerror}") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{p} is not valid JSON: {exc}") from None
+    if not isinstance(manifest, dict) or manifest.get("schema") != SCHEMA:
+        raise ValueError(f"{p} is not a {SCHEMA} manifest")
+    return manifest
+
+
+def _entry_format(entry: Mapping) -> FixedFormat:
+    return FixedFormat(bool(entry["signed"]), int(entry["word"]), int(entry["frac"]))
+
+
+def read_tap(directory: str | Path, tap: str, manifest: Mapping | None = None) -> np.ndarray:
+    """Raw int64 codes of ``tap`` from its ``.mem`` file (scan order).
+
+    Raises
+    ------
+    ValueError
+        Unknown tap, or a word that is not hexadecimal.
+    """
+    manifest = manifest or load_manifest(directory)
+    entry = _find_entry(manifest, tap)
+    words = fmt_io.read_mem((Path(directory) / entry["path"]).read_bytes())
+    if any(w is None for w in words):
+        raise ValueError(f"{entry['path']} holds x/z words")
+    return fmt_io.to_signed(np.array(words, dtype=np.uint64), entry["word"], entry["signed"])
+
+
+def _find_entry(manifest: Mapping, tap: str) -> dict:
+    for e in manifest["files"]:
+        if e.get("tap") == tap and e["path"].endswith(".mem") and e["kind"] != "stream":
+            return e
+    taps = sorted({e["tap"] for e in manifest["files"] if e["kind"] != "stream"})
+    raise ValueError(f"no tap {tap!r} in the vectors; taps: {', '.join(taps)}")
+
+
+def case_from_manifest(directory: str | Path, manifest: Mapping) -> dict:
+    """Arguments of :func:`build_vectors` that reproduce a vector directory.
+
+    The images come from the input ``.mem`` files (whose checksums the caller verified);
+    camera, motion, ranging, config and timing from the manifest.
+    """
+    m, n = manifest["shape"]
+    images = [read_tap(directory, f"{s}.{INPUT_TAP}", manifest).reshape(m, n) for s in ("e1", "e2")]
+    c = manifest["case"]
+    try:
+        config = WordLengthConfig.from_toml(manifest["config"]["toml"], manifest["config"]["name"])
+        camera = PinholeCamera(**c["camera"])
+        motion = MotionIncrement(**{k: np.array(v) for k, v in c["motion"].items()})
+        ranging = RangingConfig(**c["ranging"])
+        timing = TimingConfig(**manifest["timing"])
+    except (TypeError, KeyError) as exc:
+        raise ValueError(f"manifest case is incomplete: {exc}") from None
+    rest = {k: v for k, v in c.items() if k not in ("camera", "motion", "ranging")}
+    return {
+        "image1": images[0],
+        "image2": images[1],
+        "camera": camera,
+        "motion": motion,
+        "config": config,
+        "ranging": ranging,
+        "timing": timing,
+        "mode": manifest["mode"],
+        "case": rest,
+        "formats": manifest["formats"],
+    }
+
+
+@dataclass
+class CheckReport:
+    """Outcome of :func:`check_vectors`: ``problems`` empty means the directory is good."""
+
+    files: int = 0
+    bytes: int = 0
+    problems: list[str] = field(default_factory=list)
+    rerun: bool = False
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+_IGNORED = {MANIFEST_NAME, ".rangefx-output"}
+
+
+def check_vectors(directory: str | Path, *, rerun: bool = True) -> CheckReport:
+    """Verify every listed file's size and SHA-256, then re-run the model and compare bytes.
+
+    Parameters
+    ----------
+    directory
+        A vector directory.
+    rerun
+        Re-run P1 from the manifest (inputs from the directory's input files, configs and
+        case from the manifest) and require byte-identical files and manifest; skipped
+        when the checksums already failed.
+
+    Raises
+    ------
+    ValueError
+        The directory has no readable manifest.
+    """
+    d = Path(directory)
+    manifest = load_manifest(d)
+    report = CheckReport()
+    listed = set()
+    for e in manifest["files"]:
+        p = d / e["path"]
+        listed.add(e["path"])
+        try:
+            data = p.read_bytes()
+        except OSError:
+            report.problems.append(f"{e['path']}: missing")
+            continue
+        report.files += 1
+        report.bytes += len(data)
+        if len(data) != e["size"]:
+            report.problems.append(f"{e['path']}: {len(data)} bytes, manifest says {e['size']}")
+        elif _sha256(data) != e["sha256"]:
+            report.problems.append(f"{e['path']}: SHA-256 differs from the manifest")
+    for p in sorted(d.iterdir()):
+        if p.name not in listed and p.name not in _IGNORED:
+            report.problems.append(f"{p.name}: not listed in the manifest")
+    if report.problems or not rerun:
+        return report
+    again = build_vectors(**case_from_manifest(d, manifest))
+    report.rerun = True
+    for name, data in again.files.items():
+        if name not in listed:
+            report.problems.append(f"{name}: the model writes it, the directory lacks it")
+        elif (d / name).read_bytes() != data:
+            report.problems.append(f"{name}: differs from a fresh run of the model")
+    mine = json.loads(again.manifest_bytes())
+    theirs = dict(manifest)
+    mine["generator"] = theirs["generator"]  # another version may check the same vectors
+    if mine != theirs:
+        keys = sorted(k for k in set(mine) | set(theirs) if mine.get(k) != theirs.get(k))
+        report.problems.append(f"{MANIFEST_NAME}: differs from a fresh run in {keys}")
+    return report
+
+
+@dataclass
+class DiffReport:
+    """First mismatch between an RTL dump and an expected tap (SPEC §5)."""
+
+    tap: str
+    signal: str
+    format: str
+    describe: str
+    expected_count: int
+    got_count: int
+    mismatches: int
+    first: dict | None
+
+    @property
+    def ok(self) -> bool:
+        return self.mismatches == 0
+
+    def as_dict(self) -> dict:
+        return {**asdict(self), "ok": self.ok}
+
+    def text(self) -> str:
+        head = f"{self.tap} ({self.signal}, {self.format}, {self.describe})"
+        if self.ok:
+            return f"{head}: {self.expected_count} samples, 0 mismatches"
+        lines = [f"{head}: {self.mismatches} mismatches ({self.expected_count} samples expected, "
+                 f"{self.got_count} in the dump)"]  # fmt: skip
+        if self.first is not None:
+            f = self.first
+            lines.append(
+                f"first mismatch: sample {f['index']}, cycle {f['cycle']}, row {f['row']}, "
+                f"col {f['col']}, signal {self.tap}, expected {f['expected']} "
+                f"({f['expected_hex']}), got {f['got']} ({f['got_hex']}), format {self.format}"
+            )
+        return "\n".join(lines)
+
+
+def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -> DiffReport:
+    """Compare an RTL dump (``.mem`` or ``.csv``, samples in scan order) with a tap.
+
+    ``tap`` defaults to the dump's file name without its extension (``e1.row_r1.mem`` ->
+    ``e1.row_r1``). Codes are compared as ``W``-bit two's complement words; ``x``/``z``
+    words always mismatch. A dump shorter or longer than expected counts every missing
+    or extra sample as a mismatch; the first mismatch is the first differing sample in
+    scan order (cycle = the model's cycle for that sample).
+
+    Raises
+    ------
+    ValueError
+        Unreadable dump, unknown tap, or a dump format other than ``.mem``/``.csv``.
+    """
+    d = Path(directory)
+    dump = Path(dump)
+    manifest = load_manifest(d)
+    if tap is None:
+        tap = dump.name.split(".mem")[0].split(".csv")[0]
+    entry = _find_entry(manifest, tap)
+    try:
+        data = dump.read_bytes()
+    except OSError as exc:
+        raise ValueError(f"cannot read dump {dump}: {exc.strerror}") from None
+    word, signed = int(entry["word"]), bool(entry["signed"])
+    mask = (1 << word) - 1
+    if dump.suffix == ".csv":
+        got: list[int | None] = [
+            None if v is None else v & mask for v in fmt_io.read_csv(data)["value"]
+        ]
+    elif dump.suffix == ".mem":
+        got = [None if v is None else v & mask for v in fmt_io.read_mem(data)]
+    else:
+        raise ValueError(f"dump {dump.name}: expected a .mem or .csv file")
+    expected = fmt_io.to_unsigned(read_tap(d, tap, manifest), word)
+    n_exp, n_got = expected.size, len(got)
+    common = min(n_exp, n_got)
+    g = np.array([-1 if v is None else v for v in got[:common]], dtype=np.int64)
+    bad = g != expected[:common].astype(np.int64)
+    mismatches = int(np.count_nonzero(bad)) + abs(n_exp - n_got)
+    first = None
+    if mismatches:
+        idx = int(np.flatnonzero(bad)[0]) if bad.any() else common
+        m, n = manifest["shape"]
+        digits = fmt_io.hex_digits(word)
+        base = int(entry["first_valid_cycle"])
+        # cycle of sample idx: the tap's cycles are the input cycles plus a fixed latency
+        cycles = _tap_cycles(d, manifest, tap, base)
+        exp_raw = (
+            int(fmt_io.to_signed(expected[idx : idx + 1], word, signed)[0]) if idx < n_exp else None
+        )
+        got_code = got[idx] if idx < n_got else None
+        got_raw = (
+            None
+            if got_code is None
+            else int(fmt_io.to_signed(np.array([got_code], dtype=np.uint64), word, signed)[0])
+        )
+        first = {
+            "index": idx,
+            "cycle": int(cycles[idx]) if idx < cycles.size else None,
+            "row": (idx // n) % m,
+            "col": idx % n,
+            "expected": exp_raw,
+            "expected_hex": "-" if exp_raw is None else f"{int(expected[idx]):0{digits}x}",
+            "got": got_raw,
+            "got_hex": "x" if got_code is None else f"{got_code:0{digits}x}",
+        }
+        if idx >= n_got:
+            first["got_hex"] = "missing"
+    return DiffReport(
+        tap, entry["signal"], entry["format"], entry["describe"], n_exp, n_got, mismatches, first
+    )
+
+
+def _tap_cycles(d: Path, manifest: Mapping, tap: str, first: int) -> np.ndarray:
+    """Cycle of every sample of ``tap``: its stream's valid beats shifted to ``first``."""
+    stream, _ = split_tap(tap)
+    names = [e for e in manifest["files"] if e["kind"] == "stream" and e["path"].endswith(".bin")]
+    entry = next((e for e in names if e["tap"] == f"{stream}.{INPUT_TAP}"), names[0])
+    data = fmt_io.read_stream_bin_valid((d / entry["path"]).read_bytes(), int(entry["word"]))
+    cyc = np.flatnonzero(data).astype(np.int64)
+    m, n = manifest["shape"]
+    if cyc.size > m * n:  # motion: one stream of two frames; e1 = first, others = second
+        cyc = cyc[: m * n] if stream == "e1" else cyc[m * n :]
+    return cyc - cyc[0] + first
