@@ -70,6 +70,7 @@ from rangefx.golden.scenes import SCENE_NAMES, render_scene
 from rangefx.rtl_model.config import P1_SIGNALS, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p1 import P1Result, run_p1
+from rangefx.vectors.taps import TAP_SIGNALS
 
 from . import report
 from .cost import config_cost
@@ -135,38 +136,9 @@ SIGNAL_GROUPS: dict[str, tuple[str, ...]] = {
     "registers": _REGISTERS,
 }
 #: Fixed-point tap -> the signal whose format holds it (``e1.``/``e2.`` prefixes dropped;
-#: ``ex`` is ``div_quot`` or ``col2_out`` by variant).
-TAP_SIGNAL: dict[str, str] = {
-    "bias_in": "bias_in",
-    "row_r1": "row_r1",
-    "row_r2": "row_r2",
-    "row_state": "row_state",
-    "col_s1": "col_s1",
-    "col_s2": "col_s2",
-    "col_state": "col_state",
-    "col2_state": "col2_state",
-    "xp": "coord",
-    "yp": "coord",
-    "c1": "c1",
-    "a1": "grad_a",
-    "b1": "grad_b",
-    "k0": "k_rot",
-    "k1": "k_rot",
-    "k2": "k_rot",
-    "vx": "geom_v",
-    "vy": "geom_v",
-    "wx": "geom_w",
-    "wy": "geom_w",
-    "w0": "geom_w",
-    "gv": "gv",
-    "num": "num",
-    "den": "den",
-    "range_q": "range",
-    "v_sq": "v_sq",
-    "g_sq": "grad_sq",
-    "g_thr": "grad_sq",
-    "range": "range",
-}
+#: ``ex`` is ``div_quot`` or ``col2_out`` by variant and is resolved by the caller): the
+#: one mapping of :mod:`rangefx.vectors.taps`, restricted to plain P1 signals.
+TAP_SIGNAL: dict[str, str] = {tap: sig for tap, sig in TAP_SIGNALS.items() if sig in P1_SIGNALS}
 _MAX_POINTS = 100_000
 
 
