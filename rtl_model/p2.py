@@ -27,7 +27,7 @@ from rangefx.golden.riccati import RiccatiConfig, _stereo_baseline
 
 from .config import TimingConfig
 from .fixedpoint import cast_raw, overflow_raw, quantise_shift
-from .p1 import _divide, reciprocal_lut
+from .p1 import _divide_into
 from .p2_config import P2_SIGNALS, P2Config, divider_latency, loop_latency
 from .stream import make_stream
 
@@ -70,7 +70,7 @@ def _cast(raw, frac_in, s, site, fm, st, ov):
 
 @njit(cache=True, nogil=True)
 def _p2_kernel(
-    im1, im2, regs, kind, lut_bits, r_bits, lut, fm, st, dst, ov, j0, j1,
+    im1, im2, regs, kind, lut_bits, r_bits, fm, st, dst, ov, j0, j1,
     out_range, out_valid, taps, want_taps,
 ):  # fmt: skip
     """Lines ``j0 <= j < j1``: input stage, backward sweep, forward pass (docs/p2_datapath.md)."""
@@ -112,8 +112,8 @@ def _p2_kernel(
             c = max(_cast(a * a, 2 * f_a, CC, 5, fm, st, ov), cmin)
             den = _cast((np.int64(1) << f_den_in) + (c * s1 << (f_den_in - f_c - f_s)),
                         f_den_in, DEN, 6, fm, st, ov)  # fmt: skip
-            r, _ = _divide(np.int64(1), 0, den, f_den, RR, kind, lut_bits, r_bits, lut, fm, dst,
-                           ov)  # fmt: skip
+            r, _ = _divide_into(np.int64(1), 0, den, f_den, RR, kind, lut_bits, r_bits, fm, dst,
+                                ov)  # fmt: skip
             s0 = _cast((m_reg << (f_s_in - f_m)) + (r * s1 << (f_s_in - f_r - f_s)), f_s_in,
                        ST, 7, fm, st, ov)  # fmt: skip
             h = _cast((q1 << (f_h_in - f_q)) - (s1 * dg << (f_h_in - f_s - f_g)), f_h_in,
@@ -413,7 +413,6 @@ def run_p2(
     in_cycles = stream.pixel_cycles()[-1]
     out_cycles, sched = p2_schedule(in_cycles, config, timing.hblank)
     fm = _format_table(config)
-    lut = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
     kind = _DIV_RESTORING if config.divider == "restoring" else _DIV_RECIPROCAL
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
@@ -422,7 +421,7 @@ def run_p2(
     def band(j0: int, j1: int):
         st, dst, ov = _new_stats()
         _p2_kernel(
-            im1, im2, regs.raw, kind, config.recip_lut_bits, config.recip_bits, lut, fm, st,
+            im1, im2, regs.raw, kind, config.recip_lut_bits, config.recip_bits, fm, st,
             dst, ov, j0, j1, out_range, out_valid, tp, taps,
         )  # fmt: skip
         return st, dst, ov
