@@ -143,8 +143,8 @@ def cmd_optimise(args: argparse.Namespace) -> int:
     cost = config_cost(res.config, shape, mode)
     dcost = config_cost(default, shape, mode)
     per_scene: dict[str, Any] = {}
-    for name, c, figs, sfigs in zip(
-        scenes, cases, res.scene_figures, res.start_scene_figures, strict=True
+    for name, c, figs, sfigs, runs in zip(
+        scenes, cases, res.scene_figures, res.start_scene_figures, res.scene_runs, strict=True
     ):
         per_scene[name] = {
             "mode": c.mode,
@@ -154,6 +154,7 @@ def cmd_optimise(args: argparse.Namespace) -> int:
             "start_valid_agreement": sfigs["valid_agreement"],
             "cost_bits": config_cost(res.config, c.image1.shape, c.mode).cost_bits,
             "default_cost_bits": config_cost(default, c.image1.shape, c.mode).cost_bits,
+            "runs": runs,
         }
     figures: dict[str, Any] = {
         "scene": scenes[0],

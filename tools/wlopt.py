@@ -84,6 +84,8 @@ class OptimiseResult:
     ``figures`` / ``start_figures`` are the worst case over the tuning scenes
     (:func:`worst_case`); ``scene_figures`` / ``start_scene_figures`` hold each tuning
     scene's own figures, in the order of the scenes given to :func:`optimise`.
+    ``evaluations`` counts candidate configs, ``scene_runs`` the P1 runs on each scene
+    (a candidate stops at its first failing scene, so later scenes run less often).
     """
 
     config: WordLengthConfig
@@ -95,6 +97,7 @@ class OptimiseResult:
     steps: list[dict[str, Any]] = field(default_factory=list)
     scene_figures: list[dict[str, Any]] = field(default_factory=list)
     start_scene_figures: list[dict[str, Any]] = field(default_factory=list)
+    scene_runs: list[int] = field(default_factory=list)
 
 
 def worst_case(scene_figures: Sequence[dict[str, Any]]) -> dict[str, Any]:
@@ -212,6 +215,7 @@ def optimise(
     goldens = [golden_for(case, start) for case in cases]
     threads = 2 if workers == 1 else 1
     n_evals = 0
+    scene_runs = [0] * len(cases)
 
     def run(cfgs: list[WordLengthConfig]) -> list[list[dict | None]]:
         nonlocal n_evals
@@ -223,6 +227,9 @@ def optimise(
                 figs = list(
                     pool.map(lambda c: evaluate_scenes(cases, c, goldens, budget, threads), cfgs)
                 )
+        for f in figs:
+            for k in range(len(f)):
+                scene_runs[k] += 1
         if on_eval is not None:
             for c, f in zip(cfgs, figs, strict=True):
                 on_eval(c, f)
@@ -309,5 +316,5 @@ def optimise(
     final = current.with_(name=f"{start.name}-optimised")
     return OptimiseResult(
         final, start, worst_case(cur_figs), worst_case(start_figs), n_evals,
-        time.perf_counter() - t0, steps, list(cur_figs), list(start_figs),
+        time.perf_counter() - t0, steps, list(cur_figs), list(start_figs), scene_runs,
     )  # fmt: skip
