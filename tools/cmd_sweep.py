@@ -265,9 +265,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="tuning scene(s): a config must meet the budget on every one; the "
                    "cost minimised is the first's (default lab)")  # fmt: skip
     p.add_argument("--budget", type=float, default=0.01,
-                   help="max median relative range error vs golden (default 0.01)")  # fmt: skip
+                   help="max median relative range error vs golden, on every tuning scene "
+                   "(default 0.01)")  # fmt: skip
     p.add_argument("--agreement", type=float, default=0.99,
-                   help="min validity agreement with golden (default 0.99)")  # fmt: skip
+                   help="min validity agreement with golden, on every tuning scene "
+                   "(default 0.99)")  # fmt: skip
     p.add_argument("--verify", choices=VERIFY_SCENES,
                    help="scene to verify the result on (not a tuning scene; motorcycle: the "
                    "real Middlebury pair, stereo)")  # fmt: skip
@@ -278,5 +280,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--signals", nargs="+", help="only these signals (default: all but pix_in)")
     p.add_argument("--workers", type=_positive_int, default=2, help="concurrent runs (default 2)")
     p.add_argument("--out", help="write optimised.toml, build-up plots and summary.json here")
-    p.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    p.add_argument("--json", action="store_true",
+                   help="print the figures as one JSON object (top-level accuracy: worst case "
+                   "over the tuning scenes; per scene under 'scenes')")  # fmt: skip
     p.set_defaults(func=cmd_optimise)
