@@ -20,7 +20,7 @@ from rangefx.tools.cost import (
     register_bits,
 )
 from rangefx.tools.errors import UserError
-from rangefx.tools.pipeline import compare_ranges, golden_for, run_case
+from rangefx.tools.pipeline import compare_ranges, golden_for, real_pair_case, run_case
 from rangefx.tools.sweep import (
     RESULTS_NAME,
     expand,
@@ -31,7 +31,7 @@ from rangefx.tools.sweep import (
     scene_case,
     write_outputs,
 )
-from rangefx.tools.wlopt import Budget, optimise
+from rangefx.tools.wlopt import Budget, evaluate_scenes, optimise, worst_case
 
 SMALL = """
 [sweep]
@@ -353,6 +353,121 @@ def test_cli_optimise_json(capsys):
     assert "[signals]" in out["config_toml"]
     WordLengthConfig.from_toml(out["config_toml"])  # loads back
     assert out["verify"]["scene"] == "runway" and out["verify"]["mode"] == "motion"
+
+
+def _no_rotation(cfg: WordLengthConfig) -> WordLengthConfig:
+    """``k_m_reg`` s4.3: the rotation terms round to (almost) nothing. Harmless on the
+    stereo ``lab`` pair (no rotation), ruinous on ``runway`` (motion with rotation)."""
+    f = cfg.formats["k_m_reg"]
+    return cfg.with_formats(k_m_reg=FixedFormat(f.signed, 4, 3, f.quant, f.overflow))
+
+
+def test_multi_scene_rejects_a_config_that_fails_one_scene():
+    lab, runway = scene_case("lab", [32, 40]), scene_case("runway", [32, 40])
+    budget = Budget(0.01, 0.99)
+    start = WordLengthConfig.default()
+    bad = _no_rotation(start)
+    goldens = [golden_for(lab, start), golden_for(runway, start)]
+    # meets the budget on lab, misses it on runway
+    on_lab, on_runway = evaluate_scenes([lab, runway], bad, goldens, budget)
+    assert budget.met(on_lab) and not budget.met(on_runway)
+    # scenes run in order, stopping at the first miss: runway first, lab never runs
+    assert len(evaluate_scenes([runway, lab], bad, goldens[::-1], budget)) == 1
+    optimise(lab, bad, budget, signals=["row_state"], progress=False)  # accepted on lab alone
+    with pytest.raises(UserError, match="misses the budget on 'runway'"):
+        optimise([lab, runway], bad, budget, signals=["row_state"], progress=False)
+    # tuned on lab alone, the rotation registers go; tuned on both, they stay and the
+    # result meets the budget on each scene (checked independently of the optimiser)
+    only_lab = optimise(lab, start, budget, signals=["k_m_reg"], progress=False)
+    both = optimise([lab, runway], start, budget, signals=["k_m_reg"], progress=False)
+    assert only_lab.config.formats["k_m_reg"].word < both.config.formats["k_m_reg"].word
+    assert not budget.met(compare_ranges(run_case(runway, only_lab.config), goldens[1]))
+    for case, golden, figs in zip((lab, runway), goldens, both.scene_figures, strict=True):
+        check = compare_ranges(run_case(case, both.config), golden)
+        assert budget.met(check)
+        assert check["median_rel_range_diff"] == figs["median_rel_range_diff"]
+    assert both.figures == worst_case(both.scene_figures)
+    # every candidate runs on lab, runway only after lab passed (k_m_reg: always here)
+    assert both.scene_runs[0] == both.evaluations >= both.scene_runs[1] > 0
+    assert both.figures["median_rel_range_diff"] == max(
+        f["median_rel_range_diff"] for f in both.scene_figures
+    )
+
+
+def test_worst_case_of_scene_figures():
+    a = {"median_rel_range_diff": 1e-3, "p95_rel_range_diff": 5e-2, "valid_agreement": 0.999,
+         "n_valid_both": 10}  # fmt: skip
+    b = {"median_rel_range_diff": 2e-3, "p95_rel_range_diff": 1e-2, "valid_agreement": 0.995,
+         "n_valid_both": 7}  # fmt: skip
+    w = worst_case([a, b])
+    assert w == {"median_rel_range_diff": 2e-3, "p95_rel_range_diff": 5e-2,
+                 "valid_agreement": 0.995, "n_valid_both": 7}  # fmt: skip
+    assert math.isnan(worst_case([a, {**b, "median_rel_range_diff": math.nan}])[
+        "median_rel_range_diff"
+    ])  # fmt: skip
+    assert not Budget(0.01).met(worst_case([a, {**b, "median_rel_range_diff": math.nan}]))
+
+
+def test_motorcycle_is_a_p1_stereo_case():
+    case = real_pair_case("motorcycle")
+    assert case.mode == "stereo" and case.image1.shape == (26, 39)
+    assert case.image1.dtype.kind == "i" and 0 <= case.image1.min() <= case.image1.max() <= 255
+    cfg = WordLengthConfig.default()
+    figs = compare_ranges(run_case(case, cfg), golden_for(case, cfg))
+    # the default config agrees with golden there (in mm the baseline would saturate
+    # k_t_reg and every range would be off by 1 - 128/193 = 0.34)
+    assert figs["median_rel_range_diff"] < 1e-3 and figs["valid_agreement"] > 0.99
+    assert figs["n_valid_both"] > 300
+    with pytest.raises(UserError, match="unknown real pair"):
+        real_pair_case("kitti")
+
+
+def test_cli_optimise_several_scenes_json(capsys):
+    rc = cli.main(
+        ["optimise", "--scene", "lab", "runway", "--size", "32", "40", "--signals", "k_m_reg",
+         "row_state", "--verify", "motorcycle", "--json"]
+    )  # fmt: skip
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["tuning_scenes"] == ["lab", "runway"] and out["scene"] == "lab"
+    assert out["cost_scene"] == "lab" and out["mode"] == "stereo"
+    scenes = out["scenes"]
+    assert set(scenes) == {"lab", "runway"}
+    assert scenes["runway"]["mode"] == "motion" and scenes["lab"]["mode"] == "stereo"
+    for sf in scenes.values():
+        assert sf["median_rel_range_diff"] <= 0.01 and sf["valid_agreement"] >= 0.99
+        assert sf["cost_bits"] < sf["default_cost_bits"]
+        for key in ("p95_rel_range_diff", "start_median_rel_range_diff", "size"):
+            assert key in sf
+    assert out["cost_bits"] == scenes["lab"]["cost_bits"]
+    assert scenes["lab"]["runs"] == out["evaluations"] >= scenes["runway"]["runs"]
+    assert out["default_cost_bits"] == scenes["lab"]["default_cost_bits"]
+    assert out["bits_saved"] == out["default_cost_bits"] - out["cost_bits"]
+    assert out["median_rel_range_diff"] == max(s["median_rel_range_diff"] for s in scenes.values())
+    assert out["valid_agreement"] == min(s["valid_agreement"] for s in scenes.values())
+    cfg = WordLengthConfig.from_toml(out["config_toml"])
+    assert cfg.formats["k_m_reg"].word > 4  # runway keeps the rotation registers
+    v = out["verify"]
+    assert v["scene"] == "motorcycle" and v["mode"] == "stereo" and v["size"] == [26, 39]
+    for key in ("median_rel_range_diff", "valid_agreement", "meets_budget", "cost_bits",
+                "default_cost_bits", "default_median_rel_range_diff"):  # fmt: skip
+        assert key in v
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["--scene", "lab", "runway", "--verify", "runway"], "--verify runway: it is a tuning"),
+        (["--scene", "lab", "--verify", "lab"], "--verify lab: it is a tuning scene"),
+        (["--scene", "lab", "lab"], "named twice"),
+    ],
+)
+def test_cli_optimise_verify_must_not_be_a_tuning_scene(capsys, argv, match):
+    assert cli.main(["optimise", *argv, "--size", "32", "40", "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    err = captured.err.strip()
+    assert err.startswith("rangefx: error:") and match in err and len(err.splitlines()) == 1
 
 
 def test_cli_sweep_and_errors(tmp_path, capsys):

@@ -8,11 +8,16 @@ after an interruption computes only the missing points), then ``points.csv``,
 ``pareto_<scene>.png/.csv``, ``sensitivity.png/.csv``, ``buildup_base.png`` + CSV and
 ``summary.json`` (``complete: true``) once every point is in.
 
-``rangefx optimise --scene lab --budget 0.01 [--agreement 0.99] [--verify runway]
-[--config PATH] [--variant V] [--size H W] [--workers N] [--out DIR] [--json]`` finds
-the cheapest config meeting the budget (:mod:`rangefx.tools.wlopt`) and prints it
-(TOML), ``cost_bits``, ``default_cost_bits``, its accuracy on the tuning scene and on
-the verification scene.
+``rangefx optimise --scene lab [runway ...] --budget 0.01 [--agreement 0.99]
+[--verify SCENE] [--config PATH] [--variant V] [--size H W] [--workers N] [--out DIR]
+[--json]`` finds the cheapest config meeting the budget on every tuning scene
+(:mod:`rangefx.tools.wlopt`) and prints it (TOML), ``cost_bits`` and
+``default_cost_bits`` on the first tuning scene's shape and mode (the cost minimised),
+the accuracy and cost on each tuning scene (JSON ``scenes``; the top-level
+``median_rel_range_diff``, ``p95_rel_range_diff`` and ``valid_agreement`` are the worst
+case over them) and on the verification scene (``verify``), which must not be a tuning
+scene: a synthetic preset or ``motorcycle``, the real Middlebury pair
+(:func:`rangefx.tools.pipeline.real_pair_case`).
 """
 
 from __future__ import annotations
@@ -31,9 +36,12 @@ from rangefx.rtl_model.config import P1_SIGNALS, WordLengthConfig
 from .cost import config_cost
 from .errors import UserError
 from .outdir import atomic_write_text
-from .pipeline import golden_for, load_config
+from .pipeline import REAL_PAIRS, golden_for, load_config, real_pair_case
 
-__all__ = ["add_parser", "cmd_optimise", "cmd_sweep", "example_path"]
+__all__ = ["VERIFY_SCENES", "add_parser", "cmd_optimise", "cmd_sweep", "example_path"]
+
+#: Scenes ``--verify`` accepts: the synthetic presets and the real pairs.
+VERIFY_SCENES: tuple[str, ...] = (*SCENE_NAMES, *REAL_PAIRS)
 
 
 def _clean(obj: Any) -> Any:
@@ -94,6 +102,17 @@ def _scene_case(name: str, size: list[int] | None):
     return scene_case(name, size)
 
 
+def _verify_case(name: str, size: list[int] | None):
+    """A synthetic scene preset (rendered at ``size``) or a real pair (its own size)."""
+    if name in REAL_PAIRS:
+        return real_pair_case(name)
+    return _scene_case(name, size)
+
+
+def _figures(figs: dict[str, Any]) -> dict[str, Any]:
+    return {k: figs[k] for k in ("median_rel_range_diff", "p95_rel_range_diff", "valid_agreement")}
+
+
 def cmd_optimise(args: argparse.Namespace) -> int:
     from .wlopt import Budget, evaluate, optimise
 
@@ -105,22 +124,47 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         bad = [s for s in args.signals if s not in P1_SIGNALS]
         if bad:
             raise UserError(f"--signals: unknown signals {bad}")
+    scenes: list[str] = list(args.scene)
+    if len(set(scenes)) != len(scenes):
+        raise UserError(f"--scene: a scene is named twice in {scenes}")
+    if args.verify in scenes:
+        raise UserError(
+            f"--verify {args.verify}: it is a tuning scene; verify on one the optimiser did "
+            f"not see ({', '.join(s for s in VERIFY_SCENES if s not in scenes)})"
+        )
     start = load_config(args.config, args.variant, None)
     default = WordLengthConfig.default(start.variant)
-    case = _scene_case(args.scene, args.size)
+    cases = [_scene_case(name, args.size) for name in scenes]
     res = optimise(
-        case, start, budget, signals=args.signals, workers=args.workers, progress=not args.json
+        cases, start, budget, signals=args.signals, workers=args.workers, progress=not args.json
     )
+    case = cases[0]
     shape, mode = case.image1.shape, case.mode
     cost = config_cost(res.config, shape, mode)
     dcost = config_cost(default, shape, mode)
+    per_scene: dict[str, Any] = {}
+    for name, c, figs, sfigs, runs in zip(
+        scenes, cases, res.scene_figures, res.start_scene_figures, res.scene_runs, strict=True
+    ):
+        per_scene[name] = {
+            "mode": c.mode,
+            "size": list(c.image1.shape),
+            **_figures(figs),
+            "start_median_rel_range_diff": sfigs["median_rel_range_diff"],
+            "start_valid_agreement": sfigs["valid_agreement"],
+            "cost_bits": config_cost(res.config, c.image1.shape, c.mode).cost_bits,
+            "default_cost_bits": config_cost(default, c.image1.shape, c.mode).cost_bits,
+            "runs": runs,
+        }
     figures: dict[str, Any] = {
-        "scene": args.scene,
+        "scene": scenes[0],
+        "tuning_scenes": scenes,
         "mode": mode,
         "size": list(shape),
         "variant": start.variant,
         "budget": {"median_rel_range_diff": budget.median, "valid_agreement": budget.agreement},
         "config_toml": res.config.to_toml(),
+        "cost_scene": scenes[0],
         "cost_bits": cost.cost_bits,
         "default_cost_bits": dcost.cost_bits,
         "bits_saved": dcost.cost_bits - cost.cost_bits,
@@ -131,12 +175,13 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         "valid_agreement": res.figures["valid_agreement"],
         "start_median_rel_range_diff": res.start_figures["median_rel_range_diff"],
         "start_valid_agreement": res.start_figures["valid_agreement"],
+        "scenes": per_scene,
         "evaluations": res.evaluations,
         "seconds": res.seconds,
         "steps": res.steps,
     }
     if args.verify:
-        vcase = _scene_case(args.verify, args.size)
+        vcase = _verify_case(args.verify, args.size)
         golden = golden_for(vcase, res.config)
         fig_opt = evaluate(vcase, res.config, golden)
         fig_def = evaluate(vcase, default, golden)
@@ -145,9 +190,8 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         figures["verify"] = {
             "scene": args.verify,
             "mode": vcase.mode,
-            "median_rel_range_diff": fig_opt["median_rel_range_diff"],
-            "p95_rel_range_diff": fig_opt["p95_rel_range_diff"],
-            "valid_agreement": fig_opt["valid_agreement"],
+            "size": list(vcase.image1.shape),
+            **_figures(fig_opt),
             "meets_budget": budget.met(fig_opt),
             "default_median_rel_range_diff": fig_def["median_rel_range_diff"] if fig_def else None,
             "default_valid_agreement": fig_def["valid_agreement"] if fig_def else None,
@@ -161,15 +205,16 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         return 0
     sys.stdout.write(res.config.to_toml())
     print(
-        f"# cost_bits {cost.cost_bits} (default {dcost.cost_bits}, saved "
+        f"# cost_bits on {scenes[0]} {cost.cost_bits} (default {dcost.cost_bits}, saved "
         f"{figures['bits_saved']}); DSP {cost.dsp} (default {dcost.dsp}); BRAM18 {cost.bram18} "
-        f"(default {dcost.bram18})"
+        f"(default {dcost.bram18}); {res.evaluations} runs, {res.seconds:.1f} s"
     )
-    print(
-        f"# {args.scene}: median_rel_range_diff {figures['median_rel_range_diff']:.3e}, "
-        f"valid_agreement {figures['valid_agreement']:.5f} ({res.evaluations} runs, "
-        f"{res.seconds:.1f} s)"
-    )
+    for name, sf in per_scene.items():
+        print(
+            f"# {name} ({sf['mode']}): median_rel_range_diff {sf['median_rel_range_diff']:.3e}, "
+            f"valid_agreement {sf['valid_agreement']:.5f}, cost_bits {sf['cost_bits']} "
+            f"(default {sf['default_cost_bits']})"
+        )
     if args.verify:
         v = figures["verify"]
         print(
@@ -216,18 +261,26 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.set_defaults(func=cmd_sweep)
     p = sub.add_parser("optimise", help="cheapest P1 word lengths meeting an accuracy budget")
-    p.add_argument("--scene", choices=SCENE_NAMES, default="lab", help="tuning scene")
+    p.add_argument("--scene", choices=SCENE_NAMES, nargs="+", default=["lab"],
+                   help="tuning scene(s): a config must meet the budget on every one; the "
+                   "cost minimised is the first's (default lab)")  # fmt: skip
     p.add_argument("--budget", type=float, default=0.01,
-                   help="max median relative range error vs golden (default 0.01)")  # fmt: skip
+                   help="max median relative range error vs golden, on every tuning scene "
+                   "(default 0.01)")  # fmt: skip
     p.add_argument("--agreement", type=float, default=0.99,
-                   help="min validity agreement with golden (default 0.99)")  # fmt: skip
-    p.add_argument("--verify", choices=SCENE_NAMES, help="scene to verify the result on")
+                   help="min validity agreement with golden, on every tuning scene "
+                   "(default 0.99)")  # fmt: skip
+    p.add_argument("--verify", choices=VERIFY_SCENES,
+                   help="scene to verify the result on (not a tuning scene; motorcycle: the "
+                   "real Middlebury pair, stereo)")  # fmt: skip
     p.add_argument("--config", help="starting (safe) config TOML (default: the shipped one)")
     p.add_argument("--variant", choices=("paper", "consistent"))
     p.add_argument("--size", type=_positive_int, nargs=2, metavar=("H", "W"),
-                   help="render the scenes at this size")  # fmt: skip
+                   help="render synthetic scenes at this size (not motorcycle)")  # fmt: skip
     p.add_argument("--signals", nargs="+", help="only these signals (default: all but pix_in)")
     p.add_argument("--workers", type=_positive_int, default=2, help="concurrent runs (default 2)")
     p.add_argument("--out", help="write optimised.toml, build-up plots and summary.json here")
-    p.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    p.add_argument("--json", action="store_true",
+                   help="print the figures as one JSON object (top-level accuracy: worst case "
+                   "over the tuning scenes; per scene under 'scenes')")  # fmt: skip
     p.set_defaults(func=cmd_optimise)

@@ -9,13 +9,14 @@ that "fixed vs golden" isolates the word lengths.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import statistics
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ from rangefx.golden.estimator import EstimatorConfig
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.methods import SCENE_RANGING, run_method
 from rangefx.golden.ranging import RangeResult, RangingConfig
+from rangefx.golden.realdata import load_motorcycle
 from rangefx.golden.scenes import Scene, render_scene
 from rangefx.rtl_model.config import P1_SIGNALS, TimingConfig, WordLengthConfig, propose_config
 from rangefx.rtl_model.p1 import P1Result, run_p1
@@ -33,10 +35,12 @@ from .errors import UserError
 from .outdir import atomic_output_dir, atomic_write_text
 
 __all__ = [
+    "REAL_PAIRS",
     "P1Case",
     "compare_ranges",
     "golden_for",
     "p1_case_from_scene",
+    "real_pair_case",
     "run_case",
 ]
 
@@ -71,6 +75,36 @@ def p1_case_from_scene(name: str, seed: int = 0) -> P1Case:
         SCENE_MODE[name],
         scene,
     )
+
+
+#: Real stereo pairs with a P1 case (:func:`real_pair_case`).
+REAL_PAIRS: tuple[str, ...] = ("motorcycle",)
+
+
+@functools.cache
+def real_pair_case(name: str = "motorcycle") -> P1Case:
+    """P1 stereo case of a real pair: the Middlebury motorcycle pair as ``rangefx eval``
+    loads it (:func:`rangefx.golden.realdata.load_motorcycle`, default factor: 26x39 px,
+    median disparity 2 px, calibrated camera, stereo baseline along ``+y_c``).
+
+    Why it differs from the pair as evaluated: P1 takes the sensor's integer grey
+    levels, so the block means are rounded (the golden reference of :func:`golden_for`
+    then runs on the same rounded pair); lengths are in metres, not the dataset's mm,
+    because the translation register ``k_t_reg`` (default s28.20, +-128) would saturate
+    at the 193 mm baseline and scale every range by 128/193 without an overflow count.
+    Thresholds are the lab scene's (T_E = T_g = 2, as ``rangefx eval``), ``range_max``
+    the dataset's (twice the largest known depth).
+    """
+    if name not in REAL_PAIRS:
+        raise UserError(f"unknown real pair {name!r}; choose from {', '.join(REAL_PAIRS)}")
+    data = load_motorcycle()
+    metre = 1e-3  # the dataset's lengths are in mm
+    image1, image2 = (
+        np.clip(np.rint(im), 0, 255).astype(np.int64) for im in (data.image1, data.image2)
+    )
+    ranging = replace(SCENE_RANGING["lab"], range_max=data.range_max * metre)
+    motion = MotionIncrement.stereo(data.motion.camera_displacement[1] * metre)
+    return P1Case(image1, image2, data.camera, motion, ranging, "stereo")
 
 
 def golden_for(case: P1Case, config: WordLengthConfig) -> RangeResult:

@@ -8,8 +8,17 @@ shrinks), then its integer bits (fraction kept), each to the smallest value for 
 the *whole* config still meets the budget, found by a k-ary search (``workers``
 candidates evaluated concurrently per round; monotone error in the bits is assumed to
 steer the search, never to accept: every accepted config was run and met the budget).
-Hence the result meets the budget on the tuning scene by construction; it is then run on
-a verification scene it was not tuned on.
+Hence the result meets the budget on the tuning scenes by construction; it is then run
+on a verification scene it was not tuned on.
+
+Several tuning scenes (one pipeline that must serve all of them, e.g. the stereo ``lab``
+and the motion ``runway`` with rotation): a candidate is accepted only if it meets the
+budget on *every* scene (worst case). Scenes are run in the given order and a candidate
+stops at its first failing scene, so put the scene that fails most often first. The
+cost minimised is ``cost_bits`` on the *first* scene's shape and mode (the signals are
+visited in the order of their weights there); signals that cost nothing there but
+something on another tuning scene are still narrowed, after the others. Narrowing a
+word never raises any scene's cost, so every scene's cost falls or stays.
 
 The budget (:class:`Budget`): median relative range difference vs the float golden on
 pixels valid in both ``<= median`` and validity agreement ``>= agreement``.
@@ -36,7 +45,15 @@ from .cost import REGISTER_INSTANCES, config_cost
 from .errors import UserError
 from .pipeline import P1Case, compare_ranges, golden_for
 
-__all__ = ["Budget", "OptimiseResult", "cost_weights", "evaluate", "optimise"]
+__all__ = [
+    "Budget",
+    "OptimiseResult",
+    "cost_weights",
+    "evaluate",
+    "evaluate_scenes",
+    "optimise",
+    "worst_case",
+]
 
 
 @dataclass(frozen=True)
@@ -62,6 +79,15 @@ class Budget:
 
 @dataclass(frozen=True)
 class OptimiseResult:
+    """The optimised config and its figures.
+
+    ``figures`` / ``start_figures`` are the worst case over the tuning scenes
+    (:func:`worst_case`); ``scene_figures`` / ``start_scene_figures`` hold each tuning
+    scene's own figures, in the order of the scenes given to :func:`optimise`.
+    ``evaluations`` counts candidate configs, ``scene_runs`` the P1 runs on each scene
+    (a candidate stops at its first failing scene, so later scenes run less often).
+    """
+
     config: WordLengthConfig
     start: WordLengthConfig
     figures: dict[str, Any]
@@ -69,6 +95,31 @@ class OptimiseResult:
     evaluations: int
     seconds: float
     steps: list[dict[str, Any]] = field(default_factory=list)
+    scene_figures: list[dict[str, Any]] = field(default_factory=list)
+    start_scene_figures: list[dict[str, Any]] = field(default_factory=list)
+    scene_runs: list[int] = field(default_factory=list)
+
+
+def worst_case(scene_figures: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The worst of several scenes' figures: largest median and p95 relative range
+    difference, smallest validity agreement, total overflows. A config meets a budget on
+    every scene exactly when it meets it on this worst case."""
+
+    def worst(key: str, pick: Callable[[Sequence[float]], float]) -> float:
+        vals = [f[key] for f in scene_figures]
+        if any(v is None or not math.isfinite(v) for v in vals):
+            return math.nan
+        return pick(vals)
+
+    out: dict[str, Any] = {
+        "median_rel_range_diff": worst("median_rel_range_diff", max),
+        "p95_rel_range_diff": worst("p95_rel_range_diff", max),
+        "valid_agreement": worst("valid_agreement", min),
+        "n_valid_both": min(f["n_valid_both"] for f in scene_figures),
+    }
+    if all("overflow_total" in f for f in scene_figures):
+        out["overflow_total"] = sum(f["overflow_total"] for f in scene_figures)
+    return out
 
 
 def cost_weights(config: WordLengthConfig, shape: tuple[int, int], mode: str) -> dict[str, int]:
@@ -115,8 +166,31 @@ def _with(config: WordLengthConfig, name: str, word: int, frac: int) -> WordLeng
         return None
 
 
+def _label(case: P1Case, index: int) -> str:
+    return case.scene.name if case.scene is not None else f"scene {index + 1}"
+
+
+def evaluate_scenes(
+    cases: Sequence[P1Case],
+    config: WordLengthConfig,
+    goldens: Sequence[RangeResult],
+    budget: Budget,
+    threads: int = 2,
+) -> list[dict[str, Any] | None]:
+    """:func:`evaluate` on each case in order, stopping after the first that misses
+    ``budget`` (a rejected candidate need not pay for the other scenes). The list is as
+    long as the scenes run; its last entry is ``None`` if the config cannot run there."""
+    out: list[dict[str, Any] | None] = []
+    for case, golden in zip(cases, goldens, strict=True):
+        figs = evaluate(case, config, golden, threads=threads)
+        out.append(figs)
+        if figs is None or not budget.met(figs):
+            break
+    return out
+
+
 def optimise(
-    case: P1Case,
+    cases: P1Case | Sequence[P1Case],
     start: WordLengthConfig,
     budget: Budget,
     *,
@@ -124,39 +198,64 @@ def optimise(
     workers: int = 2,
     max_frac_drop: int = 40,
     progress: bool = True,
-    on_eval: Callable[[WordLengthConfig, dict | None], None] | None = None,
+    on_eval: Callable[[WordLengthConfig, list[dict | None]], None] | None = None,
 ) -> OptimiseResult:
-    """Cheapest config (``cost_bits``) reachable from ``start`` meeting ``budget``."""
+    """Cheapest config reachable from ``start`` meeting ``budget`` on every case.
+
+    ``cases``: one tuning case or several (worst case, module docstring); the cost
+    minimised is ``cost_bits`` on the first case's shape and mode. ``on_eval`` sees each
+    candidate with the figures of the scenes it was run on (it stops at the first miss).
+    """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise UserError(f"--workers must be a positive integer, not {workers!r}")
+    cases = [cases] if isinstance(cases, P1Case) else list(cases)
+    if not cases:
+        raise ValueError("optimise needs at least one tuning case")
     t0 = time.perf_counter()
-    golden = golden_for(case, start)
-    shape = case.image1.shape
+    goldens = [golden_for(case, start) for case in cases]
     threads = 2 if workers == 1 else 1
     n_evals = 0
+    scene_runs = [0] * len(cases)
 
-    def run(cfgs: list[WordLengthConfig]) -> list[dict | None]:
+    def run(cfgs: list[WordLengthConfig]) -> list[list[dict | None]]:
         nonlocal n_evals
         n_evals += len(cfgs)
         if len(cfgs) == 1 or workers == 1:
-            figs = [evaluate(case, c, golden, threads=2) for c in cfgs]
+            figs = [evaluate_scenes(cases, c, goldens, budget, threads=2) for c in cfgs]
         else:
             with ThreadPoolExecutor(min(workers, len(cfgs))) as pool:
-                figs = list(pool.map(lambda c: evaluate(case, c, golden, threads), cfgs))
+                figs = list(
+                    pool.map(lambda c: evaluate_scenes(cases, c, goldens, budget, threads), cfgs)
+                )
+        for f in figs:
+            for k in range(len(f)):
+                scene_runs[k] += 1
         if on_eval is not None:
             for c, f in zip(cfgs, figs, strict=True):
                 on_eval(c, f)
         return figs
 
-    start_figs = run([start])[0]
-    if start_figs is None or not budget.met(start_figs):
-        raise UserError(
-            f"the starting config {start.name!r} misses the budget on this scene "
-            f"(figures {start_figs}); start from a wider config"
+    def met(scene_figs: list[dict | None]) -> bool:
+        return len(scene_figs) == len(cases) and all(
+            f is not None and budget.met(f) for f in scene_figs
         )
-    weights = cost_weights(start, shape, case.mode)
-    names = [s for s in (signals or P1_SIGNALS) if s != "pix_in" and weights.get(s, 0) > 0]
-    names.sort(key=lambda s: (-weights[s], P1_SIGNALS.index(s)))
+
+    start_figs = run([start])[0]
+    if not met(start_figs):
+        k = len(start_figs) - 1
+        raise UserError(
+            f"the starting config {start.name!r} misses the budget on "
+            f"{_label(cases[k], k)!r} (figures {start_figs[k]}); start from a wider config"
+        )
+    # Weights on every tuning scene; the first scene's cost is the one minimised.
+    all_weights = [cost_weights(start, case.image1.shape, case.mode) for case in cases]
+    weights = all_weights[0]
+    others = {s: sum(w.get(s, 0) for w in all_weights[1:]) for s in P1_SIGNALS}
+    names = [
+        s for s in (signals or P1_SIGNALS)
+        if s != "pix_in" and (weights.get(s, 0) > 0 or others[s] > 0)
+    ]  # fmt: skip
+    names.sort(key=lambda s: (-weights[s], -others[s], P1_SIGNALS.index(s)))
     current, cur_figs = start, start_figs
     steps: list[dict[str, Any]] = []
     bar = tqdm(
@@ -183,11 +282,11 @@ def optimise(
                 while lo < hi:
                     cands = _candidates(lo, hi, workers)
                     cfgs = [make(v) for v in cands]
-                    figs: list[dict | None] = [None] * len(cands)
+                    figs: list[list[dict | None]] = [[None]] * len(cands)
                     runnable = [k for k, c in enumerate(cfgs) if c is not None]
                     for k, r in zip(runnable, run([cfgs[k] for k in runnable]), strict=True):
                         figs[k] = r
-                    passing = [k for k, r in enumerate(figs) if r is not None and budget.met(r)]
+                    passing = [k for k, r in enumerate(figs) if met(r)]
                     if passing:
                         k = passing[0]
                         hi = cands[k]
@@ -202,12 +301,13 @@ def optimise(
                     assert new is not None
                     old = str(current.formats[name])
                     current, cur_figs = new, best_figs
+                    worst = worst_case(cur_figs)
                     steps.append(
                         {
                             "signal": name, "dim": dim, "from": old,
                             "to": str(current.formats[name]),
-                            "median_rel_range_diff": cur_figs["median_rel_range_diff"],
-                            "valid_agreement": cur_figs["valid_agreement"],
+                            "median_rel_range_diff": worst["median_rel_range_diff"],
+                            "valid_agreement": worst["valid_agreement"],
                         }
                     )  # fmt: skip
                 bar.update(1)
@@ -215,5 +315,6 @@ def optimise(
         bar.close()
     final = current.with_(name=f"{start.name}-optimised")
     return OptimiseResult(
-        final, start, cur_figs, start_figs, n_evals, time.perf_counter() - t0, steps
-    )
+        final, start, worst_case(cur_figs), worst_case(start_figs), n_evals,
+        time.perf_counter() - t0, steps, list(cur_figs), list(start_figs), scene_runs,
+    )  # fmt: skip
