@@ -158,10 +158,10 @@ def test_cli_run_p2_json(capsys):
 
 
 def test_demo_and_bench_helpers(tmp_path, lab):
-    from rangefx.tools.cli import _clean
     from rangefx.tools.p2_pipeline import bench_p2, demo_p2
+    from rangefx.tools.report import json_safe
 
-    out = demo_p2(lab, tmp_path, _clean)["p2"]
+    out = demo_p2(lab, tmp_path, json_safe)["p2"]
     assert out["overflows"]["total"] == 0 and out["valid_agreement"] >= 0.99
     for f in ("range_p2.png", "hist_p2.png", "table_p2.csv"):
         assert (tmp_path / f).is_file()

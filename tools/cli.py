@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from collections.abc import Sequence
 from dataclasses import replace
@@ -29,6 +28,7 @@ from rangefx.golden.scenes import SCENE_NAMES, Scene, render_scene
 from . import cmd_eval, cmd_guide, cmd_sweep, cmd_track, cmd_vectors, p2_pipeline, pipeline, report
 from .errors import UserError
 from .outdir import atomic_output_dir, atomic_write_text
+from .report import json_safe
 
 DEMO_METHODS = ("g3_paper", "g3_consistent", "g2_central", "g5_riccati")
 
@@ -40,19 +40,6 @@ def _version() -> str:
         return version("rangefx")
     except PackageNotFoundError:  # running from a source tree without install
         return "0+unknown"
-
-
-def _clean(obj):
-    """JSON-safe copy: NaN/inf floats become None."""
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
 
 
 def _render(name: str, seed: int) -> Scene:
@@ -132,8 +119,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
             summary_methods[m] = _method_figures(scene, results[m])
             bar.update()
         bar.set_postfix_str("p1/p2 fixed point")
-        p1_summary = pipeline.demo_p1(scene, tmp, _clean)
-        p1_summary.update(p2_pipeline.demo_p2(scene, tmp, _clean))
+        p1_summary = pipeline.demo_p1(scene, tmp, json_safe)
+        p1_summary.update(p2_pipeline.demo_p2(scene, tmp, json_safe))
         bar.update()
         bar.set_postfix_str("end to end")
         (tmp / "guide").mkdir()
@@ -187,11 +174,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
             "end_to_end": e2e,
             "paper_diagnostics": _paper_diagnostics(scene, est, results["g3_paper"].valid),
         }
-        atomic_write_text(tmp / "summary.json", json.dumps(_clean(summary), indent=2) + "\n")
+        atomic_write_text(tmp / "summary.json", json.dumps(json_safe(summary), indent=2) + "\n")
         bar.update()
     bar.close()
     if args.json:
-        print(json.dumps(_clean(summary)))
+        print(json.dumps(json_safe(summary)))
     else:
         print(
             report.format_side_by_side(
@@ -274,11 +261,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UserError(str(exc)) from None
     if args.pipeline == "p2":
         case = pipeline.P1Case(e1, e2, camera, motion, ranging, "stereo", scene)
-        return p2_pipeline.cmd_run_p2(args, case, _clean)
+        return p2_pipeline.cmd_run_p2(args, case, json_safe)
     if args.pipeline == "p1":
         mode = pipeline.SCENE_MODE[scene.name] if scene is not None else "stereo"
         case = pipeline.P1Case(e1, e2, camera, motion, ranging, mode, scene)
-        return pipeline.cmd_run_pipeline(args, case, _clean)
+        return pipeline.cmd_run_pipeline(args, case, json_safe)
     try:
         est = _estimator(args)
         result = run_method(args.method, e1, e2, camera, motion, estimator=est, ranging=ranging)
@@ -294,9 +281,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             report.save_range_map_png(
                 tmp / "range.png", result.range, result.valid, ranging.range_max, args.method
             )
-            atomic_write_text(tmp / "summary.json", json.dumps(_clean(figures), indent=2) + "\n")
+            atomic_write_text(tmp / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
     if args.json:
-        print(json.dumps(_clean(figures)))
+        print(json.dumps(json_safe(figures)))
     else:
         if scene is not None:
             print(
@@ -358,7 +345,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=int, default=5, help="timed runs per figure (median)")
     p.add_argument("--size", type=int, default=512, help="image side in pixels (default 512)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=lambda a: pipeline.cmd_bench(a, _clean))
+    p.set_defaults(func=lambda a: pipeline.cmd_bench(a, json_safe))
     p = sub.add_parser("config", help="P1 word-length config: show the default, or propose")
     p.add_argument("action", choices=("show", "propose"))
     p.add_argument("--config", help="start from this TOML (default: the shipped default)")
@@ -367,7 +354,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--guard-bits", type=int, default=1, help="extra integer bits (propose)")
     p.add_argument("--out", help="write the TOML here")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=lambda a: pipeline.cmd_config(a, _clean))
+    p.set_defaults(func=lambda a: pipeline.cmd_config(a, json_safe))
     cmd_eval.add_parser(sub)
     cmd_track.add_parser(sub)
     cmd_guide.add_parser(sub)

@@ -31,21 +31,9 @@ import numpy as np
 
 from .errors import UserError
 from .outdir import atomic_output_dir, atomic_write_text
+from .report import json_safe
 
 __all__ = ["add_parser", "cmd_guide"]
-
-
-def _clean(obj):
-    """JSON-safe copy: NaN/inf floats become None."""
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, (np.integer, np.bool_)):
-        return obj.item()
-    return obj
 
 
 def _csv(header: str, rows: np.ndarray) -> str:
@@ -65,7 +53,7 @@ def cmd_guide(args: argparse.Namespace) -> int:
     for note in notes:
         print(f"rangefx: warning: {note}", file=sys.stderr)
     if args.json:
-        print(json.dumps(_clean(summary)))
+        print(json.dumps(json_safe(summary)))
     else:
         m = metrics
         print(
@@ -156,7 +144,7 @@ def guide_into(
         "warnings": notes,
         "figures": sorted(FIGURES),
     }
-    atomic_write_text(tmp / "summary.json", json.dumps(_clean(summary), indent=2) + "\n")
+    atomic_write_text(tmp / "summary.json", json.dumps(json_safe(summary), indent=2) + "\n")
     return summary, notes, run.metrics
 
 

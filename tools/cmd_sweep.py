@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from importlib import resources
 from pathlib import Path
@@ -37,21 +36,12 @@ from .cost import config_cost
 from .errors import UserError
 from .outdir import atomic_write_text
 from .pipeline import REAL_PAIRS, golden_for, load_config, real_pair_case
+from .report import json_safe
 
 __all__ = ["VERIFY_SCENES", "add_parser", "cmd_optimise", "cmd_sweep", "example_path"]
 
 #: Scenes ``--verify`` accepts: the synthetic presets and the real pairs.
 VERIFY_SCENES: tuple[str, ...] = (*SCENE_NAMES, *REAL_PAIRS)
-
-
-def _clean(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    return obj
 
 
 def example_path() -> Path:
@@ -84,7 +74,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )
     summary = write_outputs(defn, outcome, out)
     if args.json:
-        print(json.dumps(_clean(summary)))
+        print(json.dumps(json_safe(summary)))
     else:
         print(
             f"sweep {defn.name!r}: {summary['n_points']} points ({summary['n_ok']} ran, "
@@ -201,7 +191,7 @@ def cmd_optimise(args: argparse.Namespace) -> int:
     if args.out:
         _write_optimise_out(Path(args.out), res, figures, case)
     if args.json:
-        print(json.dumps(_clean(figures)))
+        print(json.dumps(json_safe(figures)))
         return 0
     sys.stdout.write(res.config.to_toml())
     print(
@@ -238,7 +228,7 @@ def _write_optimise_out(out: Path, res, figures: dict[str, Any], case) -> None:
         profiles, notes = buildup_for(case, cfg)
         save_buildup(out, stem, profiles, stem.replace("_", " ").replace("buildup", "build-up,"))
         figures[f"{stem}_notes"] = notes
-    atomic_write_text(out / "summary.json", json.dumps(_clean(figures), indent=2) + "\n")
+    atomic_write_text(out / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
 
 
 def _positive_int(text: str) -> int:

@@ -36,23 +36,11 @@ from rangefx.golden.tracking import (
 from . import report
 from .errors import UserError
 from .outdir import atomic_output_dir, atomic_write_text
+from .report import json_safe
 
 __all__ = ["add_parser", "cmd_degrees", "cmd_track"]
 
 DEGREES = (1, 2, 3, 4)
-
-
-def _clean(obj):
-    """JSON-safe copy: NaN/inf floats become None."""
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, (np.integer, np.bool_)):
-        return obj.item()
-    return obj
 
 
 # --------------------------------------------------------------------------- track
@@ -202,9 +190,9 @@ def cmd_track(args: argparse.Namespace) -> int:
                 f"Range estimate with a low-pass filter, tau = {tau:g} s", scene.unit,
             )  # fmt: skip
         atomic_write_text(tmp / "tracking.csv", _track_csv(run))
-        atomic_write_text(tmp / "summary.json", json.dumps(_clean(summary), indent=2) + "\n")
+        atomic_write_text(tmp / "summary.json", json.dumps(json_safe(summary), indent=2) + "\n")
     if args.json:
-        print(json.dumps(_clean(summary)))
+        print(json.dumps(json_safe(summary)))
     else:
         print(
             f"G1 at pixel ({args.xp:g}, {args.zp:g}): h = {config.h:.4g} s "
@@ -293,9 +281,9 @@ def cmd_degrees(args: argparse.Namespace) -> int:
                 for key, v in per_degree.items():
                     md.append(report.table_markdown(v["table"], scene.unit, f"{name}: {key}"))
             atomic_write_text(tmp / "table.md", "\n".join(md))
-            atomic_write_text(tmp / "summary.json", json.dumps(_clean(summary), indent=2) + "\n")
+            atomic_write_text(tmp / "summary.json", json.dumps(json_safe(summary), indent=2) + "\n")
     if args.json:
-        print(json.dumps(_clean(summary)))
+        print(json.dumps(json_safe(summary)))
         return 0
     for name, per_degree in figures.items():
         print(f"## {scene.name}, {args.variant} estimator, {name}")

@@ -741,3 +741,17 @@ def save_error_histogram_png(
     ax.legend()
     fig.tight_layout()
     _save_png(fig, path)
+
+
+def json_safe(obj: Any) -> Any:
+    """JSON-safe copy for ``--json`` output and ``summary.json``: NaN/inf floats become
+    None, numpy scalars Python scalars, tuples lists, dict keys strings."""
+    if isinstance(obj, dict):
+        return {str(k): json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [json_safe(v) for v in obj]
+    if isinstance(obj, float | np.floating):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer | np.bool_):
+        return obj.item()
+    return obj
