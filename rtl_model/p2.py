@@ -26,8 +26,7 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.riccati import RiccatiConfig, _stereo_baseline
 
 from .config import TimingConfig
-from .fixedpoint import cast_raw, overflow_raw, quantise_shift
-from .p1 import _divide_into
+from .p1 import _cast, _divide_into
 from .p2_config import P2_SIGNALS, P2Config, divider_latency, loop_latency
 from .stream import make_stream
 
@@ -48,24 +47,6 @@ _I64 = np.iinfo(np.int64)
 IN_LATENCY = 2  # input cast + d/Ĝ adder, then the line-buffer write
 FWD_LOOP = 4  # forward recurrence e_k -> w -> λ/β -> z -> e_k+1
 OUT_LATENCY = 5  # forward pass: w, λ/β, z, threshold/valid, output register
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _cast(raw, frac_in, s, site, fm, st, ov):
-    """Cast ``raw * 2**-frac_in`` into signal ``s``, logging the raw value at ``site``."""
-    if st.shape[0]:
-        st[site, 0] = min(st[site, 0], raw)
-        st[site, 1] = max(st[site, 1], raw)
-        st[site, 2] = frac_in
-        st[site, 3] = s
-    sh = frac_in - fm[s, 1]
-    if sh >= 0:
-        out, flag = overflow_raw(quantise_shift(raw, sh, fm[s, 3]), fm[s, 0], fm[s, 2] != 0,
-                                 fm[s, 4])  # fmt: skip
-    else:
-        out, flag = cast_raw(raw, frac_in, fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4])
-    ov[s] += flag
-    return out
 
 
 @njit(cache=True, nogil=True)
