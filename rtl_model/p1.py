@@ -20,13 +20,21 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.cpython.unsafe.numbers import leading_zeros, viewer
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera, k_matrix
 from rangefx.golden.ranging import RangingConfig
 
 from .config import P1_SIGNALS, TimingConfig, WordLengthConfig
-from .fixedpoint import FixedFormat, cast_raw, overflow_raw, quantise_shift, shift_left_raw
+from .fixedpoint import (
+    FixedFormat,
+    cast_raw,
+    cast_row,
+    overflow_raw,
+    quantise_shift,
+    shift_left_raw,
+)
 from .stream import make_stream
 
 __all__ = [
@@ -132,13 +140,19 @@ def _at(raw, frac, target):
     return raw << (target - frac)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _bitlen(x):
-    """Bit length of ``x > 0`` (a leading-zero count in hardware)."""
-    n = math.frexp(float(x))[1]  # exact below 2**53; above, rounding may add one
-    if n > 53 and (np.int64(1) << (n - 1)) > x:
-        n -= 1
-    return n
+    """Bit length of ``x > 0`` (a leading-zero count, as in hardware)."""
+    return np.int64(64 - leading_zeros(np.uint64(x)))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _ldexp(x, k):
+    """``math.ldexp(x, k)``; for ``|k| <= 1022`` as a product with ``2.0**k`` built from its
+    exponent bits (the same value unless the result is subnormal; no libm call)."""
+    if -1022 <= k <= 1022:
+        return x * viewer(np.int64(k + 1023) << 52, types.float64)
+    return math.ldexp(x, k)
 
 
 @njit(cache=True, nogil=True)
@@ -168,7 +182,7 @@ def _divide(n, fn, d, fd, word, frac, signed, quant, ovf_mode, kind, lut_bits, r
         big = np.int64(1) << 62  # beyond any format: the overflow mode decides
         out, _ = overflow_raw(big if n > 0 else -big, word, signed, ovf_mode)
         return out, True, np.inf, -np.inf
-    value = math.ldexp(float(n) / float(d), fd - fn)
+    value = _ldexp(float(n) / float(d), fd - fn)
     negative = (n < 0) != (d < 0)
     an = abs(n)
     ad = abs(d)
@@ -207,7 +221,11 @@ def _divide(n, fn, d, fd, word, frac, signed, quant, ovf_mode, kind, lut_bits, r
         frac_in = fn - fd + p + r_bits
     if negative:
         raw = -raw
-    out, flag = cast_raw(raw, frac_in, word, frac, signed, quant, ovf_mode)
+    sh = frac_in - frac
+    if sh >= 0:
+        out, flag = overflow_raw(quantise_shift(raw, sh, quant), word, signed, ovf_mode)
+    else:
+        out, flag = shift_left_raw(raw, -sh, word, signed, ovf_mode)
     return out, flag, value, value
 
 
@@ -223,11 +241,58 @@ def _divide_into(n, fn, d, fd, s, kind, lut_bits, r_bits, fm, dst, ov):
 
 
 @njit(cache=True, nogil=True)
+def _cast_row(raw, frac_in, s, site, fm, st, ov):
+    """:func:`_cast` of a whole row (one loop per cast: the format is loop-invariant)."""
+    out = np.empty_like(raw)
+    lo, hi, count = cast_row(raw, frac_in, fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4],
+                             out)  # fmt: skip
+    st[site, 0] = min(st[site, 0], lo)
+    st[site, 1] = max(st[site, 1], hi)
+    st[site, 2] = frac_in
+    st[site, 3] = s
+    ov[s] += count
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _row_filter(b, p0, pole, f_b, fm, st, ov, r2_pre, p_prev, p_next):
+    """The row filter's recursion along one line; returns ``prod`` for ``r2``.
+
+    Only ``p_next`` is serial; ``r2`` and ``r1`` are cast afterwards from the returned
+    products and states. The cast of ``p_next`` is logged here (site 4).
+    """
+    f_p, f_c = fm[ROW_STATE, 1], fm[POLE_COEF, 1]
+    word, frac, sgn = fm[ROW_STATE, 0], fm[ROW_STATE, 1], fm[ROW_STATE, 2] != 0
+    quant, ovf = fm[ROW_STATE, 3], fm[ROW_STATE, 4]
+    fe = max(f_b, f_p)
+    fs = max(f_p, f_c + fe)
+    lo, hi, count = st[4, 0], st[4, 1], np.int64(0)
+    p = p0
+    for i in range(b.shape[0]):
+        prod = pole * (_at(b[i], f_b, fe) - _at(p, f_p, fe))
+        pre = _at(p, f_p, fs) + _at(prod, f_c + fe, fs)
+        lo = min(lo, pre)
+        hi = max(hi, pre)
+        p_prev[i] = p
+        r2_pre[i] = prod
+        p, flag = cast_raw(pre, fs, word, frac, sgn, quant, ovf)
+        count += flag
+        p_next[i] = p
+    st[4, 0], st[4, 1], st[4, 2], st[4, 3] = lo, hi, fs, ROW_STATE
+    ov[ROW_STATE] += count
+
+
+@njit(cache=True, nogil=True)
 def _frontend_kernel(
     img, pole, bias, consistent, init_first, kind, lut_bits, r_bits, fm, st, dst, ov,
     out_e, out_ex, out_ey, taps, want_taps,
 ):  # fmt: skip
-    """One stream: bias → row filter → column filter(s) → x-derivative, scan order."""
+    """One stream: bias → row filter → column filter(s) → x-derivative, scan order.
+
+    Row by row: every signal of a line is a vector and each cast one loop over it (the
+    values equal a pixel-by-pixel run: only the row filter's state is serial along a
+    line, and the column filters' states live in the line buffers).
+    """
     m, n = img.shape
     f_pix, f_b, f_p = fm[PIX_IN, 1], fm[BIAS_IN, 1], fm[ROW_STATE, 1]
     f_r1, f_r2, f_q = fm[ROW_R1, 1], fm[ROW_R2, 1], fm[COL_STATE, 1]
@@ -237,70 +302,75 @@ def _frontend_kernel(
     lb2 = np.zeros(n, dtype=np.int64)  # consistent: line buffer of the column filter on r2
     fx = max(f_pix, f_breg)
     fe_row = max(f_b, f_p)
-    fs_row = max(f_p, f_c + fe_row)
     fe_col = max(f_r1, f_q)
     fs_col = max(f_q, f_c + fe_col)
     fe_col2 = max(f_r2, f_q2)
     fs_col2 = max(f_q2, f_c + fe_col2)
+    prod_row = np.empty(n, dtype=np.int64)
+    p_prev = np.empty(n, dtype=np.int64)
+    p_next = np.empty(n, dtype=np.int64)
+    ex = np.empty(n, dtype=np.int64)
+    q2_next = np.zeros(n, dtype=np.int64)
     for j in range(m):
-        p = np.int64(0)
-        for i in range(n):
-            x = _cast(img[j, i], 0, PIX_IN, 0, fm, st, ov)
-            b = _cast(_at(x, f_pix, fx) + _at(bias, f_breg, fx), fx, BIAS_IN, 1, fm, st, ov)
-            # row filter (one state register per line)
-            if i == 0:
-                p = _cast(b, f_b, ROW_STATE, 2, fm, st, ov) if init_first else np.int64(0)
-            prod = pole * (_at(b, f_b, fe_row) - _at(p, f_p, fe_row))
-            r2 = _cast(prod, f_c + fe_row, ROW_R2, 3, fm, st, ov)
-            p_next = _cast(_at(p, f_p, fs_row) + _at(prod, f_c + fe_row, fs_row), fs_row,
-                           ROW_STATE, 4, fm, st, ov)  # fmt: skip
-            if consistent:
-                r1 = _cast(p + p_next, f_p + 1, ROW_R1, 5, fm, st, ov)
-            else:
-                r1 = _cast(p, f_p, ROW_R1, 6, fm, st, ov)
-            p = p_next
-            # column filter on r1: read the line buffer, update, write back
-            if j == 0:
-                lb1[i] = _cast(r1, f_r1, COL_STATE, 7, fm, st, ov) if init_first else 0
-            q = lb1[i]
-            prod = pole * (_at(r1, f_r1, fe_col) - _at(q, f_q, fe_col))
-            s2 = _cast(prod, f_c + fe_col, COL_S2, 8, fm, st, ov)
-            q_next = _cast(_at(q, f_q, fs_col) + _at(prod, f_c + fe_col, fs_col), fs_col,
+        x = _cast_row(img[j], 0, PIX_IN, 0, fm, st, ov)
+        b = _cast_row(_at(x, f_pix, fx) + _at(bias, f_breg, fx), fx, BIAS_IN, 1, fm, st, ov)
+        # row filter (one state register per line)
+        p0 = _cast(b[0], f_b, ROW_STATE, 2, fm, st, ov) if init_first else np.int64(0)
+        _row_filter(b, p0, pole, f_b, fm, st, ov, prod_row, p_prev, p_next)
+        r2 = _cast_row(prod_row, f_c + fe_row, ROW_R2, 3, fm, st, ov)
+        if consistent:
+            r1 = _cast_row(p_prev + p_next, f_p + 1, ROW_R1, 5, fm, st, ov)
+        else:
+            r1 = _cast_row(p_prev, f_p, ROW_R1, 6, fm, st, ov)
+        # column filter on r1: read the line buffer, update, write back
+        if j == 0:
+            if init_first:
+                lb1[:] = _cast_row(r1, f_r1, COL_STATE, 7, fm, st, ov)
+        q = lb1.copy()
+        prod = pole * (_at(r1, f_r1, fe_col) - _at(q, f_q, fe_col))
+        s2 = _cast_row(prod, f_c + fe_col, COL_S2, 8, fm, st, ov)
+        q_next = _cast_row(_at(q, f_q, fs_col) + _at(prod, f_c + fe_col, fs_col), fs_col,
                            COL_STATE, 9, fm, st, ov)  # fmt: skip
-            if consistent:
-                s1 = _cast(q + q_next, f_q + 1, COL_S1, 10, fm, st, ov)
-            else:
-                s1 = _cast(q, f_q, COL_S1, 11, fm, st, ov)
-            lb1[i] = q_next
-            q2_next = np.int64(0)
-            if consistent:
-                if j == 0:
-                    lb2[i] = _cast(r2, f_r2, COL2_STATE, 12, fm, st, ov) if init_first else 0
-                q2 = lb2[i]
-                prod = pole * (_at(r2, f_r2, fe_col2) - _at(q2, f_q2, fe_col2))
-                q2_next = _cast(_at(q2, f_q2, fs_col2) + _at(prod, f_c + fe_col2, fs_col2),
+        if consistent:
+            s1 = _cast_row(q + q_next, f_q + 1, COL_S1, 10, fm, st, ov)
+        else:
+            s1 = _cast_row(q, f_q, COL_S1, 11, fm, st, ov)
+        lb1[:] = q_next
+        if consistent:
+            if j == 0:
+                if init_first:
+                    lb2[:] = _cast_row(r2, f_r2, COL2_STATE, 12, fm, st, ov)
+            q2 = lb2.copy()
+            prod = pole * (_at(r2, f_r2, fe_col2) - _at(q2, f_q2, fe_col2))
+            q2_next = _cast_row(_at(q2, f_q2, fs_col2) + _at(prod, f_c + fe_col2, fs_col2),
                                 fs_col2, COL2_STATE, 13, fm, st, ov)  # fmt: skip
-                lb2[i] = q2_next
-                ex = _cast(q2 + q2_next, f_q2 + 1, COL2_OUT, 14, fm, st, ov)
-            else:
-                ex, _ = _divide_into(s1 * r2, f_s1 + f_r2, r1, f_r1, DIV_QUOT, kind, lut_bits,
-                                     r_bits, fm, dst, ov)  # fmt: skip
-            out_e[j, i] = s1
-            out_ex[j, i] = ex
-            out_ey[j, i] = s2
-            # taps: unconditional stores (into a 1x1 scratch plane when taps are off),
-            # since a branch around array stores defeats refcount pruning (see _cast)
-            tj = j if want_taps else 0
-            ti = i if want_taps else 0
-            taps[0, tj, ti] = b
-            taps[1, tj, ti] = r1
-            taps[2, tj, ti] = r2
-            taps[3, tj, ti] = p_next
-            taps[4, tj, ti] = s1
-            taps[5, tj, ti] = s2
-            taps[6, tj, ti] = q_next
-            taps[7, tj, ti] = ex
-            taps[8, tj, ti] = q2_next
+            lb2[:] = q2_next
+            ex = _cast_row(q2 + q2_next, f_q2 + 1, COL2_OUT, 14, fm, st, ov)
+        else:
+            for i in range(n):
+                ex[i], _ = _divide_into(s1[i] * r2[i], f_s1 + f_r2, r1[i], f_r1, DIV_QUOT, kind,
+                                        lut_bits, r_bits, fm, dst, ov)  # fmt: skip
+        out_e[j] = s1
+        out_ex[j] = ex
+        out_ey[j] = s2
+        if want_taps:
+            taps[0, j] = b
+            taps[1, j] = r1
+            taps[2, j] = r2
+            taps[3, j] = p_next
+            taps[4, j] = s1
+            taps[5, j] = s2
+            taps[6, j] = q_next
+            taps[7, j] = ex
+            taps[8, j] = q2_next
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _rotation_row(mreg, r, xp, yp, f_km, f_co):
+    """``M_r0 + M_r1 xp + M_r2 yp`` exactly, at ``max(F_M, F_M + F_coord)`` fraction bits."""
+    f_k = max(f_km, f_km + f_co)
+    return (_at(mreg[r, 0], f_km, f_k) + _at(mreg[r, 1] * xp, f_km + f_co, f_k)
+            + _at(mreg[r, 2] * yp, f_km + f_co, f_k))  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
@@ -308,7 +378,8 @@ def _range_kernel(
     e1, ex1, ey1, e2, ex2, ey2, regs, mreg, f_ex, kind, lut_bits, r_bits, fm, st, dst, ov,
     j0, j1, out_range, out_valid, taps, want_taps,
 ):  # fmt: skip
-    """Eq 28 per pixel for rows ``j0 <= j < j1`` (docs/p1_datapath.md, range stage)."""
+    """Eq 28 per pixel for rows ``j0 <= j < j1`` (docs/p1_datapath.md, range stage);
+    every signal of a line is a vector, each cast one loop."""
     n = e1.shape[1]
     cx, cy, fr, k3, k4, k5, te, tg2, dmin, rmax = (
         regs[0], regs[1], regs[2], regs[3], regs[4], regs[5], regs[6], regs[7], regs[8], regs[9]
@@ -326,56 +397,68 @@ def _range_kernel(
     f_ds = max(f_a + f_w, f_b + f_w, f_c1 + f_w)
     f_co0 = max(f_co, 0)  # pixel counters are integers: align at >= 0 fraction bits
     f_w0 = max(f_kr, 0)
-    kk = np.zeros(3, dtype=np.int64)
+    cols = np.arange(n).astype(np.int64)
+    one_den = np.int64(1) << f_den
+    rq = np.empty(n, dtype=np.int64)
+    dovf = np.empty(n, dtype=np.bool_)
+    if j1 <= j0:
+        return
+    # xp and vx depend on the column only: cast once, their overflows counted for every
+    # row of the band (as a pixel-by-pixel run counts them)
+    ov_co, ov_v = ov[COORD], ov[GEOM_V]
+    xp = _cast_row(_at(cols, 0, f_co0) - _at(cx, f_co, f_co0), f_co0, COORD, 16, fm, st, ov)
+    vx = _cast_row(_at(fr * k4, f_f + f_kt, f_gvv) - _at(xp * k3, f_co + f_kt, f_gvv), f_gvv,
+                   GEOM_V, 21, fm, st, ov)  # fmt: skip
+    ov[COORD] += (ov[COORD] - ov_co) * (j1 - j0 - 1)
+    ov[GEOM_V] += (ov[GEOM_V] - ov_v) * (j1 - j0 - 1)
     for j in range(j0, j1):
         yp = _cast(_at(np.int64(j), 0, f_co0) - _at(cy, f_co, f_co0), f_co0, COORD, 15, fm, st, ov)
-        for i in range(n):
-            xp = _cast(
-                _at(np.int64(i), 0, f_co0) - _at(cx, f_co, f_co0), f_co0, COORD, 16, fm, st, ov
-            )
-            c1 = _cast(e1[j, i] - e2[j, i], f_s1, C1, 17, fm, st, ov)
-            a1 = _cast(ex1[j, i] + ex2[j, i], f_ex + 1, GRAD_A, 18, fm, st, ov)
-            b1 = _cast(ey1[j, i] + ey2[j, i], f_ey + 1, GRAD_B, 19, fm, st, ov)
-            for r in range(3):
-                acc = _at(mreg[r, 0], f_km, f_k) + _at(mreg[r, 1] * xp, f_km + f_co, f_k)
-                acc += _at(mreg[r, 2] * yp, f_km + f_co, f_k)
-                kk[r] = _cast(acc, f_k, K_ROT, 20, fm, st, ov)
-            vx = _cast(_at(fr * k4, f_f + f_kt, f_gvv) - _at(xp * k3, f_co + f_kt, f_gvv), f_gvv,
-                       GEOM_V, 21, fm, st, ov)  # fmt: skip
-            vy = _cast(_at(fr * k5, f_f + f_kt, f_gvv) - _at(yp * k3, f_co + f_kt, f_gvv), f_gvv,
-                       GEOM_V, 22, fm, st, ov)  # fmt: skip
-            wx = _cast(_at(fr * kk[1], f_f + f_kr, f_gww) - _at(xp * kk[0], f_co + f_kr, f_gww),
-                       f_gww, GEOM_W, 23, fm, st, ov)  # fmt: skip
-            wy = _cast(_at(fr * kk[2], f_f + f_kr, f_gww) - _at(yp * kk[0], f_co + f_kr, f_gww),
-                       f_gww, GEOM_W, 24, fm, st, ov)  # fmt: skip
-            w0 = _cast(
-                _at(np.int64(1), 0, f_w0) + _at(kk[0], f_kr, f_w0), f_w0, GEOM_W, 25, fm, st, ov
-            )
-            gv = _cast(_at(a1 * vx, f_a + f_v, f_gvs) + _at(b1 * vy, f_b + f_v, f_gvs), f_gvs,
+        c1 = _cast_row(e1[j] - e2[j], f_s1, C1, 17, fm, st, ov)
+        a1 = _cast_row(ex1[j] + ex2[j], f_ex + 1, GRAD_A, 18, fm, st, ov)
+        b1 = _cast_row(ey1[j] + ey2[j], f_ey + 1, GRAD_B, 19, fm, st, ov)
+        k0 = _cast_row(_rotation_row(mreg, 0, xp, yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
+        k1 = _cast_row(_rotation_row(mreg, 1, xp, yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
+        k2 = _cast_row(_rotation_row(mreg, 2, xp, yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
+        vy_pre = _at(fr * k5, f_f + f_kt, f_gvv) - _at(yp * k3, f_co + f_kt, f_gvv)
+        vy = _cast_row(np.full(n, vy_pre), f_gvv, GEOM_V, 22, fm, st, ov)
+        wx = _cast_row(_at(fr * k1, f_f + f_kr, f_gww) - _at(xp * k0, f_co + f_kr, f_gww), f_gww,
+                       GEOM_W, 23, fm, st, ov)  # fmt: skip
+        wy = _cast_row(_at(fr * k2, f_f + f_kr, f_gww) - _at(yp * k0, f_co + f_kr, f_gww), f_gww,
+                       GEOM_W, 24, fm, st, ov)  # fmt: skip
+        w0 = _cast_row(_at(np.int64(1), 0, f_w0) + _at(k0, f_kr, f_w0), f_w0, GEOM_W, 25, fm, st,
+                       ov)  # fmt: skip
+        gv = _cast_row(_at(a1 * vx, f_a + f_v, f_gvs) + _at(b1 * vy, f_b + f_v, f_gvs), f_gvs,
                        GV, 26, fm, st, ov)  # fmt: skip
-            num = _cast(_at(k3 * c1, f_kt + f_c1, f_ns) - _at(gv, f_gv, f_ns), f_ns,
-                        NUM, 27, fm, st, ov)  # fmt: skip
-            den = _cast(_at(a1 * wx, f_a + f_w, f_ds) + _at(b1 * wy, f_b + f_w, f_ds)
+        num = _cast_row(_at(k3 * c1, f_kt + f_c1, f_ns) - _at(gv, f_gv, f_ns), f_ns, NUM, 27, fm,
+                        st, ov)  # fmt: skip
+        den = _cast_row(_at(a1 * wx, f_a + f_w, f_ds) + _at(b1 * wy, f_b + f_w, f_ds)
                         - _at(c1 * w0, f_c1 + f_w, f_ds), f_ds, DEN, 28, fm, st, ov)  # fmt: skip
-            # the divider is fed (0, 1) where |den| < DMIN: the pixel is invalid anyway, and
-            # tiny denominators would only saturate the quotient
-            den_ok = abs(den) >= dmin and den != 0
-            num_d = num if den_ok else np.int64(0)
-            den_d = den if den_ok else np.int64(1) << f_den
-            rq, dovf = _divide_into(num_d, f_num, den_d, f_den, RANGE, kind, lut_bits, r_bits,
-                                    fm, dst, ov)  # fmt: skip
-            v_sq = _cast(vx * vx + vy * vy, 2 * f_v, V_SQ, 29, fm, st, ov)
-            g_sq = _cast(gv * gv, 2 * f_gv, GRAD_SQ, 30, fm, st, ov)
-            g_thr = _cast(tg2 * v_sq, f_tg2 + f_vsq, GRAD_SQ, 31, fm, st, ov)
-            ok = abs(c1) >= te and g_sq >= g_thr and den_ok and not dovf and rq > 0 and rq <= rmax
-            out_valid[j, i] = ok
-            out_range[j, i] = rq if ok else rmax
-            tj = j if want_taps else 0
-            ti = i if want_taps else 0
-            vals = (xp, yp, c1, a1, b1, kk[0], kk[1], kk[2], vx, vy, wx, wy, w0, gv, num,
-                    den, rq, v_sq, g_sq, g_thr, np.int64(ok), out_range[j, i])  # fmt: skip
-            for t in range(22):
-                taps[t, tj, ti] = vals[t]
+        # the divider is fed (0, 1) where |den| < DMIN: the pixel is invalid anyway, and
+        # tiny denominators would only saturate the quotient
+        den_ok = (np.abs(den) >= dmin) & (den != 0)
+        for i in range(n):
+            if den_ok[i]:
+                rq[i], dovf[i] = _divide_into(num[i], f_num, den[i], f_den, RANGE, kind,
+                                              lut_bits, r_bits, fm, dst, ov)  # fmt: skip
+            else:
+                rq[i], dovf[i] = _divide_into(np.int64(0), f_num, one_den, f_den, RANGE, kind,
+                                              lut_bits, r_bits, fm, dst, ov)  # fmt: skip
+        v_sq = _cast_row(vx * vx + vy * vy, 2 * f_v, V_SQ, 29, fm, st, ov)
+        g_sq = _cast_row(gv * gv, 2 * f_gv, GRAD_SQ, 30, fm, st, ov)
+        g_thr = _cast_row(tg2 * v_sq, f_tg2 + f_vsq, GRAD_SQ, 31, fm, st, ov)
+        ok = ((np.abs(c1) >= te) & (g_sq >= g_thr) & den_ok & ~dovf & (rq > 0)
+              & (rq <= rmax))  # fmt: skip
+        out_valid[j] = ok
+        out_range[j] = np.where(ok, rq, rmax)
+        if want_taps:
+            for t, row in enumerate((xp, np.full(n, yp), c1, a1, b1, k0, k1, k2, vx, vy, wx, wy,
+                                     w0, gv, num, den, rq)):  # fmt: skip
+                taps[t, j] = row
+            taps[17, j] = v_sq
+            taps[18, j] = g_sq
+            taps[19, j] = g_thr
+            taps[20, j] = ok.astype(np.int64)
+            taps[21, j] = out_range[j]
 
 
 # --------------------------------------------------------------------------------------
