@@ -16,6 +16,7 @@ do not depend on timing; cycle stamps come from the input beats plus declared la
 from __future__ import annotations
 
 import math
+import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -562,6 +563,8 @@ class P1Result:
     of shape (m, n) (empty if taps were not requested). ``overflows`` and ``minmax`` are
     per signal. ``in_cycles`` is the clock at which each pixel (of E2's frame) entered,
     ``out_cycles`` when its range left; ``latency`` is the total declared latency.
+    ``kernel_cpu_s``: CPU seconds spent in the front-end kernels (both streams) and the
+    range kernel (all bands) of this run, for the benchmark's cost breakdown.
     """
 
     range: np.ndarray
@@ -580,6 +583,7 @@ class P1Result:
     registers: dict[str, tuple[float, float]]
     mode: str
     config: WordLengthConfig = field(repr=False)
+    kernel_cpu_s: dict[str, float] = field(default_factory=dict, repr=False)
 
     @property
     def overflow_total(self) -> int:
@@ -691,14 +695,18 @@ def run_p1(
     n_ft = len(FRONTEND_TAPS)
     shape_t = (n_ft, m, n) if taps else (n_ft, 1, 1)
 
+    cpu: list[tuple[str, float]] = []  # (kernel, CPU seconds of its thread); append is atomic
+
     def frontend(img: np.ndarray):
         st, dst, ov = _new_stats()
         outs = [np.empty((m, n), dtype=np.int64) for _ in range(3)]
         tp = np.zeros(shape_t, dtype=np.int64)
+        t0 = time.thread_time()
         _frontend_kernel(
             img, np.int64(regs.pole), np.int64(regs.bias), consistent, init_first, kind,
             config.recip_lut_bits, config.recip_bits, fm, st, dst, ov, *outs, tp, taps,
         )  # fmt: skip
+        cpu.append(("front_end", time.thread_time() - t0))
         return outs, tp, (st, dst, ov)
 
     out_range = np.empty((m, n), dtype=np.int64)
@@ -708,11 +716,13 @@ def run_p1(
 
     def range_band(j0: int, j1: int, s1, s2):
         st, dst, ov = _new_stats()
+        t0 = time.thread_time()
         _range_kernel(
             s1[0][0], s1[0][1], s1[0][2], s2[0][0], s2[0][1], s2[0][2], regs.scalars,
             regs.rotation, f_ex, kind, config.recip_lut_bits, config.recip_bits, fm,
             st, dst, ov, j0, j1, out_range, out_valid, rtaps, taps,
         )  # fmt: skip
+        cpu.append(("range", time.thread_time() - t0))
         return st, dst, ov
 
     if threads == 2:
@@ -769,4 +779,5 @@ def run_p1(
         registers=regs.values,
         mode=mode,
         config=config,
+        kernel_cpu_s={k: sum(t for name, t in cpu if name == k) for k in ("front_end", "range")},
     )

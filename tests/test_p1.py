@@ -263,3 +263,26 @@ def test_cli_config_show_and_bad_config(capsys, tmp_path):
     assert main(["run", "--pipeline", "p1", "--config", str(bad)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "'c1'" in err[0]
+
+
+@pytest.mark.parametrize("variant", ["paper", "consistent"])
+def test_one_or_two_threads_give_the_same_run(plane, variant):
+    # two threads split the range stage into row bands: every value, overflow count (the
+    # column-only signals xp/vx are cast once per band and counted per row) and min/max
+    # must equal the single-band run
+    config = WordLengthConfig.default(variant).with_formats(
+        coord=FixedFormat.from_string("s4.0", Quant.TRN, Overflow.SAT)
+    )
+    a = _run(plane, config=config, threads=1)
+    b = _run(plane, config=config, threads=2)
+    assert a.overflows["coord"] > 0  # the narrowed counters overflow on both axes
+    assert np.array_equal(a.range_raw, b.range_raw) and np.array_equal(a.valid, b.valid)
+    assert a.overflows == b.overflows and a.minmax == b.minmax
+    assert all(k in a.kernel_cpu_s and a.kernel_cpu_s[k] > 0 for k in ("front_end", "range"))
+
+
+def test_bench_reports_the_cost_breakdown():
+    figures = pipeline.bench_figures(repeats=1, size=32)
+    for key in ("p1_stereo_mpix_s", "golden_p1_mpix_s", "cold_process_s", "cast_ns",
+                "p1_paper_front_end_cpu_ns_px", "p1_consistent_range_cpu_ns_px"):  # fmt: skip
+        assert figures[key] > 0, key

@@ -28,6 +28,7 @@ from rangefx.golden.ranging import RangeResult, RangingConfig
 from rangefx.golden.realdata import load_motorcycle
 from rangefx.golden.scenes import Scene, render_scene
 from rangefx.rtl_model.config import P1_SIGNALS, TimingConfig, WordLengthConfig, propose_config
+from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
 from rangefx.rtl_model.p1 import P1Result, run_p1
 
 from . import report
@@ -281,14 +282,20 @@ def bench_figures(repeats: int = 5, size: int = 512) -> dict:
     for variant in ("paper", "consistent"):
         config = WordLengthConfig.default(variant)
         run_case(case, config)  # JIT warm-up
-        t = _median_time(lambda c=config: run_case(case, c), repeats)
+        cpu: list[dict[str, float]] = []
+        t = _median_time(lambda c=config, k=cpu: k.append(run_case(case, c).kernel_cpu_s), repeats)
         out[f"p1_stereo_{variant}_mpix_s"] = pixels / t / 1e6
+        # where the time goes: CPU ns per pixel of each kernel (both streams / all bands)
+        for kernel in ("front_end", "range"):
+            ns = statistics.median(c[kernel] for c in cpu) / pixels * 1e9
+            out[f"p1_{variant}_{kernel}_cpu_ns_px"] = ns
         t = _median_time(lambda c=config: run_case(case, c, taps=True), repeats)
         out[f"p1_stereo_{variant}_taps_mpix_s"] = pixels / t / 1e6
         t = _median_time(lambda c=config: golden_for(case, c), repeats)
         out[f"golden_p1_{variant}_mpix_s"] = pixels / t / 1e6
     out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
     out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
+    out["cast_ns"] = _cast_ns()
     from .p2_pipeline import bench_p2  # local: p2_pipeline imports this module
 
     out.update(bench_p2(repeats, size))
@@ -301,6 +308,20 @@ def bench_figures(repeats: int = 5, size: int = 512) -> dict:
     subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
     out["cold_process_s"] = time.perf_counter() - t
     return out
+
+
+def _cast_ns(size: int = 1 << 20, repeats: int = 5) -> float:
+    """CPU ns per element of one cast (``cast_array``, s16.4 RND/SAT from 8 more fraction
+    bits): the unit cost the pipeline pays ~41 times per stereo pixel."""
+    raw = np.random.default_rng(0).integers(-(2**23), 2**23, size)
+    fmt = FixedFormat.from_string("s16.4", Quant.RND, Overflow.SAT)
+    cast_array(raw, 12, fmt)  # JIT warm-up
+    times = []
+    for _ in range(repeats):
+        t = time.thread_time()
+        cast_array(raw, 12, fmt)
+        times.append(time.thread_time() - t)
+    return statistics.median(times) / size * 1e9
 
 
 def _cold_run() -> None:
