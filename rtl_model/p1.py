@@ -242,6 +242,25 @@ def _divide_into(n, fn, d, fd, s, kind, lut_bits, r_bits, fm, dst, ov):
 
 
 @njit(cache=True, nogil=True)
+def _divide_row(num, fn, den, fd, s, kind, lut_bits, r_bits, fm, dst, ov, out, flags):
+    """:func:`_divide` of a row into signal ``s`` (``out``, overflow ``flags``); the log
+    and the overflow count are kept in registers and written once per row (updating them
+    in memory per element measured ~2x the divider's own cost)."""
+    word, frac, signed, quant, ovf = fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4]
+    lo, hi, count = dst[s, 0], dst[s, 1], np.int64(0)
+    for i in range(num.shape[0]):
+        q, flag, v_lo, v_hi = _divide(num[i], fn, den[i], fd, word, frac, signed, quant, ovf,
+                                      kind, lut_bits, r_bits)  # fmt: skip
+        out[i] = q
+        flags[i] = flag
+        count += flag
+        lo = v_lo if v_lo < lo else lo
+        hi = v_hi if v_hi > hi else hi
+    dst[s, 0], dst[s, 1] = lo, hi
+    ov[s] += count
+
+
+@njit(cache=True, nogil=True)
 def _cast_row(raw, frac_in, s, site, fm, st, ov):
     """:func:`_cast` of a whole row (one loop per cast: the format is loop-invariant)."""
     out = np.empty_like(raw)
@@ -311,6 +330,7 @@ def _frontend_kernel(
     p_prev = np.empty(n, dtype=np.int64)
     p_next = np.empty(n, dtype=np.int64)
     ex = np.empty(n, dtype=np.int64)
+    ex_flags = np.empty(n, dtype=np.bool_)
     q2_next = np.zeros(n, dtype=np.int64)
     for j in range(m):
         x = _cast_row(img[j], 0, PIX_IN, 0, fm, st, ov)
@@ -348,9 +368,8 @@ def _frontend_kernel(
             lb2[:] = q2_next
             ex = _cast_row(q2 + q2_next, f_q2 + 1, COL2_OUT, 14, fm, st, ov)
         else:
-            for i in range(n):
-                ex[i], _ = _divide_into(s1[i] * r2[i], f_s1 + f_r2, r1[i], f_r1, DIV_QUOT, kind,
-                                        lut_bits, r_bits, fm, dst, ov)  # fmt: skip
+            _divide_row(s1 * r2, f_s1 + f_r2, r1, f_r1, DIV_QUOT, kind, lut_bits, r_bits, fm, dst,
+                        ov, ex, ex_flags)  # fmt: skip
         out_e[j] = s1
         out_ex[j] = ex
         out_ey[j] = s2
@@ -437,13 +456,8 @@ def _range_kernel(
         # the divider is fed (0, 1) where |den| < DMIN: the pixel is invalid anyway, and
         # tiny denominators would only saturate the quotient
         den_ok = (np.abs(den) >= dmin) & (den != 0)
-        for i in range(n):
-            if den_ok[i]:
-                rq[i], dovf[i] = _divide_into(num[i], f_num, den[i], f_den, RANGE, kind,
-                                              lut_bits, r_bits, fm, dst, ov)  # fmt: skip
-            else:
-                rq[i], dovf[i] = _divide_into(np.int64(0), f_num, one_den, f_den, RANGE, kind,
-                                              lut_bits, r_bits, fm, dst, ov)  # fmt: skip
+        _divide_row(np.where(den_ok, num, 0), f_num, np.where(den_ok, den, one_den), f_den, RANGE,
+                    kind, lut_bits, r_bits, fm, dst, ov, rq, dovf)  # fmt: skip
         v_sq = _cast_row(vx * vx + vy * vy, 2 * f_v, V_SQ, 29, fm, st, ov)
         g_sq = _cast_row(gv * gv, 2 * f_gv, GRAD_SQ, 30, fm, st, ov)
         g_thr = _cast_row(tg2 * v_sq, f_tg2 + f_vsq, GRAD_SQ, 31, fm, st, ov)
