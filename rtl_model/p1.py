@@ -425,14 +425,17 @@ def _range_kernel(
         return
     # xp and vx depend on the column only: cast once, their overflows counted for every
     # row of the band (as a pixel-by-pixel run counts them)
-    ov_co, ov_v = ov[COORD], ov[GEOM_V]
+    ov_x, ov_v = ov[COORD], ov[GEOM_V]
     xp = _cast_row(_at(cols, 0, f_co0) - _at(cx, f_co, f_co0), f_co0, COORD, 16, fm, st, ov)
     vx = _cast_row(_at(fr * k4, f_f + f_kt, f_gvv) - _at(xp * k3, f_co + f_kt, f_gvv), f_gvv,
                    GEOM_V, 21, fm, st, ov)  # fmt: skip
-    ov[COORD] += (ov[COORD] - ov_co) * (j1 - j0 - 1)
+    ov[COORD] += (ov[COORD] - ov_x) * (j1 - j0 - 1)
     ov[GEOM_V] += (ov[GEOM_V] - ov_v) * (j1 - j0 - 1)
     for j in range(j0, j1):
+        # yp is held for the line but, like xp, cast (and counted) once per pixel
+        ov_co = ov[COORD]
         yp = _cast(_at(np.int64(j), 0, f_co0) - _at(cy, f_co, f_co0), f_co0, COORD, 15, fm, st, ov)
+        ov[COORD] += (ov[COORD] - ov_co) * (n - 1)
         c1 = _cast_row(e1[j] - e2[j], f_s1, C1, 17, fm, st, ov)
         a1 = _cast_row(ex1[j] + ex2[j], f_ex + 1, GRAD_A, 18, fm, st, ov)
         b1 = _cast_row(ey1[j] + ey2[j], f_ey + 1, GRAD_B, 19, fm, st, ov)

@@ -214,3 +214,22 @@ def test_cases_cover_every_mode():
     # every overflow mode is exercised with narrow formats, every quant mode too
     assert {c["overflow"] for c in cases if c["narrow"]} == set(Overflow)
     assert {c["quant"] for c in cases if c["narrow"]} == set(Quant)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("overflow", [Overflow.WRAP, Overflow.SAT])
+def test_pixel_counters_overflow_per_pixel(threads, overflow):
+    """Counters narrowed to 3 bits overflow in both directions: ``xp`` and ``yp`` are cast
+    once per pixel (docs/p1_datapath.md), whatever the model holds per line or band."""
+    cfg = WordLengthConfig.default("paper").with_formats(
+        coord=FixedFormat(True, 3, 0, Quant.TRN, overflow)
+    )
+    im1, im2, camera, motion = make_scene(21, "random", "stereo")
+    m, n = im1.shape
+    camera = PinholeCamera(n, m, camera.f_px, cx=0.0, cy=0.0)  # counters 0..n-1 > 3
+    ranging = RangingConfig(threshold_e=1.0, threshold_g=0.7, range_max=60.0, min_denominator=0.3)
+    ref = oracle_p1(im1, im2, camera, motion, cfg, ranging)
+    res = run_p1(im1, im2, camera, motion, cfg, ranging, threads=threads)
+    assert (ref.taps["yp"] != np.arange(m)[:, None]).any()  # yp overflowed
+    assert (ref.taps["xp"] != np.arange(n)[None, :]).any()  # so did xp
+    assert_bit_exact(res, ref)
