@@ -9,15 +9,16 @@ after an interruption computes only the missing points), then ``points.csv``,
 ``summary.json`` (``complete: true``) once every point is in.
 
 ``rangefx optimise --scene lab [runway ...] --budget 0.01 [--agreement 0.99]
-[--verify SCENE] [--config PATH] [--variant V] [--size H W] [--workers N] [--out DIR]
-[--json]`` finds the cheapest config meeting the budget on every tuning scene
-(:mod:`rangefx.tools.wlopt`) and prints it (TOML), ``cost_bits`` and
+[--margin M] [--verify SCENE] [--config PATH] [--variant V] [--size H W] [--workers N]
+[--out DIR] [--json]`` finds the cheapest config meeting the budget on every tuning scene
+(:mod:`rangefx.tools.wlopt`; with ``--margin M`` the budget tightened by the guard band
+M while tuning, JSON ``tuning_budget``) and prints it (TOML), ``cost_bits`` and
 ``default_cost_bits`` on the first tuning scene's shape and mode (the cost minimised),
 the accuracy and cost on each tuning scene (JSON ``scenes``; the top-level
 ``median_rel_range_diff``, ``p95_rel_range_diff`` and ``valid_agreement`` are the worst
-case over them) and on the verification scene (``verify``), which must not be a tuning
-scene: a synthetic preset or ``motorcycle``, the real Middlebury pair
-(:func:`rangefx.tools.pipeline.real_pair_case`).
+case over them, reported against the user's budget) and on the verification scene
+(``verify``), which must not be a tuning scene: a synthetic preset or ``motorcycle``,
+the real Middlebury pair (:func:`rangefx.tools.pipeline.real_pair_case`).
 """
 
 from __future__ import annotations
@@ -120,6 +121,7 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         budget = Budget(args.budget, args.agreement)
     except ValueError as exc:
         raise UserError(f"--budget/--agreement: {exc}") from None
+    tuning = budget.tightened(args.margin)  # a one-line UserError for a bad --margin
     if args.signals:
         bad = [s for s in args.signals if s not in P1_SIGNALS]
         if bad:
@@ -136,8 +138,9 @@ def cmd_optimise(args: argparse.Namespace) -> int:
     default = WordLengthConfig.default(start.variant)
     cases = [_scene_case(name, args.size) for name in scenes]
     res = optimise(
-        cases, start, budget, signals=args.signals, workers=args.workers, progress=not args.json
-    )
+        cases, start, budget, margin=args.margin, signals=args.signals, workers=args.workers,
+        progress=not args.json,
+    )  # fmt: skip
     case = cases[0]
     shape, mode = case.image1.shape, case.mode
     cost = config_cost(res.config, shape, mode)
@@ -163,6 +166,11 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         "size": list(shape),
         "variant": start.variant,
         "budget": {"median_rel_range_diff": budget.median, "valid_agreement": budget.agreement},
+        "margin": args.margin,
+        "tuning_budget": {
+            "median_rel_range_diff": tuning.median,
+            "valid_agreement": tuning.agreement,
+        },
         "config_toml": res.config.to_toml(),
         "cost_scene": scenes[0],
         "cost_bits": cost.cost_bits,
@@ -209,6 +217,12 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         f"{figures['bits_saved']}); DSP {cost.dsp} (default {dcost.dsp}); BRAM18 {cost.bram18} "
         f"(default {dcost.bram18}); {res.evaluations} runs, {res.seconds:.1f} s"
     )
+    if args.margin:
+        print(
+            f"# tuned with margin {args.margin}: median_rel_range_diff <= {tuning.median:.4g}, "
+            f"valid_agreement >= {tuning.agreement:.6g} on every tuning scene (budget "
+            f"{budget.median:.4g}, {budget.agreement:.6g})"
+        )
     for name, sf in per_scene.items():
         print(
             f"# {name} ({sf['mode']}): median_rel_range_diff {sf['median_rel_range_diff']:.3e}, "
@@ -270,6 +284,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--agreement", type=float, default=0.99,
                    help="min validity agreement with golden, on every tuning scene "
                    "(default 0.99)")  # fmt: skip
+    p.add_argument("--margin", type=float, default=0.0,
+                   help="guard band M in [0, 1): while tuning, a candidate must meet median "
+                   "<= budget*(1-M) and disagreement <= (1-agreement)*(1-M); the result is "
+                   "reported against the budget itself (default 0)")  # fmt: skip
     p.add_argument("--verify", choices=VERIFY_SCENES,
                    help="scene to verify the result on (not a tuning scene; motorcycle: the "
                    "real Middlebury pair, stereo)")  # fmt: skip
