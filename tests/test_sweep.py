@@ -535,6 +535,26 @@ def test_cli_optimise_margin_json(capsys):
     )
 
 
+def test_cli_optimise_tunes_on_the_real_pair(capsys):
+    rc = cli.main(
+        ["optimise", "--scene", "motorcycle", "lab", "--size", "32", "40", "--signals", "v_sq",
+         "--verify", "runway", "--json"]
+    )  # fmt: skip
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["cost_scene"] == "motorcycle" and out["size"] == [26, 39]  # its own size
+    assert out["scenes"]["lab"]["size"] == [32, 40]
+    for sf in out["scenes"].values():
+        assert sf["median_rel_range_diff"] <= 0.01 and sf["valid_agreement"] >= 0.99
+    # v_sq with an LSB of 4096 rounds the pair's vx^2 (~102) to 0: the T_g test stops
+    # rejecting; a start like that is refused, naming the real pair
+    cfg = WordLengthConfig.default()
+    f = cfg.formats["v_sq"]
+    coarse = cfg.with_formats(v_sq=FixedFormat(f.signed, 9, -12, f.quant, f.overflow))
+    with pytest.raises(UserError, match="misses the budget on 'motorcycle'"):
+        optimise(real_pair_case("motorcycle"), coarse, Budget(0.01, 0.99), progress=False)
+
+
 @pytest.mark.parametrize("margin", ["1", "1.5", "-0.1", "nan", "inf"])
 def test_cli_optimise_bad_margin(capsys, margin):
     assert cli.main(["optimise", "--margin", margin, "--json"]) == 2

@@ -8,7 +8,7 @@ after an interruption computes only the missing points), then ``points.csv``,
 ``pareto_<scene>.png/.csv``, ``sensitivity.png/.csv``, ``buildup_base.png`` + CSV and
 ``summary.json`` (``complete: true``) once every point is in.
 
-``rangefx optimise --scene lab [runway ...] --budget 0.01 [--agreement 0.99]
+``rangefx optimise --scene lab [runway motorcycle ...] --budget 0.01 [--agreement 0.99]
 [--margin M] [--verify SCENE] [--config PATH] [--variant V] [--size H W] [--workers N]
 [--out DIR] [--json]`` finds the cheapest config meeting the budget on every tuning scene
 (:mod:`rangefx.tools.wlopt`; with ``--margin M`` the budget tightened by the guard band
@@ -17,8 +17,9 @@ M while tuning, JSON ``tuning_budget``) and prints it (TOML), ``cost_bits`` and
 the accuracy and cost on each tuning scene (JSON ``scenes``; the top-level
 ``median_rel_range_diff``, ``p95_rel_range_diff`` and ``valid_agreement`` are the worst
 case over them, reported against the user's budget) and on the verification scene
-(``verify``), which must not be a tuning scene: a synthetic preset or ``motorcycle``,
-the real Middlebury pair (:func:`rangefx.tools.pipeline.real_pair_case`).
+(``verify``), which must not be a tuning scene. A tuning or verification scene is a
+synthetic preset (rendered at ``--size``) or ``motorcycle``, the real Middlebury pair
+(:func:`rangefx.tools.pipeline.real_pair_case`, its own 26x39 size).
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ from .pipeline import REAL_PAIRS, golden_for, load_config, real_pair_case
 
 __all__ = ["VERIFY_SCENES", "add_parser", "cmd_optimise", "cmd_sweep", "example_path"]
 
-#: Scenes ``--verify`` accepts: the synthetic presets and the real pairs.
+#: Scenes ``--scene`` and ``--verify`` accept: the synthetic presets and the real pairs.
 VERIFY_SCENES: tuple[str, ...] = (*SCENE_NAMES, *REAL_PAIRS)
 
 
@@ -97,17 +98,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
-def _scene_case(name: str, size: list[int] | None):
+def _case(name: str, size: list[int] | None):
+    """A synthetic scene preset (rendered at ``size``) or a real pair (its own size)."""
     from .sweep import scene_case
 
-    return scene_case(name, size)
-
-
-def _verify_case(name: str, size: list[int] | None):
-    """A synthetic scene preset (rendered at ``size``) or a real pair (its own size)."""
     if name in REAL_PAIRS:
         return real_pair_case(name)
-    return _scene_case(name, size)
+    return scene_case(name, size)
 
 
 def _figures(figs: dict[str, Any]) -> dict[str, Any]:
@@ -136,7 +133,7 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         )
     start = load_config(args.config, args.variant, None)
     default = WordLengthConfig.default(start.variant)
-    cases = [_scene_case(name, args.size) for name in scenes]
+    cases = [_case(name, args.size) for name in scenes]
     res = optimise(
         cases, start, budget, margin=args.margin, signals=args.signals, workers=args.workers,
         progress=not args.json,
@@ -189,7 +186,7 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         "steps": res.steps,
     }
     if args.verify:
-        vcase = _verify_case(args.verify, args.size)
+        vcase = _case(args.verify, args.size)
         golden = golden_for(vcase, res.config)
         fig_opt = evaluate(vcase, res.config, golden)
         fig_def = evaluate(vcase, default, golden)
@@ -275,9 +272,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.set_defaults(func=cmd_sweep)
     p = sub.add_parser("optimise", help="cheapest P1 word lengths meeting an accuracy budget")
-    p.add_argument("--scene", choices=SCENE_NAMES, nargs="+", default=["lab"],
+    p.add_argument("--scene", choices=VERIFY_SCENES, nargs="+", default=["lab"],
                    help="tuning scene(s): a config must meet the budget on every one; the "
-                   "cost minimised is the first's (default lab)")  # fmt: skip
+                   "cost minimised is the first's (default lab; motorcycle: the real "
+                   "Middlebury pair, stereo)")  # fmt: skip
     p.add_argument("--budget", type=float, default=0.01,
                    help="max median relative range error vs golden, on every tuning scene "
                    "(default 0.01)")  # fmt: skip

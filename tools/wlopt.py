@@ -194,7 +194,9 @@ def _with(config: WordLengthConfig, name: str, word: int, frac: int) -> WordLeng
 
 
 def _label(case: P1Case, index: int) -> str:
-    return case.scene.name if case.scene is not None else f"scene {index + 1}"
+    if case.scene is not None:
+        return case.scene.name
+    return case.label or f"scene {index + 1}"
 
 
 def evaluate_scenes(
