@@ -353,6 +353,9 @@ def test_cli_optimise_json(capsys):
     assert "[signals]" in out["config_toml"]
     WordLengthConfig.from_toml(out["config_toml"])  # loads back
     assert out["verify"]["scene"] == "runway" and out["verify"]["mode"] == "motion"
+    # the default guard band: tuned to half the budget
+    assert out["margin"] == 0.5 and out["tuning_budget"]["median_rel_range_diff"] == 0.005
+    assert out["median_rel_range_diff"] <= 0.005
 
 
 def _no_rotation(cfg: WordLengthConfig) -> WordLengthConfig:

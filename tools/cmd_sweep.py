@@ -40,7 +40,19 @@ from .errors import UserError
 from .outdir import atomic_write_text
 from .pipeline import REAL_PAIRS, golden_for, load_config, real_pair_case
 
-__all__ = ["VERIFY_SCENES", "add_parser", "cmd_optimise", "cmd_sweep", "example_path"]
+__all__ = [
+    "DEFAULT_MARGIN",
+    "VERIFY_SCENES",
+    "add_parser",
+    "cmd_optimise",
+    "cmd_sweep",
+    "example_path",
+]
+
+#: ``rangefx optimise``'s guard band (``--margin``): the smallest measured margin at which
+#: the median on the real pair held out of lab + runway tuning stays within a 1 % budget
+#: (docs/wordlength.md, "Guard band"). :func:`rangefx.tools.wlopt.optimise` defaults to 0.
+DEFAULT_MARGIN = 0.5
 
 #: Scenes ``--scene`` and ``--verify`` accept: the synthetic presets and the real pairs.
 VERIFY_SCENES: tuple[str, ...] = (*SCENE_NAMES, *REAL_PAIRS)
@@ -282,10 +294,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--agreement", type=float, default=0.99,
                    help="min validity agreement with golden, on every tuning scene "
                    "(default 0.99)")  # fmt: skip
-    p.add_argument("--margin", type=float, default=0.0,
+    p.add_argument("--margin", type=float, default=DEFAULT_MARGIN,
                    help="guard band M in [0, 1): while tuning, a candidate must meet median "
                    "<= budget*(1-M) and disagreement <= (1-agreement)*(1-M); the result is "
-                   "reported against the budget itself (default 0)")  # fmt: skip
+                   f"reported against the budget itself (default {DEFAULT_MARGIN}; 0: no "
+                   "guard band)")  # fmt: skip
     p.add_argument("--verify", choices=VERIFY_SCENES,
                    help="scene to verify the result on (not a tuning scene; motorcycle: the "
                    "real Middlebury pair, stereo)")  # fmt: skip
