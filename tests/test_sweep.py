@@ -353,6 +353,9 @@ def test_cli_optimise_json(capsys):
     assert "[signals]" in out["config_toml"]
     WordLengthConfig.from_toml(out["config_toml"])  # loads back
     assert out["verify"]["scene"] == "runway" and out["verify"]["mode"] == "motion"
+    # the default guard band: tuned to half the budget
+    assert out["margin"] == 0.5 and out["tuning_budget"]["median_rel_range_diff"] == 0.005
+    assert out["median_rel_range_diff"] <= 0.005
 
 
 def _no_rotation(cfg: WordLengthConfig) -> WordLengthConfig:
@@ -452,6 +455,116 @@ def test_cli_optimise_several_scenes_json(capsys):
     for key in ("median_rel_range_diff", "valid_agreement", "meets_budget", "cost_bits",
                 "default_cost_bits", "default_median_rel_range_diff"):  # fmt: skip
         assert key in v
+
+
+def test_budget_tightened_by_a_margin():
+    b = Budget(0.01, 0.99)
+    assert b.tightened(0) is b and b.tightened(0.0) is b
+    t = b.tightened(0.5)
+    assert t.median == pytest.approx(0.005) and t.agreement == pytest.approx(0.995)
+    assert b.tightened(0.75).agreement == pytest.approx(0.9975)  # disagreement 0.01 -> 0.0025
+    figs = {"median_rel_range_diff": 0.007, "valid_agreement": 0.999}
+    assert b.met(figs) and not t.met(figs)
+    for bad in (1, 1.0, -0.1, math.nan, math.inf, True, "0.5", None):
+        with pytest.raises(UserError, match=r"--margin must be a number in \[0, 1\)"):
+            b.tightened(bad)
+
+
+def test_margin_tightens_acceptance():
+    lab, runway = scene_case("lab", [32, 40]), scene_case("runway", [32, 40])
+    budget, start = Budget(0.01, 0.99), WordLengthConfig.default()
+    sig = ["col_state", "row_state"]
+    plain = optimise([lab, runway], start, budget, signals=sig, progress=False)
+    guarded = optimise([lab, runway], start, budget, margin=0.5, signals=sig, progress=False)
+    tight = budget.tightened(0.5)
+    assert plain.tuning_budget is budget and guarded.tuning_budget == tight
+    # without the margin runway ends above the tightened median: the margin bites
+    assert not tight.met(plain.figures)
+    goldens = [golden_for(lab, start), golden_for(runway, start)]
+    for case, golden, figs in zip((lab, runway), goldens, guarded.scene_figures, strict=True):
+        check = compare_ranges(run_case(case, guarded.config), golden)  # independent re-run
+        assert check["median_rel_range_diff"] <= 0.005 and check["valid_agreement"] >= 0.995
+        assert check["median_rel_range_diff"] == figs["median_rel_range_diff"]
+    shape = lab.image1.shape
+    assert (
+        config_cost(plain.config, shape, "stereo").cost_bits
+        < config_cost(guarded.config, shape, "stereo").cost_bits
+        < config_cost(start, shape, "stereo").cost_bits
+    )
+    # a start that meets the budget but not the tightened one is refused, naming the band
+    with pytest.raises(UserError, match=r"misses the budget tightened by the margin 0\.5 on 'lab'"):
+        optimise([lab, runway], plain.config, budget, margin=0.5, signals=sig, progress=False)
+    optimise([lab, runway], plain.config, budget, signals=["row_state"], progress=False)
+
+
+def test_margin_zero_reproduces_the_plain_optimiser():
+    """Margin 0 chooses what the optimiser chose before margins existed (formats and
+    run counts recorded from commit 58c8325 on this case)."""
+    lab, runway = scene_case("lab", [32, 40]), scene_case("runway", [32, 40])
+    sig = ["col_state", "row_state"]
+    res = optimise([lab, runway], WordLengthConfig.default(), Budget(0.01, 0.99), margin=0,
+                   signals=sig, progress=False)  # fmt: skip
+    assert {s: str(res.config.formats[s]) for s in sig} == {
+        "col_state": "u11.3",
+        "row_state": "u10.2",
+    }
+    assert res.evaluations == 19
+    only_lab = optimise(lab, WordLengthConfig.default(), Budget(0.01, 0.99), margin=0.0,
+                        signals=sig, progress=False)  # fmt: skip
+    assert {s: str(only_lab.config.formats[s]) for s in sig} == {
+        "col_state": "u10.3",
+        "row_state": "u11.3",
+    }
+    assert only_lab.evaluations == 20
+
+
+def test_cli_optimise_margin_json(capsys):
+    rc = cli.main(
+        ["optimise", "--scene", "lab", "runway", "--size", "32", "40", "--signals", "col_state",
+         "row_state", "--margin", "0.5", "--verify", "motorcycle", "--json"]
+    )  # fmt: skip
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["margin"] == 0.5
+    assert out["budget"] == {"median_rel_range_diff": 0.01, "valid_agreement": 0.99}
+    tb = out["tuning_budget"]
+    assert tb["median_rel_range_diff"] == pytest.approx(0.005)
+    assert tb["valid_agreement"] == pytest.approx(0.995)
+    for sf in out["scenes"].values():
+        assert sf["median_rel_range_diff"] <= 0.005 and sf["valid_agreement"] >= 0.995
+    v = out["verify"]  # judged against the user's budget, not the tightened one
+    assert v["meets_budget"] == (
+        v["median_rel_range_diff"] <= 0.01 and v["valid_agreement"] >= 0.99
+    )
+
+
+def test_cli_optimise_tunes_on_the_real_pair(capsys):
+    rc = cli.main(
+        ["optimise", "--scene", "motorcycle", "lab", "--size", "32", "40", "--signals", "v_sq",
+         "--verify", "runway", "--json"]
+    )  # fmt: skip
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["cost_scene"] == "motorcycle" and out["size"] == [26, 39]  # its own size
+    assert out["scenes"]["lab"]["size"] == [32, 40]
+    for sf in out["scenes"].values():
+        assert sf["median_rel_range_diff"] <= 0.01 and sf["valid_agreement"] >= 0.99
+    # v_sq with an LSB of 4096 rounds the pair's vx^2 (~102) to 0: the T_g test stops
+    # rejecting; a start like that is refused, naming the real pair
+    cfg = WordLengthConfig.default()
+    f = cfg.formats["v_sq"]
+    coarse = cfg.with_formats(v_sq=FixedFormat(f.signed, 9, -12, f.quant, f.overflow))
+    with pytest.raises(UserError, match="misses the budget on 'motorcycle'"):
+        optimise(real_pair_case("motorcycle"), coarse, Budget(0.01, 0.99), progress=False)
+
+
+@pytest.mark.parametrize("margin", ["1", "1.5", "-0.1", "nan", "inf"])
+def test_cli_optimise_bad_margin(capsys, margin):
+    assert cli.main(["optimise", "--margin", margin, "--json"]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert captured.out == "" and len(err.splitlines()) == 1
+    assert err.startswith("rangefx: error: --margin must be a number in [0, 1)")
 
 
 @pytest.mark.parametrize(

@@ -60,6 +60,8 @@ class P1Case:
     ranging: RangingConfig
     mode: str
     scene: Scene | None = None
+    #: Name for messages when there is no ``scene`` (a real pair: ``"motorcycle"``).
+    label: str | None = None
 
 
 def p1_case_from_scene(name: str, seed: int = 0) -> P1Case:
@@ -105,7 +107,7 @@ def real_pair_case(name: str = "motorcycle") -> P1Case:
     )
     ranging = replace(SCENE_RANGING["lab"], range_max=data.range_max * metre)
     motion = MotionIncrement.stereo(data.motion.camera_displacement[1] * metre)
-    return P1Case(image1, image2, data.camera, motion, ranging, "stereo")
+    return P1Case(image1, image2, data.camera, motion, ranging, "stereo", label=name)
 
 
 def golden_for(case: P1Case, config: WordLengthConfig) -> RangeResult:

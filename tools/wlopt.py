@@ -22,6 +22,12 @@ word never raises any scene's cost, so every scene's cost falls or stays.
 
 The budget (:class:`Budget`): median relative range difference vs the float golden on
 pixels valid in both ``<= median`` and validity agreement ``>= agreement``.
+
+Guard band (``margin`` M, ``0 <= M < 1``): during tuning a candidate must meet the
+tightened budget :meth:`Budget.tightened` — median ``<= median·(1 − M)`` and
+disagreement ``1 − agreement' <= (1 − agreement)·(1 − M)`` — so the result keeps a
+reserve for scenes it was not tuned on; the result is still reported against the
+user's budget. ``M = 0`` is the plain budget (the same object: same decisions).
 """
 
 from __future__ import annotations
@@ -48,6 +54,7 @@ from .pipeline import P1Case, compare_ranges, golden_for
 __all__ = [
     "Budget",
     "OptimiseResult",
+    "check_margin",
     "cost_weights",
     "evaluate",
     "evaluate_scenes",
@@ -69,12 +76,29 @@ class Budget:
         if not (isinstance(self.agreement, int | float) and 0 <= self.agreement <= 1):
             raise ValueError(f"agreement must be in [0, 1], not {self.agreement!r}")
 
+    def tightened(self, margin: float) -> Budget:
+        """The budget a tuning candidate must meet with guard band ``margin``: median
+        ``<= median·(1 − margin)``, disagreement ``<= (1 − agreement)·(1 − margin)``.
+        ``margin == 0`` returns this budget itself."""
+        check_margin(margin)
+        if margin == 0:
+            return self
+        return Budget(self.median * (1 - margin), 1 - (1 - self.agreement) * (1 - margin))
+
     def met(self, figures: dict[str, Any]) -> bool:
         med = figures.get("median_rel_range_diff")
         agr = figures.get("valid_agreement")
         if med is None or agr is None or not math.isfinite(med):
             return False
         return med <= self.median and agr >= self.agreement
+
+
+def check_margin(margin: float) -> float:
+    """``margin`` if it is a number in ``[0, 1)``; a one-line :class:`UserError` otherwise."""
+    ok = isinstance(margin, int | float) and not isinstance(margin, bool)
+    if not (ok and 0 <= margin < 1):
+        raise UserError(f"--margin must be a number in [0, 1), not {margin!r}")
+    return margin
 
 
 @dataclass(frozen=True)
@@ -86,6 +110,8 @@ class OptimiseResult:
     scene's own figures, in the order of the scenes given to :func:`optimise`.
     ``evaluations`` counts candidate configs, ``scene_runs`` the P1 runs on each scene
     (a candidate stops at its first failing scene, so later scenes run less often).
+    ``tuning_budget`` is the budget candidates had to meet (``Budget.tightened`` by the
+    margin; the user's budget when the margin is 0).
     """
 
     config: WordLengthConfig
@@ -98,6 +124,7 @@ class OptimiseResult:
     scene_figures: list[dict[str, Any]] = field(default_factory=list)
     start_scene_figures: list[dict[str, Any]] = field(default_factory=list)
     scene_runs: list[int] = field(default_factory=list)
+    tuning_budget: Budget | None = None
 
 
 def worst_case(scene_figures: Sequence[dict[str, Any]]) -> dict[str, Any]:
@@ -167,7 +194,9 @@ def _with(config: WordLengthConfig, name: str, word: int, frac: int) -> WordLeng
 
 
 def _label(case: P1Case, index: int) -> str:
-    return case.scene.name if case.scene is not None else f"scene {index + 1}"
+    if case.scene is not None:
+        return case.scene.name
+    return case.label or f"scene {index + 1}"
 
 
 def evaluate_scenes(
@@ -194,6 +223,7 @@ def optimise(
     start: WordLengthConfig,
     budget: Budget,
     *,
+    margin: float = 0.0,
     signals: Sequence[str] | None = None,
     workers: int = 2,
     max_frac_drop: int = 40,
@@ -203,11 +233,14 @@ def optimise(
     """Cheapest config reachable from ``start`` meeting ``budget`` on every case.
 
     ``cases``: one tuning case or several (worst case, module docstring); the cost
-    minimised is ``cost_bits`` on the first case's shape and mode. ``on_eval`` sees each
-    candidate with the figures of the scenes it was run on (it stops at the first miss).
+    minimised is ``cost_bits`` on the first case's shape and mode. ``margin``: guard band,
+    candidates must meet ``budget.tightened(margin)`` (module docstring). ``on_eval`` sees
+    each candidate with the figures of the scenes it was run on (it stops at the first
+    miss).
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise UserError(f"--workers must be a positive integer, not {workers!r}")
+    tuning = budget.tightened(margin)
     cases = [cases] if isinstance(cases, P1Case) else list(cases)
     if not cases:
         raise ValueError("optimise needs at least one tuning case")
@@ -221,11 +254,11 @@ def optimise(
         nonlocal n_evals
         n_evals += len(cfgs)
         if len(cfgs) == 1 or workers == 1:
-            figs = [evaluate_scenes(cases, c, goldens, budget, threads=2) for c in cfgs]
+            figs = [evaluate_scenes(cases, c, goldens, tuning, threads=2) for c in cfgs]
         else:
             with ThreadPoolExecutor(min(workers, len(cfgs))) as pool:
                 figs = list(
-                    pool.map(lambda c: evaluate_scenes(cases, c, goldens, budget, threads), cfgs)
+                    pool.map(lambda c: evaluate_scenes(cases, c, goldens, tuning, threads), cfgs)
                 )
         for f in figs:
             for k in range(len(f)):
@@ -237,14 +270,15 @@ def optimise(
 
     def met(scene_figs: list[dict | None]) -> bool:
         return len(scene_figs) == len(cases) and all(
-            f is not None and budget.met(f) for f in scene_figs
+            f is not None and tuning.met(f) for f in scene_figs
         )
 
     start_figs = run([start])[0]
     if not met(start_figs):
         k = len(start_figs) - 1
+        band = "" if tuning is budget else f" tightened by the margin {margin}"
         raise UserError(
-            f"the starting config {start.name!r} misses the budget on "
+            f"the starting config {start.name!r} misses the budget{band} on "
             f"{_label(cases[k], k)!r} (figures {start_figs[k]}); start from a wider config"
         )
     # Weights on every tuning scene; the first scene's cost is the one minimised.
@@ -316,5 +350,5 @@ def optimise(
     final = current.with_(name=f"{start.name}-optimised")
     return OptimiseResult(
         final, start, worst_case(cur_figs), worst_case(start_figs), n_evals,
-        time.perf_counter() - t0, steps, list(cur_figs), list(start_figs), scene_runs,
+        time.perf_counter() - t0, steps, list(cur_figs), list(start_figs), scene_runs, tuning,
     )  # fmt: skip
