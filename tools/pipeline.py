@@ -296,7 +296,7 @@ def bench_figures(repeats: int = 5, size: int = 512) -> dict:
                                     case.ranging, taps=False, threads=1),
             repeats,
         )  # fmt: skip
-        # the second core's share: integer-throughput code scales ~1.3x on this VM's 2 vCPUs
+        # one thread, for the second core's share
         out[f"p1_stereo_{variant}_1thread_mpix_s"] = pixels / t / 1e6
         t = _median_time(lambda c=config: run_case(case, c, taps=True), repeats)
         out[f"p1_stereo_{variant}_taps_mpix_s"] = pixels / t / 1e6
