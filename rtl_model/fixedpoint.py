@@ -147,7 +147,7 @@ def _round_offsets(shift, quant):
     away from zero); RND_CONV ``h - 1``, plus one when ``q`` is odd (ties to even).
     """
     # conditional expressions, not if-blocks: they become selects that the compiler can
-    # hoist out of a loop over elements (the if-block form measured ~2x slower per cast)
+    # hoist out of a loop over elements (the if-block form measured ~1.5x slower per cast)
     half = (np.int64(1) << shift) >> 1
     sub = np.int64(1) if shift > 0 else np.int64(0)
     rounding = quant >= _Q_RND
@@ -204,7 +204,7 @@ def quantise_shift(raw, shift, quant):
         # the common case: q = floor, then one carry from the remainder plus a per-mode
         # offset. No data-dependent branch and no per-mode return, so that in a loop the
         # mode-dependent offsets are computed once and the loop body is the same few
-        # instructions for every mode (the branchy form cost ~4x as much per cast).
+        # instructions for every mode (the branchy form cost ~3.5x as much per cast).
         return _quantise_short(raw, shift, quant)
     q, cmp, inexact = _floor_shift(raw, shift)
     if quant == _Q_TRN:
