@@ -36,7 +36,7 @@ from .fixedpoint import (
     quantise_shift,
     shift_left_raw,
 )
-from .stream import make_stream
+from .stream import input_cycles
 
 __all__ = [
     "FRONTEND_TAPS",
@@ -762,10 +762,8 @@ def run_p1(
         for k, name in enumerate(RANGE_TAPS):
             tap_dict[name] = rtaps[k]
 
-    # timing: the beats of the input stream(s) give each pixel's input cycle
-    frames = np.stack([im1, im2]) if mode == "motion" else im2
-    stream = make_stream(frames, timing)
-    in_cycles = stream.pixel_cycles()[-1]
+    # timing: each pixel's input cycle in the stream(s), from the same offsets as the beats
+    in_cycles = input_cycles((m, n), timing, 2 if mode == "motion" else 1)[-1]
     latency = int(sum(lat.values()))
     out_cycles = in_cycles + latency
     lb_bits = n * config.formats["col_state"].word

@@ -13,7 +13,7 @@ import numpy as np
 
 from .config import TimingConfig
 
-__all__ = ["Stream", "make_stream", "pixel_cycles"]
+__all__ = ["Stream", "input_cycles", "make_stream", "pixel_cycles"]
 
 
 @dataclass(frozen=True)
@@ -69,14 +69,7 @@ def make_stream(frames: np.ndarray, timing: TimingConfig | None = None) -> Strea
             f"not {arr.shape} {arr.dtype}"
         )
     k, m, n = arr.shape
-    rng = np.random.default_rng(timing.seed)
-    gaps = _gaps(k * m * n, timing, rng).reshape(k, m, n)
-    # cycle of each pixel = pixels and idle cycles before it
-    step = gaps + 1
-    line_extra = np.zeros((k, m, n), dtype=np.int64)
-    line_extra[:, 1:, 0] = timing.hblank  # after every line but the last of a frame...
-    line_extra[1:, 0, 0] = timing.hblank + timing.vblank  # ...and between frames
-    offsets = np.cumsum((step + line_extra).ravel()) - 1
+    offsets = input_cycles((m, n), timing, k).ravel()
     total = int(offsets[-1]) + 1 + timing.hblank + timing.vblank
     valid = np.zeros(total, dtype=bool)
     valid[offsets] = True
@@ -87,6 +80,21 @@ def make_stream(frames: np.ndarray, timing: TimingConfig | None = None) -> Strea
     eol = np.zeros(total, dtype=bool)
     eol[offsets.reshape(k, m, n)[:, :, -1].ravel()] = True
     return Stream(valid, data, sof, eol, (m, n), k)
+
+
+def input_cycles(shape: tuple[int, int], timing: TimingConfig, frames: int = 1) -> np.ndarray:
+    """Clock cycle at which every pixel's beat arrives, shape (frames, m, n): the stream's
+    valid beats (:func:`make_stream`) without building the beats themselves.
+
+    A pixel's cycle counts the pixels, their input gaps and the blanking before it.
+    """
+    m, n = shape
+    rng = np.random.default_rng(timing.seed)
+    gaps = _gaps(frames * m * n, timing, rng).reshape(frames, m, n)
+    step = gaps + 1
+    step[:, 1:, 0] += timing.hblank  # after every line but the last of a frame...
+    step[1:, 0, 0] += timing.hblank + timing.vblank  # ...and between frames
+    return (np.cumsum(step.ravel()) - 1).reshape(frames, m, n)
 
 
 def pixel_cycles(shape: tuple[int, int], timing: TimingConfig, frames: int = 1) -> np.ndarray:
