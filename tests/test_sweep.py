@@ -20,7 +20,13 @@ from rangefx.tools.cost import (
     register_bits,
 )
 from rangefx.tools.errors import UserError
-from rangefx.tools.pipeline import compare_ranges, golden_for, real_pair_case, run_case
+from rangefx.tools.pipeline import (
+    compare_ranges,
+    golden_for,
+    held_out_case,
+    real_pair_case,
+    run_case,
+)
 from rangefx.tools.sweep import (
     RESULTS_NAME,
     expand,
@@ -425,6 +431,35 @@ def test_motorcycle_is_a_p1_stereo_case():
         real_pair_case("kitti")
 
 
+def test_plane_is_a_held_out_p1_stereo_case():
+    case = held_out_case("plane", (32, 40))
+    assert case.mode == "stereo" and case.image1.shape == (32, 40) and case.scene.name == "plane"
+    assert case.image1.dtype.kind in "iu" and case.image1.dtype.itemsize == 1  # grey levels
+    assert case.ranging.range_max == 10.0 and float(case.scene.depth1.max()) == 5.0
+    # 30 deg field of view kept at any size (f = 955 px, disparity 0.96 px at 512 wide)
+    assert case.camera.f_px == pytest.approx(20 / math.tan(math.radians(15)))
+    cfg = WordLengthConfig.default()
+    figs = compare_ranges(run_case(case, cfg), golden_for(case, cfg))
+    assert figs["median_rel_range_diff"] < 1e-2 and figs["n_valid_both"] > 0
+    with pytest.raises(UserError, match="unknown held-out scene 'hill'"):
+        held_out_case("hill")
+
+
+def test_cli_optimise_verify_on_the_held_out_plane(capsys):
+    rc = cli.main(
+        ["optimise", "--scene", "lab", "--size", "32", "40", "--signals", "k_m_reg",
+         "--verify", "plane", "--json"]
+    )  # fmt: skip
+    assert rc == 0
+    v = json.loads(capsys.readouterr().out)["verify"]
+    assert v["scene"] == "plane" and v["mode"] == "stereo" and v["size"] == [32, 40]
+    assert 0 <= v["median_rel_range_diff"] < 0.01 and 0.99 <= v["valid_agreement"] <= 1
+    assert v["meets_budget"] is True
+    for key in ("p95_rel_range_diff", "cost_bits", "default_cost_bits",
+                "default_median_rel_range_diff", "default_valid_agreement"):  # fmt: skip
+        assert key in v
+
+
 def test_cli_optimise_several_scenes_json(capsys):
     rc = cli.main(
         ["optimise", "--scene", "lab", "runway", "--size", "32", "40", "--signals", "k_m_reg",
@@ -573,6 +608,8 @@ def test_cli_optimise_bad_margin(capsys, margin):
         (["--scene", "lab", "runway", "--verify", "runway"], "--verify runway: it is a tuning"),
         (["--scene", "lab", "--verify", "lab"], "--verify lab: it is a tuning scene"),
         (["--scene", "lab", "lab"], "named twice"),
+        (["--scene", "plane"], "--scene plane: it is held out of tuning, for --verify only"),
+        (["--scene", "lab", "plane", "--verify", "plane"], "--scene plane: it is held out"),
     ],
 )
 def test_cli_optimise_verify_must_not_be_a_tuning_scene(capsys, argv, match):

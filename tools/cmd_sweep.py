@@ -19,7 +19,9 @@ the accuracy and cost on each tuning scene (JSON ``scenes``; the top-level
 case over them, reported against the user's budget) and on the verification scene
 (``verify``), which must not be a tuning scene. A tuning or verification scene is a
 synthetic preset (rendered at ``--size``) or ``motorcycle``, the real Middlebury pair
-(:func:`rangefx.tools.pipeline.real_pair_case`, its own 26x39 size).
+(:func:`rangefx.tools.pipeline.real_pair_case`, its own 26x39 size); ``--verify`` also
+takes ``plane``, a synthetic scene held out of tuning (``--scene plane`` is a one-line
+error; :func:`rangefx.tools.pipeline.held_out_case`, rendered at ``--size``).
 """
 
 from __future__ import annotations
@@ -37,11 +39,19 @@ from rangefx.rtl_model.config import P1_SIGNALS, WordLengthConfig
 from .cost import config_cost
 from .errors import UserError
 from .outdir import atomic_write_text
-from .pipeline import REAL_PAIRS, golden_for, load_config, real_pair_case
+from .pipeline import (
+    HELD_OUT_SCENES,
+    REAL_PAIRS,
+    golden_for,
+    held_out_case,
+    load_config,
+    real_pair_case,
+)
 from .report import json_safe
 
 __all__ = [
     "DEFAULT_MARGIN",
+    "TUNING_SCENES",
     "VERIFY_SCENES",
     "add_parser",
     "cmd_optimise",
@@ -54,8 +64,10 @@ __all__ = [
 #: (docs/wordlength.md, "Guard band"). :func:`rangefx.tools.wlopt.optimise` defaults to 0.
 DEFAULT_MARGIN = 0.5
 
-#: Scenes ``--scene`` and ``--verify`` accept: the synthetic presets and the real pairs.
-VERIFY_SCENES: tuple[str, ...] = (*SCENE_NAMES, *REAL_PAIRS)
+#: Scenes ``--scene`` accepts: the synthetic presets and the real pairs.
+TUNING_SCENES: tuple[str, ...] = (*SCENE_NAMES, *REAL_PAIRS)
+#: Scenes ``--verify`` accepts: the tuning scenes and the held-out synthetic ones.
+VERIFY_SCENES: tuple[str, ...] = (*TUNING_SCENES, *HELD_OUT_SCENES)
 
 
 def example_path() -> Path:
@@ -101,11 +113,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _case(name: str, size: list[int] | None):
-    """A synthetic scene preset (rendered at ``size``) or a real pair (its own size)."""
+    """A synthetic scene preset or held-out scene (rendered at ``size``) or a real pair
+    (its own size)."""
     from .sweep import scene_case
 
     if name in REAL_PAIRS:
         return real_pair_case(name)
+    if name in HELD_OUT_SCENES:
+        return held_out_case(name, tuple(size) if size else None)
     return scene_case(name, size)
 
 
@@ -126,6 +141,12 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         if bad:
             raise UserError(f"--signals: unknown signals {bad}")
     scenes: list[str] = list(args.scene)
+    held = [s for s in scenes if s in HELD_OUT_SCENES]
+    if held:
+        raise UserError(
+            f"--scene {held[0]}: it is held out of tuning, for --verify only; tune on "
+            f"{', '.join(TUNING_SCENES)}"
+        )
     if len(set(scenes)) != len(scenes):
         raise UserError(f"--scene: a scene is named twice in {scenes}")
     if args.verify in scenes:
@@ -277,7 +298,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scene", choices=VERIFY_SCENES, nargs="+", default=["lab"],
                    help="tuning scene(s): a config must meet the budget on every one; the "
                    "cost minimised is the first's (default lab; motorcycle: the real "
-                   "Middlebury pair, stereo)")  # fmt: skip
+                   "Middlebury pair, stereo; plane is held out: --verify only)")  # fmt: skip
     p.add_argument("--budget", type=float, default=0.01,
                    help="max median relative range error vs golden, on every tuning scene "
                    "(default 0.01)")  # fmt: skip
@@ -291,7 +312,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "guard band)")  # fmt: skip
     p.add_argument("--verify", choices=VERIFY_SCENES,
                    help="scene to verify the result on (not a tuning scene; motorcycle: the "
-                   "real Middlebury pair, stereo)")  # fmt: skip
+                   "real Middlebury pair, stereo; plane: a synthetic textured plane no "
+                   "tuning run may use)")  # fmt: skip
     p.add_argument("--config", help="starting (safe) config TOML (default: the shipped one)")
     p.add_argument("--variant", choices=("paper", "consistent"))
     p.add_argument("--size", type=_positive_int, nargs=2, metavar=("H", "W"),

@@ -26,7 +26,7 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.methods import SCENE_RANGING, run_method
 from rangefx.golden.ranging import RangeResult, RangingConfig
 from rangefx.golden.realdata import load_motorcycle
-from rangefx.golden.scenes import Scene, render_scene
+from rangefx.golden.scenes import Scene, render_plane, render_scene
 from rangefx.rtl_model.config import P1_SIGNALS, TimingConfig, WordLengthConfig, propose_config
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
 from rangefx.rtl_model.p1 import P1Result, run_p1
@@ -36,10 +36,12 @@ from .errors import UserError
 from .outdir import atomic_output_dir, atomic_write_text
 
 __all__ = [
+    "HELD_OUT_SCENES",
     "REAL_PAIRS",
     "P1Case",
     "compare_ranges",
     "golden_for",
+    "held_out_case",
     "p1_case_from_scene",
     "real_pair_case",
     "run_case",
@@ -108,6 +110,42 @@ def real_pair_case(name: str = "motorcycle") -> P1Case:
     ranging = replace(SCENE_RANGING["lab"], range_max=data.range_max * metre)
     motion = MotionIncrement.stereo(data.motion.camera_displacement[1] * metre)
     return P1Case(image1, image2, data.camera, motion, ranging, "stereo", label=name)
+
+
+#: Synthetic scenes held out of tuning: ``rangefx optimise --verify`` only
+#: (:func:`held_out_case`).
+HELD_OUT_SCENES: tuple[str, ...] = ("plane",)
+
+
+@functools.cache
+def held_out_case(name: str = "plane", size: tuple[int, int] | None = None) -> P1Case:
+    """P1 stereo case of a held-out synthetic scene, default 512x512 (``size``: any other
+    ``(height, width)``, keeping the field of view as :func:`render_scene` does).
+
+    ``plane``: :func:`rangefx.golden.scenes.render_plane` chosen unlike every tuning scene:
+    a fronto-parallel plane at 5 m (lab: 19-60 in, runway: 230-610 ft, motorcycle: the
+    real pair in metres at 26x39), 30 deg horizontal field of view (f = 955 px at 512
+    wide; lab 45 deg, runway 35 deg), 5 mm baseline (disparity 0.96 px; lab about 2 px),
+    scikit-image's ``coins`` texture (unused by lab, a small vehicle on runway) and noise
+    seed 7 (the presets use 0). Thresholds T_E = T_g = 2 as lab, ``range_max`` twice
+    the depth (as the real pair).
+    """
+    if name not in HELD_OUT_SCENES:
+        raise UserError(
+            f"unknown held-out scene {name!r}; choose from {', '.join(HELD_OUT_SCENES)}"
+        )
+    height, width = size if size else (512, 512)
+    depth = 5.0
+    try:
+        f_px = PinholeCamera.from_fov(width, height, 30.0).f_px
+        scene = render_plane(
+            depth=depth, size=(height, width), f_px=f_px, baseline=0.005, seed=7,
+            texture="coins", unit="m",
+        )  # fmt: skip
+    except ValueError as exc:
+        raise UserError(f"{name}: {exc}") from None
+    ranging = replace(SCENE_RANGING["lab"], range_max=2 * depth)
+    return P1Case(scene.image1, scene.image2, scene.camera, scene.motion, ranging, "stereo", scene)
 
 
 def golden_for(case: P1Case, config: WordLengthConfig) -> RangeResult:
