@@ -21,6 +21,7 @@ from types import MappingProxyType
 from .fixedpoint import FixedFormat, Overflow, Quant
 
 __all__ = [
+    "HOST_REGISTERS",
     "P1_SIGNALS",
     "SIGNAL_DOC",
     "TimingConfig",
@@ -63,6 +64,15 @@ _SIGNAL_TABLE: tuple[tuple[str, str], ...] = (
     ("grad_sq", "gv^2 and T_g^2 (vx^2 + vy^2), compared for the gradient threshold"),
 )
 P1_SIGNALS: tuple[str, ...] = tuple(name for name, _ in _SIGNAL_TABLE)
+#: Per-frame registers written by the host (``pix_in`` is the pixel input, not one of
+#: them). Their values are host constants (bias, filter pole, focal length, baseline and
+#: motion terms, gradient threshold), so the formats they need follow the envelope of
+#: the cameras and geometries the pipeline must serve, not image content: a word-length
+#: optimiser tuned on a few scenes must not narrow them by default (``rangefx optimise
+#: --tune-registers``).
+HOST_REGISTERS: tuple[str, ...] = (
+    "bias_reg", "pole_coef", "f_reg", "k_t_reg", "k_m_reg", "tg2_reg",
+)  # fmt: skip
 SIGNAL_DOC: Mapping[str, str] = MappingProxyType(dict(_SIGNAL_TABLE))
 
 VARIANTS = ("paper", "consistent")

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from rangefx.rtl_model.config import WordLengthConfig
+from rangefx.rtl_model.config import HOST_REGISTERS, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat
 from rangefx.tools import cli
 from rangefx.tools.cost import (
@@ -322,6 +322,32 @@ def test_optimiser_meets_budget_and_saves_bits():
     assert res.steps and res.evaluations > len(res.steps)
 
 
+def _tried(case, start, budget, **kw) -> tuple[set[str], WordLengthConfig]:
+    """Signals whose format some candidate changed, and the result's config."""
+    seen: set[str] = set()
+
+    def on_eval(cfg, _figs):
+        seen.update(n for n, f in cfg.formats.items() if f != start.formats[n])
+
+    res = optimise(case, start, budget, progress=False, on_eval=on_eval, **kw)
+    return seen, res.config
+
+
+def test_optimiser_leaves_host_registers_alone_by_default():
+    """Host-written registers keep the start formats unless --tune-registers (or named)."""
+    case = scene_case("lab", [32, 40])
+    start = WordLengthConfig.default()
+    budget = Budget(0.01, 0.99)
+    tried, cfg = _tried(case, start, budget)
+    assert tried and not tried & set(HOST_REGISTERS)
+    assert all(cfg.formats[r] == start.formats[r] for r in HOST_REGISTERS)
+    tried, cfg = _tried(case, start, budget, tune_registers=True)
+    assert set(HOST_REGISTERS) <= tried  # every register is a candidate; some may narrow
+    assert any(cfg.formats[r] != start.formats[r] for r in HOST_REGISTERS)
+    tried, _ = _tried(case, start, budget, signals=["k_t_reg"])  # named: tuned
+    assert tried == {"k_t_reg"}
+
+
 def test_optimiser_rejects_unsafe_start():
     case = scene_case("lab", [32, 40])
     cfg = WordLengthConfig.default()
@@ -458,6 +484,14 @@ def test_cli_optimise_verify_on_the_held_out_plane(capsys):
     for key in ("p95_rel_range_diff", "cost_bits", "default_cost_bits",
                 "default_median_rel_range_diff", "default_valid_agreement"):  # fmt: skip
         assert key in v
+
+
+def test_cli_optimise_tune_registers_flag_in_json(capsys):
+    argv = ["optimise", "--scene", "lab", "--size", "32", "40", "--signals", "k_m_reg", "--json"]
+    assert cli.main(argv) == 0
+    assert json.loads(capsys.readouterr().out)["tune_registers"] is False
+    assert cli.main([*argv, "--tune-registers"]) == 0
+    assert json.loads(capsys.readouterr().out)["tune_registers"] is True
 
 
 def test_cli_optimise_several_scenes_json(capsys):

@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from rangefx.golden.scenes import SCENE_NAMES
-from rangefx.rtl_model.config import P1_SIGNALS, WordLengthConfig
+from rangefx.rtl_model.config import HOST_REGISTERS, P1_SIGNALS, WordLengthConfig
 
 from .cost import config_cost
 from .errors import UserError
@@ -158,8 +158,8 @@ def cmd_optimise(args: argparse.Namespace) -> int:
     default = WordLengthConfig.default(start.variant)
     cases = [_case(name, args.size) for name in scenes]
     res = optimise(
-        cases, start, budget, margin=args.margin, signals=args.signals, workers=args.workers,
-        progress=not args.json,
+        cases, start, budget, margin=args.margin, signals=args.signals,
+        tune_registers=args.tune_registers, workers=args.workers, progress=not args.json,
     )  # fmt: skip
     case = cases[0]
     shape, mode = case.image1.shape, case.mode
@@ -191,6 +191,7 @@ def cmd_optimise(args: argparse.Namespace) -> int:
             "median_rel_range_diff": tuning.median,
             "valid_agreement": tuning.agreement,
         },
+        "tune_registers": args.tune_registers,
         "config_toml": res.config.to_toml(),
         "cost_scene": scenes[0],
         "cost_bits": cost.cost_bits,
@@ -318,7 +319,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--variant", choices=("paper", "consistent"))
     p.add_argument("--size", type=_positive_int, nargs=2, metavar=("H", "W"),
                    help="render synthetic scenes at this size (not motorcycle)")  # fmt: skip
-    p.add_argument("--signals", nargs="+", help="only these signals (default: all but pix_in)")
+    p.add_argument("--signals", nargs="+",
+                   help="only these signals, host registers included if named (default: all "
+                   "but pix_in and the host-written registers, see --tune-registers)")  # fmt: skip
+    p.add_argument("--tune-registers", action="store_true",
+                   help=f"also narrow the host-written registers ({', '.join(HOST_REGISTERS)}); "
+                   "off by default: their formats must cover every camera and geometry the "
+                   "host may load (focal length, baseline, thresholds), which tuning scenes "
+                   "do not sample, so they keep the starting config's formats")  # fmt: skip
     p.add_argument("--workers", type=_positive_int, default=2, help="concurrent runs (default 2)")
     p.add_argument("--out", help="write optimised.toml, build-up plots and summary.json here")
     p.add_argument("--json", action="store_true",

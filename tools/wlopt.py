@@ -11,6 +11,13 @@ steer the search, never to accept: every accepted config was run and met the bud
 Hence the result meets the budget on the tuning scenes by construction; it is then run
 on a verification scene it was not tuned on.
 
+Host-written registers (:data:`~rangefx.rtl_model.config.HOST_REGISTERS`: bias, filter
+pole, focal length, translation and rotation terms, T_g^2) keep the start config's
+formats unless ``tune_registers`` (or they are named in ``signals``): their values are
+host constants whose range is set by the cameras and geometries to serve, not by image
+content, so narrowing them to fit a few tuning scenes fails on others (a 5 mm baseline
+in ``k_t_reg`` s13.9 is 3 LSB).
+
 Several tuning scenes (one pipeline that must serve all of them, e.g. the stereo ``lab``
 and the motion ``runway`` with rotation): a candidate is accepted only if it meets the
 budget on *every* scene (worst case). Scenes are run in the given order and a candidate
@@ -43,7 +50,7 @@ from typing import Any
 from tqdm import tqdm
 
 from rangefx.golden.ranging import RangeResult
-from rangefx.rtl_model.config import P1_SIGNALS, WordLengthConfig
+from rangefx.rtl_model.config import HOST_REGISTERS, P1_SIGNALS, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat
 from rangefx.rtl_model.p1 import run_p1
 
@@ -225,6 +232,7 @@ def optimise(
     *,
     margin: float = 0.0,
     signals: Sequence[str] | None = None,
+    tune_registers: bool = False,
     workers: int = 2,
     max_frac_drop: int = 40,
     progress: bool = True,
@@ -234,9 +242,11 @@ def optimise(
 
     ``cases``: one tuning case or several (worst case, module docstring); the cost
     minimised is ``cost_bits`` on the first case's shape and mode. ``margin``: guard band,
-    candidates must meet ``budget.tightened(margin)`` (module docstring). ``on_eval`` sees
-    each candidate with the figures of the scenes it was run on (it stops at the first
-    miss).
+    candidates must meet ``budget.tightened(margin)`` (module docstring). ``signals``: only
+    these (default: all but ``pix_in`` and, unless ``tune_registers``, the host-written
+    :data:`~rangefx.rtl_model.config.HOST_REGISTERS`; a register named in ``signals`` is
+    tuned). ``on_eval`` sees each candidate with the figures of the scenes it was run on (it
+    stops at the first miss).
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise UserError(f"--workers must be a positive integer, not {workers!r}")
@@ -285,10 +295,12 @@ def optimise(
     all_weights = [cost_weights(start, case.image1.shape, case.mode) for case in cases]
     weights = all_weights[0]
     others = {s: sum(w.get(s, 0) for w in all_weights[1:]) for s in P1_SIGNALS}
-    names = [
-        s for s in (signals or P1_SIGNALS)
-        if s != "pix_in" and (weights.get(s, 0) > 0 or others[s] > 0)
-    ]  # fmt: skip
+    if signals:
+        pool = list(signals)
+    else:
+        skip = ("pix_in",) if tune_registers else ("pix_in", *HOST_REGISTERS)
+        pool = [s for s in P1_SIGNALS if s not in skip]
+    names = [s for s in pool if s != "pix_in" and (weights.get(s, 0) > 0 or others[s] > 0)]
     names.sort(key=lambda s: (-weights[s], -others[s], P1_SIGNALS.index(s)))
     current, cur_figs = start, start_figs
     steps: list[dict[str, Any]] = []
