@@ -24,12 +24,12 @@ from oracle_p1 import oracle_p1
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.scenes import render_plane
-from rangefx.rtl_model.config import P1_SIGNALS, TimingConfig, WordLengthConfig
+from rangefx.rtl_model.config import HOST_REGISTERS, P1_SIGNALS, TimingConfig, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p1 import run_p1
 
 DIVIDER_OUTPUTS = ("div_quot", "range")
-REGISTERS = ("pix_in", "bias_reg", "pole_coef", "f_reg", "k_t_reg", "k_m_reg", "tg2_reg")
+REGISTERS = ("pix_in", *HOST_REGISTERS)  # the input and the host-written registers keep their width
 TIMINGS = (
     TimingConfig(),
     TimingConfig(hblank=5, vblank=7),
