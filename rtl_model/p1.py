@@ -275,18 +275,19 @@ def _cast_row(raw, frac_in, s, site, fm, st, ov):
 
 
 @njit(cache=True, nogil=True)
-def _row_filter(b, p0, pole, f_b, fm, st, ov, r2_pre, p_prev, p_next):
-    """The row filter's recursion along one line; returns ``prod`` for ``r2``.
+def _row_filter(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next):
+    """The row filter's recursion along one line (state ``p0`` at column 0).
 
-    Only ``p_next`` is serial; ``r2`` and ``r1`` are cast afterwards from the returned
-    products and states. The cast of ``p_next`` is logged here (site 4).
+    Only the state is serial: this loop casts ``p_next`` (logged at ``site``) and leaves
+    the products ``C (b - p)`` in ``prod_out`` and the states before and after each
+    column in ``p_prev``, ``p_next``, from which ``r2`` and ``r1`` are cast as rows.
     """
     f_p, f_c = fm[ROW_STATE, 1], fm[POLE_COEF, 1]
     word, frac, sgn = fm[ROW_STATE, 0], fm[ROW_STATE, 1], fm[ROW_STATE, 2] != 0
     quant, ovf = fm[ROW_STATE, 3], fm[ROW_STATE, 4]
     fe = max(f_b, f_p)
     fs = max(f_p, f_c + fe)
-    lo, hi, count = st[4, 0], st[4, 1], np.int64(0)
+    lo, hi, count = st[site, 0], st[site, 1], np.int64(0)
     p = p0
     for i in range(b.shape[0]):
         prod = pole * (_at(b[i], f_b, fe) - _at(p, f_p, fe))
@@ -294,11 +295,11 @@ def _row_filter(b, p0, pole, f_b, fm, st, ov, r2_pre, p_prev, p_next):
         lo = min(lo, pre)
         hi = max(hi, pre)
         p_prev[i] = p
-        r2_pre[i] = prod
+        prod_out[i] = prod
         p, flag = cast_raw(pre, fs, word, frac, sgn, quant, ovf)
         count += flag
         p_next[i] = p
-    st[4, 0], st[4, 1], st[4, 2], st[4, 3] = lo, hi, fs, ROW_STATE
+    st[site, 0], st[site, 1], st[site, 2], st[site, 3] = lo, hi, fs, ROW_STATE
     ov[ROW_STATE] += count
 
 
@@ -337,7 +338,7 @@ def _frontend_kernel(
         b = _cast_row(_at(x, f_pix, fx) + _at(bias, f_breg, fx), fx, BIAS_IN, 1, fm, st, ov)
         # row filter (one state register per line)
         p0 = _cast(b[0], f_b, ROW_STATE, 2, fm, st, ov) if init_first else np.int64(0)
-        _row_filter(b, p0, pole, f_b, fm, st, ov, prod_row, p_prev, p_next)
+        _row_filter(b, p0, pole, f_b, 4, fm, st, ov, prod_row, p_prev, p_next)
         r2 = _cast_row(prod_row, f_c + fe_row, ROW_R2, 3, fm, st, ov)
         if consistent:
             r1 = _cast_row(p_prev + p_next, f_p + 1, ROW_R1, 5, fm, st, ov)
