@@ -30,6 +30,7 @@ __all__ = [
     "cast_array",
     "cast_raw",
     "cast_row",
+    "cast_shifted",
     "overflow_raw",
     "quantise_shift",
     "rounding_doc_text",
@@ -164,11 +165,17 @@ def _round_offsets(shift, quant):
 
 @njit(cache=True, nogil=True, inline="always")
 def _quantise_short(raw, shift, quant):
-    """:func:`quantise_shift` for ``0 <= shift <= 62``: the floor plus one carry."""
-    q = raw >> shift
-    rem = raw - (q << shift)
+    """:func:`quantise_shift` for ``0 <= shift <= 62``: the floor plus one carry.
+
+    The carry ``floor(t / 2**shift)`` of ``t = rem + offsets < 2**(shift + 1)`` is 0 or 1,
+    so it is a comparison (vectorisable), not a second 64-bit arithmetic shift (AVX2 has
+    none and emulates it).
+    """
     a, b, c = _round_offsets(shift, quant)
-    return q + ((rem + a + b * np.int64(raw < 0) + c * (q & 1)) >> shift)
+    one_s = np.int64(1) << shift
+    q = raw >> shift
+    t = (raw & (one_s - 1)) + a + (b & -np.int64(raw < 0)) + (c & -(q & 1))
+    return q + np.int64(t >= one_s)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -310,6 +317,17 @@ def _cast_shifted(raw, shift, word, signed, quant, overflow):
     return shift_left_raw(raw, -shift, word, signed, overflow)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def cast_shifted(raw, shift, word, signed, quant, overflow, short):
+    """:func:`cast_raw` with ``shift = frac_in - frac_out`` given, for a loop whose caller
+    decided the shift's case once: ``short`` (a compile-time constant at each call site)
+    promises ``0 <= shift <= 62`` and compiles only that case's few branch-free
+    instructions; otherwise every case is handled. Returns (int64, overflowed)."""
+    if short:
+        return overflow_raw(_quantise_short(raw, shift, quant), word, signed, overflow)
+    return _cast_shifted(raw, shift, word, signed, quant, overflow)
+
+
 @njit(cache=True, nogil=True)
 def cast_row(raw, frac_in, word, frac, signed, quant, overflow, out):
     """:func:`cast_raw` of every element of the 1-D ``raw`` into ``out``, with its log.
@@ -331,18 +349,38 @@ def cast_row(raw, frac_in, word, frac, signed, quant, overflow, out):
 @njit(cache=True, nogil=True, inline="always")
 def _cast_row_loop(raw, shift, word, signed, quant, overflow, out, short):
     """The loop of :func:`cast_row`; ``short`` (a constant at each call) selects the
-    ``0 <= shift <= 62`` body."""
+    ``0 <= shift <= 62`` body.
+
+    The short body quantises and logs only; overflow is then decided on the row's extremes
+    (every quantisation mode is monotonic, so the quantised minimum and maximum are the
+    extremes of the quantised row) and only a row that overflows takes a second loop that
+    applies the overflow mode and counts, element by element. Per-element range checks
+    and selects are most of a cast's cost on AVX2 (no 64-bit vector min/max).
+    """
     lo = np.int64(_I64_MAX)
     hi = np.int64(_I64_MIN)
     count = np.int64(0)
+    if short:
+        for i in range(raw.shape[0]):
+            r = raw[i]
+            lo = min(lo, r)
+            hi = max(hi, r)
+            out[i] = _quantise_short(r, shift, quant)
+        if raw.shape[0] == 0:
+            return lo, hi, count
+        _, low_out = overflow_raw(_quantise_short(lo, shift, quant), word, signed, overflow)
+        _, high_out = overflow_raw(_quantise_short(hi, shift, quant), word, signed, overflow)
+        if low_out or high_out:
+            for i in range(raw.shape[0]):
+                value, flag = overflow_raw(out[i], word, signed, overflow)
+                out[i] = value
+                count += flag
+        return lo, hi, count
     for i in range(raw.shape[0]):
         r = raw[i]
         lo = min(lo, r)
         hi = max(hi, r)
-        if short:
-            value, flag = overflow_raw(_quantise_short(r, shift, quant), word, signed, overflow)
-        else:
-            value, flag = _cast_shifted(r, shift, word, signed, quant, overflow)
+        value, flag = cast_shifted(r, shift, word, signed, quant, overflow, False)
         out[i] = value
         count += flag
     return lo, hi, count

@@ -30,8 +30,8 @@ from rangefx.golden.ranging import RangingConfig
 from .config import P1_SIGNALS, TimingConfig, WordLengthConfig
 from .fixedpoint import (
     FixedFormat,
-    cast_raw,
     cast_row,
+    cast_shifted,
     overflow_raw,
     quantise_shift,
     shift_left_raw,
@@ -119,8 +119,8 @@ def _cast(raw, frac_in, s, site, fm, st, ov):
     cast itself.
     """
     # Unconditional stores and no non-inlined call below: a branch around them, or a call
-    # to cast_raw, defeats numba's reference-count pruning of the arrays and makes every
-    # cast ~8x slower (measured).
+    # to a non-inlined cast, defeats numba's reference-count pruning of the arrays and
+    # makes every cast ~8x slower (measured).
     st[site, 0] = min(st[site, 0], raw)
     st[site, 1] = max(st[site, 1], raw)
     st[site, 2] = frac_in
@@ -283,6 +283,20 @@ def _row_filter(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next):
     column in ``p_prev``, ``p_next``, from which ``r2`` and ``r1`` are cast as rows.
     """
     f_p, f_c = fm[ROW_STATE, 1], fm[POLE_COEF, 1]
+    shift = max(f_p, f_c + max(f_b, f_p)) - f_p
+    # the cast's shift case is decided once per line: the common 0..62 loop carries only
+    # its few instructions on the state's dependency chain (measured 8.7 vs 12.9 ns/pixel)
+    if 0 <= shift <= 62:
+        _row_filter_loop(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next, True)
+    else:
+        _row_filter_loop(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next, False)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _row_filter_loop(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next, short):
+    """The loop of :func:`_row_filter`; ``short`` (constant per call) as in
+    :func:`~rangefx.rtl_model.fixedpoint.cast_shifted`."""
+    f_p, f_c = fm[ROW_STATE, 1], fm[POLE_COEF, 1]
     word, frac, sgn = fm[ROW_STATE, 0], fm[ROW_STATE, 1], fm[ROW_STATE, 2] != 0
     quant, ovf = fm[ROW_STATE, 3], fm[ROW_STATE, 4]
     fe = max(f_b, f_p)
@@ -296,7 +310,7 @@ def _row_filter(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next):
         hi = max(hi, pre)
         p_prev[i] = p
         prod_out[i] = prod
-        p, flag = cast_raw(pre, fs, word, frac, sgn, quant, ovf)
+        p, flag = cast_shifted(pre, fs - frac, word, sgn, quant, ovf, short)
         count += flag
         p_next[i] = p
     st[site, 0], st[site, 1], st[site, 2], st[site, 3] = lo, hi, fs, ROW_STATE

@@ -152,6 +152,37 @@ def test_cast_in_format_ties_and_bounds(
     assert_cast_matches_reference(raws, frac_in, fmt)
 
 
+@pytest.mark.parametrize(("quant", "overflow"), MODE_PAIRS, ids=lambda m: m.name)
+@pytest.mark.parametrize("signed", [True, False])
+@pytest.mark.parametrize("shift", [0, 1, 5, 48])
+def test_cast_row_in_range_and_overflowing_rows(quant, overflow, signed, shift):
+    """``cast_row`` decides overflow on a row's quantised extremes and only then checks
+    element by element: a row inside the format (ties included), the same row with one
+    outlier at either end, and a row ending exactly on the format's bounds all equal the
+    Fraction reference value by value, with the right overflow count."""
+    word, frac = 12, 3
+    fmt = FixedFormat(signed, word, frac, quant, overflow)
+    frac_in = frac + shift
+    rng = np.random.default_rng(shift * 97 + int(quant) * 7 + int(overflow))
+    inside = rng.integers(fmt.raw_min + 1, fmt.raw_max - 1, 200, dtype=np.int64) << shift
+    if shift:
+        inside[:50] += 1 << (shift - 1)  # ties
+    edges = np.array([fmt.raw_min << shift, fmt.raw_max << shift], dtype=np.int64)
+    rows = {
+        "inside": inside,
+        "edges": np.concatenate([inside, edges]),
+        "high": np.concatenate([inside, [(fmt.raw_max + 3) << shift]]),
+        "low": np.concatenate([[(fmt.raw_min - 3) << shift], inside]),
+    }
+    for name, raws in rows.items():
+        out, count = cast_array(raws, frac_in, fmt)
+        expected = [reference_cast(int(r), frac_in, fmt) for r in raws]
+        assert out.tolist() == [v for v, _ in expected], name
+        assert count == sum(f for _, f in expected), name
+    assert cast_array(rows["inside"], frac_in, fmt)[1] == 0
+    assert cast_array(rows["high"], frac_in, fmt)[1] >= 1
+
+
 def to_signed(bits: int, word: int) -> int:
     return bits - (1 << word) if bits >= 1 << (word - 1) else bits
 
