@@ -26,7 +26,7 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.riccati import RiccatiConfig, _stereo_baseline
 
 from .config import TimingConfig
-from .p1 import _cast, _divide_into
+from .p1 import _cast, _divide_into, reciprocal_lut
 from .p2_config import P2_SIGNALS, P2Config, divider_latency, loop_latency
 from .stream import make_stream
 
@@ -51,7 +51,7 @@ OUT_LATENCY = 5  # forward pass: w, λ/β, z, threshold/valid, output register
 
 @njit(cache=True, nogil=True)
 def _p2_kernel(
-    im1, im2, regs, kind, lut_bits, r_bits, fm, st, dst, ov, j0, j1,
+    im1, im2, regs, kind, lut, r_bits, fm, st, dst, ov, j0, j1,
     out_range, out_valid, taps, want_taps,
 ):  # fmt: skip
     """Lines ``j0 <= j < j1``: input stage, backward sweep, forward pass (docs/p2_datapath.md)."""
@@ -93,7 +93,7 @@ def _p2_kernel(
             c = max(_cast(a * a, 2 * f_a, CC, 5, fm, st, ov), cmin)
             den = _cast((np.int64(1) << f_den_in) + (c * s1 << (f_den_in - f_c - f_s)),
                         f_den_in, DEN, 6, fm, st, ov)  # fmt: skip
-            r, _ = _divide_into(np.int64(1), 0, den, f_den, RR, kind, lut_bits, r_bits, fm, dst,
+            r, _ = _divide_into(np.int64(1), 0, den, f_den, RR, kind, lut, r_bits, fm, dst,
                                 ov)  # fmt: skip
             s0 = _cast((m_reg << (f_s_in - f_m)) + (r * s1 << (f_s_in - f_r - f_s)), f_s_in,
                        ST, 7, fm, st, ov)  # fmt: skip
@@ -395,6 +395,7 @@ def run_p2(
     out_cycles, sched = p2_schedule(in_cycles, config, timing.hblank)
     fm = _format_table(config)
     kind = _DIV_RESTORING if config.divider == "restoring" else _DIV_RECIPROCAL
+    lut = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
     tp = np.zeros((len(P2_TAPS), m, n) if taps else (len(P2_TAPS), 0, 0), dtype=np.int64)
@@ -402,8 +403,8 @@ def run_p2(
     def band(j0: int, j1: int):
         st, dst, ov = _new_stats()
         _p2_kernel(
-            im1, im2, regs.raw, kind, config.recip_lut_bits, config.recip_bits, fm, st,
-            dst, ov, j0, j1, out_range, out_valid, tp, taps,
+            im1, im2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
+            out_range, out_valid, tp, taps,
         )  # fmt: skip
         return st, dst, ov
 
