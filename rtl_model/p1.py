@@ -387,11 +387,11 @@ def _frontend_kernel(
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _rotation_row(mreg, r, xp, yp, f_km, f_co):
-    """``M_r0 + M_r1 xp + M_r2 yp`` exactly, at ``max(F_M, F_M + F_coord)`` fraction bits."""
+def _rotation_row(mreg, r, m_xp, yp, f_km, f_co):
+    """``M_r0 + M_r1 xp + M_r2 yp`` exactly, at ``max(F_M, F_M + F_coord)`` fraction bits,
+    from ``m_xp = M_r1 xp`` at those bits (a column term: computed once per band)."""
     f_k = max(f_km, f_km + f_co)
-    return (_at(mreg[r, 0], f_km, f_k) + _at(mreg[r, 1] * xp, f_km + f_co, f_k)
-            + _at(mreg[r, 2] * yp, f_km + f_co, f_k))  # fmt: skip
+    return m_xp + (_at(mreg[r, 0], f_km, f_k) + _at(mreg[r, 2] * yp, f_km + f_co, f_k))
 
 
 @njit(cache=True, nogil=True)
@@ -432,6 +432,11 @@ def _range_kernel(
                    GEOM_V, 21, fm, st, ov)  # fmt: skip
     ov[COORD] += (ov[COORD] - ov_x) * (j1 - j0 - 1)
     ov[GEOM_V] += (ov[GEOM_V] - ov_v) * (j1 - j0 - 1)
+    # exact column terms, also computed once per band: M_r1 xp of the rotation rows, vx^2
+    m_xp = np.empty((3, n), dtype=np.int64)
+    for r in range(3):
+        m_xp[r] = _at(mreg[r, 1] * xp, f_km + f_co, f_k)
+    vx_sq = vx * vx
     for j in range(j0, j1):
         # yp is held for the line but, like xp, cast (and counted) once per pixel
         ov_co = ov[COORD]
@@ -440,11 +445,14 @@ def _range_kernel(
         c1 = _cast_row(e1[j] - e2[j], f_s1, C1, 17, fm, st, ov)
         a1 = _cast_row(ex1[j] + ex2[j], f_ex + 1, GRAD_A, 18, fm, st, ov)
         b1 = _cast_row(ey1[j] + ey2[j], f_ey + 1, GRAD_B, 19, fm, st, ov)
-        k0 = _cast_row(_rotation_row(mreg, 0, xp, yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
-        k1 = _cast_row(_rotation_row(mreg, 1, xp, yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
-        k2 = _cast_row(_rotation_row(mreg, 2, xp, yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
-        vy_pre = _at(fr * k5, f_f + f_kt, f_gvv) - _at(yp * k3, f_co + f_kt, f_gvv)
-        vy = _cast_row(np.full(n, vy_pre), f_gvv, GEOM_V, 22, fm, st, ov)
+        k0 = _cast_row(_rotation_row(mreg, 0, m_xp[0], yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
+        k1 = _cast_row(_rotation_row(mreg, 1, m_xp[1], yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
+        k2 = _cast_row(_rotation_row(mreg, 2, m_xp[2], yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
+        # vy, like yp, depends on the line only: cast once, counted for every pixel
+        ov_vy = ov[GEOM_V]
+        vy = _cast(_at(fr * k5, f_f + f_kt, f_gvv) - _at(yp * k3, f_co + f_kt, f_gvv), f_gvv,
+                   GEOM_V, 22, fm, st, ov)  # fmt: skip
+        ov[GEOM_V] += (ov[GEOM_V] - ov_vy) * (n - 1)
         wx = _cast_row(_at(fr * k1, f_f + f_kr, f_gww) - _at(xp * k0, f_co + f_kr, f_gww), f_gww,
                        GEOM_W, 23, fm, st, ov)  # fmt: skip
         wy = _cast_row(_at(fr * k2, f_f + f_kr, f_gww) - _at(yp * k0, f_co + f_kr, f_gww), f_gww,
@@ -462,7 +470,7 @@ def _range_kernel(
         den_ok = (np.abs(den) >= dmin) & (den != 0)
         _divide_row(np.where(den_ok, num, 0), f_num, np.where(den_ok, den, one_den), f_den, RANGE,
                     kind, lut, r_bits, fm, dst, ov, rq, dovf)  # fmt: skip
-        v_sq = _cast_row(vx * vx + vy * vy, 2 * f_v, V_SQ, 29, fm, st, ov)
+        v_sq = _cast_row(vx_sq + vy * vy, 2 * f_v, V_SQ, 29, fm, st, ov)
         g_sq = _cast_row(gv * gv, 2 * f_gv, GRAD_SQ, 30, fm, st, ov)
         g_thr = _cast_row(tg2 * v_sq, f_tg2 + f_vsq, GRAD_SQ, 31, fm, st, ov)
         ok = ((np.abs(c1) >= te) & (g_sq >= g_thr) & den_ok & ~dovf & (rq > 0)
@@ -470,8 +478,8 @@ def _range_kernel(
         out_valid[j] = ok
         out_range[j] = np.where(ok, rq, rmax)
         if want_taps:
-            for t, row in enumerate((xp, np.full(n, yp), c1, a1, b1, k0, k1, k2, vx, vy, wx, wy,
-                                     w0, gv, num, den, rq)):  # fmt: skip
+            for t, row in enumerate((xp, np.full(n, yp), c1, a1, b1, k0, k1, k2, vx,
+                                     np.full(n, vy), wx, wy, w0, gv, num, den, rq)):  # fmt: skip
                 taps[t, j] = row
             taps[17, j] = v_sq
             taps[18, j] = g_sq
