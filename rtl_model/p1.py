@@ -211,8 +211,12 @@ def _divide(n, fn, d, fd, word, frac, signed, quant, ovf_mode, kind, lut, r_bits
         y1 = (y0 * e) >> r_bits
         raw = an * y1
         frac_in = fn - fd + p + r_bits
-    out, flag = cast_shifted((raw ^ negative) - negative, frac_in - frac, word, signed, quant,
-                             ovf_mode, False)  # fmt: skip
+    raw = (raw ^ negative) - negative
+    sh = frac_in - frac
+    if 0 <= sh <= 62:  # the usual case, inlined; the others are a call
+        out, flag = cast_shifted(raw, sh, word, signed, quant, ovf_mode, True)
+    else:
+        out, flag = cast_shifted(raw, sh, word, signed, quant, ovf_mode, False)
     return out, flag, value, value
 
 
