@@ -284,5 +284,6 @@ def test_one_or_two_threads_give_the_same_run(plane, variant):
 def test_bench_reports_the_cost_breakdown():
     figures = pipeline.bench_figures(repeats=1, size=32)
     for key in ("p1_stereo_mpix_s", "golden_p1_mpix_s", "cold_process_s", "cast_ns",
+                "cast_overflowing_row_ns", "log_floor_ns",
                 "p1_paper_front_end_cpu_ns_px", "p1_consistent_range_cpu_ns_px"):  # fmt: skip
         assert figures[key] > 0, key

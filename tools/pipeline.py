@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from rangefx.golden.estimator import EstimatorConfig
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
@@ -342,7 +343,8 @@ def bench_figures(repeats: int = 5, size: int = 512) -> dict:
         out[f"golden_p1_{variant}_mpix_s"] = pixels / t / 1e6
     out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
     out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
-    out["cast_ns"] = _cast_ns()
+    out["cast_ns"], out["cast_overflowing_row_ns"] = _cast_ns()
+    out["log_floor_ns"] = _log_floor_ns()
     from .p2_pipeline import bench_p2  # local: p2_pipeline imports this module
 
     out.update(bench_p2(repeats, size))
@@ -357,18 +359,47 @@ def bench_figures(repeats: int = 5, size: int = 512) -> dict:
     return out
 
 
-def _cast_ns(size: int = 1 << 20, repeats: int = 5) -> float:
+def _cast_ns(size: int = 1 << 16, repeats: int = 21) -> tuple[float, float]:
     """CPU ns per element of one cast (``cast_array``, s16.4 RND/SAT from 8 more fraction
-    bits): the unit cost the pipeline pays ~41 times per stereo pixel."""
-    raw = np.random.default_rng(0).integers(-(2**23), 2**23, size)
+    bits): the unit cost the pipeline pays ~41 times per stereo pixel. Two figures: a
+    row inside the format (the common case: overflow is decided on the row's extremes)
+    and the same row with one element out of range (a second, element-wise pass)."""
+    raw = np.random.default_rng(0).integers(-(2**22), 2**22, size)
     fmt = FixedFormat.from_string("s16.4", Quant.RND, Overflow.SAT)
-    cast_array(raw, 12, fmt)  # JIT warm-up
+    figures = []
+    for row in (raw, np.concatenate([raw[:-1], [2**40]])):
+        cast_array(row, 12, fmt)  # JIT warm-up
+        times = []
+        for _ in range(repeats):
+            t = time.thread_time()
+            cast_array(row, 12, fmt)
+            times.append(time.thread_time() - t)
+        figures.append(statistics.median(times) / size * 1e9)
+    return figures[0], figures[1]
+
+
+@njit(cache=True, nogil=True)
+def _minmax_loop(raw, reps):
+    """Only the min/max log of an int64 row, ``reps`` times (the calibration below)."""
+    lo, hi = raw[0], raw[0]
+    for _ in range(reps):
+        for i in range(raw.shape[0]):
+            lo = min(lo, raw[i])
+            hi = max(hi, raw[i])
+    return lo, hi
+
+
+def _log_floor_ns(size: int = 512, reps: int = 4000, repeats: int = 7) -> float:
+    """CPU ns per element of the min/max log alone (int64, a 512-element row): a floor
+    for one logged cast on this CPU (AVX2 has no 64-bit vector min/max)."""
+    raw = np.random.default_rng(1).integers(-(2**40), 2**40, size)
+    _minmax_loop(raw, 1)
     times = []
     for _ in range(repeats):
         t = time.thread_time()
-        cast_array(raw, 12, fmt)
+        _minmax_loop(raw, reps)
         times.append(time.thread_time() - t)
-    return statistics.median(times) / size * 1e9
+    return min(times) / (size * reps) * 1e9
 
 
 def _cold_run() -> None:
