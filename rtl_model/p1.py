@@ -171,7 +171,7 @@ def _floor_div(t, d):
 
 @njit(cache=True, nogil=True, inline="always")
 def _divide(n, fn, d, fd, word, frac, signed, quant, ovf_mode, kind, lut, r_bits):
-    """``divide(N, D, S)`` of docs/p1_datapath.md on scalars (no arrays: see ``_cast``).
+    """``divide(N, D, S)`` of docs/p1_datapath.md on scalars (inlined: see ``_cast``).
 
     ``lut`` is the reciprocal seed table (:func:`reciprocal_lut`, ``2**L`` entries; unused
     by the restoring divider). Returns ``(raw, overflowed, lo, hi)``: ``lo``/``hi`` are the
@@ -187,7 +187,8 @@ def _divide(n, fn, d, fd, word, frac, signed, quant, ovf_mode, kind, lut, r_bits
     value = _ldexp(float(n) / float(d), fd - fn)
     # sign, seed index and normalisation by masks and clamped shifts, not branches: the
     # signs of real quotients are random, and a mispredicted branch per pixel cost more
-    # than the divider's arithmetic (row divider 31 -> 15 ns/pixel with the table, measured)
+    # than the divider's arithmetic (a row of divisions: 31 -> 22 ns/pixel, measured; 15
+    # with the seed read from its table instead of computed with a division)
     negative = -np.int64((n < 0) != (d < 0))
     an = abs(n)
     ad = abs(d)
