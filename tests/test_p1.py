@@ -19,7 +19,7 @@ from rangefx.rtl_model.config import (
     integer_bits_needed,
     propose_config,
 )
-from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
 from rangefx.rtl_model.stream import make_stream, pixel_cycles
 from rangefx.tools import pipeline
@@ -281,9 +281,22 @@ def test_one_or_two_threads_give_the_same_run(plane, variant):
     assert all(k in a.kernel_cpu_s and a.kernel_cpu_s[k] > 0 for k in ("front_end", "range"))
 
 
+def test_bench_calibration_loops_compute_what_they_claim():
+    """The floors set beside ``cast_ns`` are real work: the constant-format loop is the
+    s16.4 RND/SAT cast (values and overflow count), the log loop the row's min/max."""
+    raw = np.array([-(2**23) - 200, -129, -128, -127, 0, 127, 128, 129, 383, 2**23 + 9])
+    out = np.empty_like(raw)
+    lo, hi, count = pipeline._constant_cast_loop(raw, out, 1)
+    expected, overflows = cast_array(raw, 12, FixedFormat.from_string("s16.4", Quant.RND,
+                                                                      Overflow.SAT))  # fmt: skip
+    assert out.tolist() == expected.tolist() and count == overflows == 2
+    assert (lo, hi) == (raw.min(), raw.max())
+    assert pipeline._minmax_loop(raw, out, 1)[:2] == (raw.min(), raw.max())
+
+
 def test_bench_reports_the_cost_breakdown():
     figures = pipeline.bench_figures(repeats=1, size=32)
     for key in ("p1_stereo_mpix_s", "golden_p1_mpix_s", "cold_process_s", "cast_ns",
-                "cast_overflowing_row_ns", "log_floor_ns",
+                "cast_overflowing_row_ns", "log_floor_ns", "constant_cast_floor_ns",
                 "p1_paper_front_end_cpu_ns_px", "p1_consistent_range_cpu_ns_px"):  # fmt: skip
         assert figures[key] > 0, key

@@ -344,7 +344,8 @@ def bench_figures(repeats: int = 5, size: int = 512) -> dict:
     out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
     out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
     out["cast_ns"], out["cast_overflowing_row_ns"] = _cast_ns()
-    out["log_floor_ns"] = _log_floor_ns()
+    out["log_floor_ns"] = _floor_ns(_minmax_loop)
+    out["constant_cast_floor_ns"] = _floor_ns(_constant_cast_loop)
     from .p2_pipeline import bench_p2  # local: p2_pipeline imports this module
 
     out.update(bench_p2(repeats, size))
@@ -379,25 +380,44 @@ def _cast_ns(size: int = 1 << 16, repeats: int = 21) -> tuple[float, float]:
 
 
 @njit(cache=True, nogil=True)
-def _minmax_loop(raw, reps):
-    """Only the min/max log of an int64 row, ``reps`` times (the calibration below)."""
+def _minmax_loop(raw, out, reps):
+    """Only the min/max log of an int64 row, ``reps`` times (a calibration: see below)."""
     lo, hi = raw[0], raw[0]
     for _ in range(reps):
         for i in range(raw.shape[0]):
             lo = min(lo, raw[i])
             hi = max(hi, raw[i])
-    return lo, hi
+    return lo, hi, 0
 
 
-def _log_floor_ns(size: int = 512, reps: int = 4000, repeats: int = 7) -> float:
-    """CPU ns per element of the min/max log alone (int64, a 512-element row): a floor
-    for one logged cast on this CPU (AVX2 has no 64-bit vector min/max)."""
-    raw = np.random.default_rng(1).integers(-(2**40), 2**40, size)
-    _minmax_loop(raw, 1)
+@njit(cache=True, nogil=True)
+def _constant_cast_loop(raw, out, reps):
+    """A cast with its format folded in as constants (s16.4 RND/SAT from 8 more fraction
+    bits), logged and counted, ``reps`` times: what a config-specialised kernel would pay."""
+    lo, hi, count = raw[0], raw[0], 0
+    for _ in range(reps):
+        for i in range(raw.shape[0]):
+            r = raw[i]
+            lo = min(lo, r)
+            hi = max(hi, r)
+            q = (r + 128) >> 8
+            value = min(max(q, -32768), 32767)
+            out[i] = value
+            count += value != q
+    return lo, hi, count
+
+
+def _floor_ns(loop, size: int = 512, reps: int = 4000, repeats: int = 7) -> float:
+    """CPU ns per element of a calibration ``loop`` over a 512-element int64 row (min of
+    ``repeats``): floors for one logged cast on this CPU (AVX2 has no 64-bit vector
+    min/max), to set beside ``cast_ns``."""
+    raw = np.random.default_rng(1).integers(-(2**22), 2**22, size)
+    out = np.empty_like(raw)
+    loop(raw, out, 1)
     times = []
     for _ in range(repeats):
         t = time.thread_time()
-        _minmax_loop(raw, reps)
+        loop(raw, out, reps)
         times.append(time.thread_time() - t)
     return min(times) / (size * reps) * 1e9
 
