@@ -325,10 +325,11 @@ def _cast_shifted(raw, shift, word, signed, quant, overflow):
 
 @njit(cache=True, nogil=True, inline="always")
 def cast_shifted(raw, shift, word, signed, quant, overflow, short):
-    """:func:`cast_raw` with ``shift = frac_in - frac_out`` given, for a loop whose caller
-    decided the shift's case once: ``short`` (a compile-time constant at each call site)
-    promises ``0 <= shift <= 62`` and compiles only that case's few branch-free
-    instructions; otherwise every case is handled. Returns (int64, overflowed)."""
+    """:func:`cast_raw` with ``shift = frac_in - frac_out`` given. ``short`` promises
+    ``0 <= shift <= 62``: that case is a few branch-free inlined instructions, the others a
+    call. A loop whose caller decided the shift's case once passes a constant (only that
+    case is compiled into the loop); a scalar site passes ``0 <= shift <= 62``. Returns
+    (int64, overflowed)."""
     if short:
         return overflow_raw(_quantise_short(raw, shift, quant), word, signed, overflow)
     return _cast_shifted(raw, shift, word, signed, quant, overflow)

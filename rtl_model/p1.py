@@ -33,8 +33,6 @@ from .fixedpoint import (
     cast_row,
     cast_shifted,
     overflow_raw,
-    quantise_shift,
-    shift_left_raw,
 )
 from .stream import input_cycles
 
@@ -118,19 +116,15 @@ def _cast(raw, frac_in, s, site, fm, st, ov):
     turned into values on the host; float conversion per cast would cost more than the
     cast itself.
     """
-    # Unconditional stores and no non-inlined call below: a branch around them, or a call
-    # to a non-inlined cast, defeats numba's reference-count pruning of the arrays and
-    # makes every cast ~8x slower (measured).
+    # Unconditional stores and the common cast inlined: a branch around the stores, or a
+    # non-inlined call on the common path, defeats numba's reference-count pruning of the
+    # arrays and makes every cast ~8x slower (measured).
     st[site, 0] = min(st[site, 0], raw)
     st[site, 1] = max(st[site, 1], raw)
     st[site, 2] = frac_in
     st[site, 3] = s
     sh = frac_in - fm[s, 1]
-    if sh >= 0:  # dropping bits: the common case, inlined
-        out, flag = overflow_raw(quantise_shift(raw, sh, fm[s, 3]), fm[s, 0], fm[s, 2] != 0,
-                                 fm[s, 4])  # fmt: skip
-    else:
-        out, flag = shift_left_raw(raw, -sh, fm[s, 0], fm[s, 2] != 0, fm[s, 4])
+    out, flag = cast_shifted(raw, sh, fm[s, 0], fm[s, 2] != 0, fm[s, 3], fm[s, 4], 0 <= sh <= 62)
     ov[s] += flag
     return out
 
@@ -212,12 +206,9 @@ def _divide(n, fn, d, fd, word, frac, signed, quant, ovf_mode, kind, lut, r_bits
         y1 = (y0 * e) >> r_bits
         raw = an * y1
         frac_in = fn - fd + p + r_bits
-    raw = (raw ^ negative) - negative
     sh = frac_in - frac
-    if 0 <= sh <= 62:  # the usual case, inlined; the others are a call
-        out, flag = cast_shifted(raw, sh, word, signed, quant, ovf_mode, True)
-    else:
-        out, flag = cast_shifted(raw, sh, word, signed, quant, ovf_mode, False)
+    out, flag = cast_shifted((raw ^ negative) - negative, sh, word, signed, quant, ovf_mode,
+                             0 <= sh <= 62)  # fmt: skip
     return out, flag, value, value
 
 
@@ -353,7 +344,7 @@ def _frontend_kernel(
         if j == 0:
             if init_first:
                 lb1[:] = _cast_row(r1, f_r1, COL_STATE, 7, fm, st, ov)
-        q = lb1.copy()
+        q = lb1  # the line buffer's read; the write-back below rebinds it (no copy)
         prod = pole * (_at(r1, f_r1, fe_col) - _at(q, f_q, fe_col))
         s2 = _cast_row(prod, f_c + fe_col, COL_S2, 8, fm, st, ov)
         q_next = _cast_row(_at(q, f_q, fs_col) + _at(prod, f_c + fe_col, fs_col), fs_col,
@@ -362,16 +353,16 @@ def _frontend_kernel(
             s1 = _cast_row(q + q_next, f_q + 1, COL_S1, 10, fm, st, ov)
         else:
             s1 = _cast_row(q, f_q, COL_S1, 11, fm, st, ov)
-        lb1[:] = q_next
+        lb1 = q_next
         if consistent:
             if j == 0:
                 if init_first:
                     lb2[:] = _cast_row(r2, f_r2, COL2_STATE, 12, fm, st, ov)
-            q2 = lb2.copy()
+            q2 = lb2
             prod = pole * (_at(r2, f_r2, fe_col2) - _at(q2, f_q2, fe_col2))
             q2_next = _cast_row(_at(q2, f_q2, fs_col2) + _at(prod, f_c + fe_col2, fs_col2),
                                 fs_col2, COL2_STATE, 13, fm, st, ov)  # fmt: skip
-            lb2[:] = q2_next
+            lb2 = q2_next
             ex = _cast_row(q2 + q2_next, f_q2 + 1, COL2_OUT, 14, fm, st, ov)
         else:
             _divide_row(s1 * r2, f_s1 + f_r2, r1, f_r1, DIV_QUOT, kind, lut, r_bits, fm, dst,
