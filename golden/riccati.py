@@ -110,6 +110,7 @@ __all__ = [
     "range_g5",
     "riccati_signal_ranges",
     "riccati_sweep",
+    "stereo_baseline",
     "weights_in_pixels",
 ]
 
@@ -370,7 +371,9 @@ def riccati_sweep(
     return RiccatiLines(A=a, G_hat=g_hat, E_diff=d_step, **out)
 
 
-def _stereo_baseline(motion: MotionIncrement) -> float:
+def stereo_baseline(motion: MotionIncrement) -> float:
+    """Baseline ``b`` of a registered stereo pair (camera 2 displaced ``b`` along the image
+    x axis); ``ValueError`` for any other displacement."""
     fwd, right, down = motion.camera_displacement
     if abs(fwd) > 1e-9 * abs(right) or abs(down) > 1e-9 * abs(right) or right == 0:
         raise ValueError(
@@ -399,7 +402,7 @@ def range_g5(
         raise ValueError(
             f"images are {np.shape(image1)} but the camera is {camera.height}x{camera.width}"
         )
-    lines = riccati_sweep(image1, image2, camera.f_px, _stereo_baseline(motion), cfg)
+    lines = riccati_sweep(image1, image2, camera.f_px, stereo_baseline(motion), cfg)
     raw = lines.z
     with np.errstate(invalid="ignore"):
         valid = (

@@ -25,8 +25,8 @@ from apytypes import APyFixed, OverflowMode, QuantizationMode
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera, k_matrix
 from rangefx.golden.ranging import RangingConfig
-from rangefx.rtl_model.config import P1_SIGNALS, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
 
 __all__ = [
     "RANGE_TAPS",
@@ -279,7 +279,7 @@ class _Sig:
 
 @dataclass
 class _Ctx:
-    config: WordLengthConfig
+    config: P1Config
     overflows: dict[str, int] = field(default_factory=dict)
     lo: dict[str, Fraction] = field(default_factory=dict)
     hi: dict[str, Fraction] = field(default_factory=dict)
@@ -537,7 +537,7 @@ def oracle_p1(
     image2: np.ndarray,
     camera: PinholeCamera,
     motion: MotionIncrement,
-    config: WordLengthConfig,
+    config: P1Config,
     ranging: RangingConfig,
     *,
     mode: str = "stereo",

@@ -31,7 +31,7 @@ from oracle_p1 import (
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.riccati import RiccatiConfig
-from rangefx.rtl_model.p2_config import P2_SIGNALS, P2Config
+from rangefx.rtl_model.p2.config import P2_SIGNALS, P2Config
 
 __all__ = ["TAPS", "OracleP2", "oracle_p2"]
 

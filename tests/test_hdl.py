@@ -21,12 +21,13 @@ import numpy as np
 import pytest
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
-from rangefx.golden.ranging import RangingConfig
-from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
+from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
-from rangefx.tools import cmd_vectors
+from rangefx.rtl_model.p1.config import P1Config
+from rangefx.rtl_model.pipeline import Case
 from rangefx.tools.cli import main
-from rangefx.tools.pipeline import p1_case_from_scene
+from rangefx.tools.cli.vectors import crop_case
+from rangefx.tools.studies.cases import scene_case
 from rangefx.vectors.generate import build_vectors, diff_dump, write_vectors
 from rangefx.vectors.hdl import (
     HDL_DIR,
@@ -47,11 +48,11 @@ def _fmt(text: str, quant: Quant, overflow: Overflow = Overflow.SAT) -> FixedFor
     return FixedFormat.from_string(text, quant, overflow)
 
 
-def modes_config() -> WordLengthConfig:
+def modes_config() -> P1Config:
     """Consistent variant with a different rounding or overflow mode on every stage signal
     (TRN, TRN_ZERO, RND_CONV, RND_ZERO, RND_INF, RND_MIN_INF; WRAP and SAT_SYM), and a
     narrow ``col_s2`` that wraps on strong edges."""
-    d = WordLengthConfig.default("consistent")
+    d = P1Config.default(variant="consistent")
     return d.with_formats(
         bias_in=_fmt("u10.1", Quant.TRN),
         row_state=_fmt("u20.11", Quant.RND_CONV),
@@ -66,10 +67,10 @@ def modes_config() -> WordLengthConfig:
 
 @functools.cache
 def _lab():
-    return p1_case_from_scene("lab")
+    return scene_case("lab")
 
 
-def _replay(vec: Path, config: WordLengthConfig, work: Path, stream: str = "e1", **over) -> Path:
+def _replay(vec: Path, config: P1Config, work: Path, stream: str = "e1", **over) -> Path:
     """Build p1_rowcol for ``config`` (parameters ``over`` overridden) and replay ``vec``."""
     _m, n = json.loads((vec / "manifest.json").read_text())["shape"]
     params = rowcol_parameters(config, n) | over
@@ -118,12 +119,12 @@ def _assert_all_match(vec: Path, dump: Path, stream: str = "e1") -> int:
 
 @pytest.fixture
 def cached_scene(monkeypatch):
-    monkeypatch.setattr(cmd_vectors, "p1_case_from_scene", lambda name, seed=0: _lab())
+    _lab()
 
 
 @pytest.mark.parametrize("config_name", ["default", "modes"])
 def test_lab_crop_replays_bit_exact(config_name, tmp_path, cached_scene):
-    config = WordLengthConfig.default() if config_name == "default" else modes_config()
+    config = P1Config.default() if config_name == "default" else modes_config()
     toml = tmp_path / "config.toml"
     config.save(toml)
     vec = tmp_path / "vec"
@@ -136,16 +137,19 @@ def test_lab_crop_replays_bit_exact(config_name, tmp_path, cached_scene):
 
 @pytest.mark.parametrize("config_name", ["default", "modes"])
 def test_random_scene_replays_bit_exact(config_name, tmp_path):
-    config = WordLengthConfig.default() if config_name == "default" else modes_config()
+    config = P1Config.default() if config_name == "default" else modes_config()
     rng = np.random.default_rng(6)
     m, n = 12, 40
     im1 = rng.integers(0, 256, (m, n))
     im2 = np.clip(np.roll(im1, 1, axis=1) + rng.integers(-3, 4, (m, n)), 0, 255)
+    case = Case(im1, im2, PinholeCamera(n, m, 50.0), MotionIncrement.stereo(0.1))
     vs = build_vectors(
-        im1, im2, PinholeCamera(n, m, 50.0), MotionIncrement.stereo(0.1), config,
-        RangingConfig(), TimingConfig(hblank=2, vblank=5, gap_prob=0.3, seed=3),
-        case={"source": "random", "seed": 6},
-    )  # fmt: skip
+        "p1",
+        case,
+        config,
+        TimingConfig(hblank=2, vblank=5, gap_prob=0.3, seed=3),
+        description={"source": "random", "seed": 6},
+    )
     vec = tmp_path / "vec"
     vec.mkdir()
     write_vectors(vec, vs)
@@ -156,20 +160,14 @@ def test_random_scene_replays_bit_exact(config_name, tmp_path):
 def test_truncating_mutant_is_caught_at_the_first_differing_pixel(tmp_path, cached_scene):
     """row_r2 is RND in the default config; the mutant truncates (TRN). The first pixel
     where the model's TRN and RND row_r2 differ is where ``vectors diff`` must point."""
-    config = WordLengthConfig.default()
+    config = P1Config.default()
     vec = tmp_path / "vec"
     argv = ["vectors", "gen", "--scene", "lab", "--crop", "240", "256", "100", "124"]
     assert main([*argv, "--out", str(vec), "--hblank", "3"]) == 0
     dump = _replay(vec, config, tmp_path, R2_Q=int(Quant.TRN))
-    case = _lab()
     mutant = config.with_formats(row_r2=_fmt("s20.10", Quant.TRN))
-    im1, im2 = case.image1[240:256, 100:124], case.image2[240:256, 100:124]
-    cx, cy = case.camera.principal_point
-    cam = PinholeCamera(24, 16, case.camera.f_px, cx - 100, cy - 240)
-    runs = [
-        build_vectors(im1, im2, cam, case.motion, c, case.ranging, TimingConfig(hblank=3)).result
-        for c in (config, mutant)
-    ]
+    case = crop_case(_lab(), [240, 256, 100, 124])
+    runs = [build_vectors("p1", case, c, TimingConfig(hblank=3)).result for c in (config, mutant)]
     differ = np.flatnonzero(runs[0].taps["e1.row_r2"].ravel() != runs[1].taps["e1.row_r2"].ravel())
     assert differ.size > 0
     k = int(differ[0])

@@ -30,8 +30,8 @@ from rangefx.golden.estimator import EstimatorConfig, estimate_derivatives
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig, range_g4
 from rangefx.golden.scenes import render_plane, render_scene
-from rangefx.rtl_model.config import P1_SIGNALS, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
 
 Q, OV = Quant, Overflow
 
@@ -78,9 +78,9 @@ FILTER_SIGNALS = (
 )
 
 
-def wide_config(variant: str, divider: str, kmax: int = 16) -> WordLengthConfig:
+def wide_config(variant: str, divider: str, kmax: int = 16) -> P1Config:
     """Default config with up to ``kmax`` more fraction bits per signal (greedy, valid)."""
-    cfg = WordLengthConfig.default(variant).with_(divider=divider)
+    cfg = P1Config.default(variant=variant).with_(divider=divider)
     for name in WIDEN_ORDER:
         f = cfg.fmt(name)
         for k in range(kmax, 0, -1):
@@ -219,7 +219,7 @@ def _stream_taps(variant: str) -> tuple[str, ...]:
 
 
 def test_minmax_and_counts_are_over_casts(plane):
-    cfg = WordLengthConfig.default("paper")
+    cfg = P1Config.default(variant="paper")
     ranging = RangingConfig()
     im = plane.image1[:4, :5]
     cam = PinholeCamera(5, 4, 20.0)
@@ -468,7 +468,7 @@ def test_overflow_modes_through_the_datapath(mode, c1_expected):
     im1 = np.zeros((m, n), dtype=np.uint8)
     im2 = np.full((m, n), 255, dtype=np.uint8)
     cam, motion = PinholeCamera(n, m, 20.0), MotionIncrement.stereo(0.1)
-    base = WordLengthConfig.default("consistent")
+    base = P1Config.default(variant="consistent")
     cfg = base.with_formats(c1=FixedFormat(True, 8, 0, Q.RND, mode))
     res = oracle_p1(im1, im2, cam, motion, cfg, RangingConfig())
     assert np.all(res.taps["c1"] == c1_expected)

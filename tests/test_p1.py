@@ -12,28 +12,26 @@ import pytest
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.scenes import render_plane
-from rangefx.rtl_model.config import (
-    P1_SIGNALS,
-    TimingConfig,
-    WordLengthConfig,
-    integer_bits_needed,
-    propose_config,
-)
+from rangefx.rtl_model.config import TimingConfig, integer_bits_needed, propose_config
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
+from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
+from rangefx.rtl_model.registry import PIPELINES
 from rangefx.rtl_model.stream import make_stream, pixel_cycles
-from rangefx.tools import pipeline
 from rangefx.tools.cli import main
+from rangefx.tools.studies import bench
+from rangefx.tools.studies import cases as study_cases
+from rangefx.tools.studies.runner import compare_ranges, run_case
 
 # -- config ---------------------------------------------------------------------------
 
 
 def test_default_config_names_every_signal_and_round_trips_through_toml(tmp_path):
-    config = WordLengthConfig.default()
+    config = P1Config.default()
     assert set(config.formats) == set(P1_SIGNALS)
     path = tmp_path / "c.toml"
     config.save(path)
-    again = WordLengthConfig.load(path)
+    again = P1Config.load(path)
     assert again == config
     assert again.name == "c"
 
@@ -52,13 +50,13 @@ def test_default_config_names_every_signal_and_round_trips_through_toml(tmp_path
     ],
 )
 def test_bad_configs_are_rejected_naming_the_culprit(edit, message):
-    text = edit(WordLengthConfig.default().to_toml())
+    text = edit(P1Config.default().to_toml())
     with pytest.raises(ValueError, match=message):
-        WordLengthConfig.from_toml(text)
+        P1Config.from_toml(text)
 
 
 def test_int64_limit_names_the_signal():
-    config = WordLengthConfig.default()
+    config = P1Config.default()
     wide = FixedFormat(True, 60, 40, Quant.RND, Overflow.SAT)
     with pytest.raises(ValueError, match=r"signal 'geom_v'.*int64"):
         config.with_formats(k_t_reg=wide)
@@ -115,7 +113,7 @@ def _run(plane, **kw):
         plane.image2,
         plane.camera,
         plane.motion,
-        kw.pop("config", WordLengthConfig.default()),
+        kw.pop("config", P1Config.default()),
         RangingConfig(threshold_e=1.0, threshold_g=1.0, range_max=100.0),
         **kw,
     )
@@ -151,7 +149,7 @@ def test_gaps_and_blanking_change_no_value(plane):
 
 @pytest.mark.parametrize("variant", ["paper", "consistent"])
 def test_memory_report(plane, variant):
-    config = WordLengthConfig.default(variant)
+    config = P1Config.default(variant=variant)
     n = plane.image1.shape[1]
     lb = n * config.formats["col_state"].word
     if variant == "consistent":
@@ -195,7 +193,7 @@ def test_taps_are_optional_and_outputs_identical(plane):
 
 
 def test_narrow_formats_overflow_and_propose_repairs_them(plane):
-    config = WordLengthConfig.default()
+    config = P1Config.default()
     narrow = config.with_formats(
         row_r2=replace(config.formats["row_r2"], word=14),  # 4 integer bits for +-64
         c1=replace(config.formats["c1"], word=13),  # +-2
@@ -221,15 +219,15 @@ def test_narrow_formats_overflow_and_propose_repairs_them(plane):
 
 @pytest.fixture(scope="module", params=["lab", "runway"])
 def scene_case(request):
-    return pipeline.p1_case_from_scene(request.param)
+    return study_cases.scene_case(request.param)
 
 
 @pytest.mark.parametrize("variant", ["paper", "consistent"])
 def test_default_config_meets_the_budget_against_golden(scene_case, variant):
-    config = WordLengthConfig.default(variant)
-    res = pipeline.run_case(scene_case, config)
-    golden = pipeline.golden_for(scene_case, config)
-    figures = pipeline.compare_ranges(res, golden)
+    config = P1Config.default(variant=variant)
+    res = run_case(PIPELINES["p1"], scene_case, config)
+    golden = PIPELINES["p1"].golden(scene_case, config).result
+    figures = compare_ranges(res, golden)
     assert res.overflow_total == 0, {k: v for k, v in res.overflows.items() if v}
     assert figures["median_rel_range_diff"] <= 0.005
     assert figures["valid_agreement"] >= 0.99
@@ -257,7 +255,7 @@ def test_cli_run_p1_json(capsys, tmp_path):
 def test_cli_config_show_and_bad_config(capsys, tmp_path):
     assert main(["config", "show"]) == 0
     text = capsys.readouterr().out
-    assert WordLengthConfig.from_toml(text) == WordLengthConfig.default()
+    assert P1Config.from_toml(text) == P1Config.default()
     bad = tmp_path / "bad.toml"
     bad.write_text(text.replace('c1 = { format = "s21.11"', 'c1 = { format = "s99.11"'))
     assert main(["run", "--pipeline", "p1", "--config", str(bad)]) == 2
@@ -270,7 +268,7 @@ def test_one_or_two_threads_give_the_same_run(plane, variant):
     # two threads split the range stage into row bands: every value, overflow count (the
     # column-only signals xp/vx are cast once per band and counted per row) and min/max
     # must equal the single-band run
-    config = WordLengthConfig.default(variant).with_formats(
+    config = P1Config.default(variant=variant).with_formats(
         coord=FixedFormat.from_string("s4.0", Quant.TRN, Overflow.SAT)
     )
     a = _run(plane, config=config, threads=1)
@@ -286,17 +284,18 @@ def test_bench_calibration_loops_compute_what_they_claim():
     s16.4 RND/SAT cast (values and overflow count), the log loop the row's min/max."""
     raw = np.array([-(2**23) - 200, -129, -128, -127, 0, 127, 128, 129, 383, 2**23 + 9])
     out = np.empty_like(raw)
-    lo, hi, count = pipeline._constant_cast_loop(raw, out, 1)
+    lo, hi, count = bench.constant_cast_loop(raw, out, 1)
     expected, overflows = cast_array(raw, 12, FixedFormat.from_string("s16.4", Quant.RND,
                                                                       Overflow.SAT))  # fmt: skip
     assert out.tolist() == expected.tolist() and count == overflows == 2
     assert (lo, hi) == (raw.min(), raw.max())
-    assert pipeline._minmax_loop(raw, out, 1)[:2] == (raw.min(), raw.max())
+    assert bench.minmax_loop(raw, out, 1)[:2] == (raw.min(), raw.max())
 
 
 def test_bench_reports_the_cost_breakdown():
-    figures = pipeline.bench_figures(repeats=1, size=32)
+    figures = bench.bench_figures(repeats=1, size=32)
     for key in ("p1_stereo_mpix_s", "golden_p1_mpix_s", "cold_process_s", "cast_ns",
                 "cast_overflowing_row_ns", "log_floor_ns", "constant_cast_floor_ns",
-                "p1_paper_front_end_cpu_ns_px", "p1_consistent_range_cpu_ns_px"):  # fmt: skip
+                "p1_paper_front_end_cpu_ns_px", "p1_consistent_range_cpu_ns_px",
+                "p2_stereo_mpix_s", "p2_stereo_taps_mpix_s", "golden_p2_mpix_s"):  # fmt: skip
         assert figures[key] > 0, key

@@ -12,13 +12,14 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.methods import SCENE_RICCATI
 from rangefx.golden.riccati import range_g5
 from rangefx.golden.scenes import render_scene
-from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
+from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
-from rangefx.rtl_model.p2 import IN_LATENCY, OUT_LATENCY, run_p2
-from rangefx.rtl_model.p2_config import P2_SIGNALS, P2Config, loop_latency
+from rangefx.rtl_model.p1.config import P1Config
+from rangefx.rtl_model.p2.config import P2_SIGNALS, P2Config, loop_latency
+from rangefx.rtl_model.p2.model import IN_LATENCY, OUT_LATENCY, run_p2
 from rangefx.rtl_model.stream import pixel_cycles
 from rangefx.tools.cli import main
-from rangefx.tools.pipeline import compare_ranges
+from rangefx.tools.studies.runner import compare_ranges
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +42,7 @@ def test_default_config_round_trips_and_p1_is_untouched(tmp_path):
     path = tmp_path / "p2.toml"
     cfg.save(path)
     assert P2Config.load(path) == cfg
-    assert not set(P2_SIGNALS) & set(WordLengthConfig.default().formats)
+    assert not set(P2_SIGNALS) & set(P1Config.default().formats)
 
 
 @pytest.mark.parametrize(
@@ -116,7 +117,10 @@ def test_cycle_stamps_closed_form(hblank):
     assert res.latency == int((want - tin).max())
     # one pixel per clock out: every output cycle distinct, one line per line time
     assert np.unique(res.out_cycles).size == m * n
-    assert res.line_buffer_bits == 2 * lanes * n * (9 + 9 + 24 + 26 + 26 + 31 + 10 + 1)
+    w = {k: f.word for k, f in cfg.formats.items()}
+    assert res.line_buffer_bits == 2 * lanes * n * (w["p2_d"] + w["p2_ghat"])
+    sweep = w["p2_a"] + w["p2_r"] + w["p2_st"] + w["p2_q"] + (w["p2_ghat"] + 1) + 1
+    assert res.sweep_buffer_bits == 2 * lanes * n * sweep
 
 
 def test_throughput_assertion():
@@ -157,13 +161,10 @@ def test_cli_run_p2_json(capsys):
     assert [r["object"] for r in out["table"]] == [r["object"] for r in out["golden_table"]]
 
 
-def test_demo_and_bench_helpers(tmp_path, lab):
-    from rangefx.tools.p2_pipeline import bench_p2, demo_p2
-    from rangefx.tools.report import json_safe
+def test_demo_helper(tmp_path, lab):
+    from rangefx.tools.cli.demo import demo_pipelines
 
-    out = demo_p2(lab, tmp_path, json_safe)["p2"]
+    out = demo_pipelines(lab, tmp_path)["p2"]
     assert out["overflows"]["total"] == 0 and out["valid_agreement"] >= 0.99
     for f in ("range_p2.png", "hist_p2.png", "table_p2.csv"):
         assert (tmp_path / f).is_file()
-    bench = bench_p2(repeats=1, size=64)
-    assert bench["p2_stereo_mpix_s"] > 0 and bench["golden_g5_mpix_s"] > 0

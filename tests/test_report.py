@@ -14,12 +14,6 @@ import numpy as np
 import pytest
 
 from rangefx.tools.errors import UserError
-from rangefx.tools.outdir import (
-    MARKER_NAME,
-    atomic_output_dir,
-    atomic_write_bytes,
-    atomic_write_text,
-)
 from rangefx.tools.report import (
     ROW_KEYS,
     format_side_by_side,
@@ -32,6 +26,12 @@ from rangefx.tools.report import (
     save_range_map_png,
     table_csv,
     table_markdown,
+)
+from rangefx.tools.report.outdir import (
+    MARKER_NAME,
+    atomic_output_dir,
+    atomic_write_bytes,
+    atomic_write_text,
 )
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

@@ -9,35 +9,35 @@ from pathlib import Path
 
 import pytest
 
-from rangefx.rtl_model.config import HOST_REGISTERS, WordLengthConfig
+from rangefx.rtl_model.cost import bram18_blocks, dsp_slices
 from rangefx.rtl_model.fixedpoint import FixedFormat
+from rangefx.rtl_model.p1.config import HOST_REGISTERS, P1Config
+from rangefx.rtl_model.p1.cost import config_cost, multipliers, register_bits
+from rangefx.rtl_model.registry import PIPELINES
 from rangefx.tools import cli
-from rangefx.tools.cost import (
-    bram18_blocks,
-    config_cost,
-    dsp_slices,
-    multipliers,
-    register_bits,
-)
 from rangefx.tools.errors import UserError
-from rangefx.tools.pipeline import (
-    compare_ranges,
-    golden_for,
-    held_out_case,
-    real_pair_case,
-    run_case,
-)
-from rangefx.tools.sweep import (
+from rangefx.tools.studies import runner
+from rangefx.tools.studies.cases import held_out_case, real_pair_case, scene_case
+from rangefx.tools.studies.optimiser import Budget, evaluate_scenes, optimise, worst_case
+from rangefx.tools.studies.runner import compare_ranges
+from rangefx.tools.studies.sweep import (
     RESULTS_NAME,
     expand,
     load_results,
     pareto_front,
     parse_sweep,
     run_sweep,
-    scene_case,
     write_outputs,
 )
-from rangefx.tools.wlopt import Budget, evaluate_scenes, optimise, worst_case
+
+
+def run_case(case, config, timing=None, *, taps=False):
+    return runner.run_case(PIPELINES["p1"], case, config, timing, taps=taps)
+
+
+def golden_for(case, config):
+    return PIPELINES["p1"].golden(case, config).result
+
 
 SMALL = """
 [sweep]
@@ -273,7 +273,7 @@ def test_dsp_tiling_hand_examples():
 
 
 def test_cost_model_of_the_default():
-    cfg = WordLengthConfig.default()
+    cfg = P1Config.default()
     cost = config_cost(cfg, (512, 512), "stereo")
     assert cost.line_buffer_bits == 2 * 512 * 22  # two streams, u22.13 column state
     assert cost.bram18 == 2 and cost.frame_store_bits == 0
@@ -299,7 +299,7 @@ def test_cost_model_of_the_default():
 def test_cost_matches_model_memories():
     case = scene_case("runway", [24, 32])
     for variant in ("paper", "consistent"):
-        cfg = WordLengthConfig.default(variant)
+        cfg = P1Config.default(variant=variant)
         res = run_case(case, cfg)
         cost = config_cost(cfg, case.image1.shape, case.mode)
         assert cost.line_buffer_bits == res.line_buffer_bits
@@ -309,7 +309,7 @@ def test_cost_matches_model_memories():
 # ----------------------------------------------------------------------- optimiser
 def test_optimiser_meets_budget_and_saves_bits():
     case = scene_case("lab", [48, 64])
-    start = WordLengthConfig.default()
+    start = P1Config.default()
     budget = Budget(0.01, 0.99)
     res = optimise(case, start, budget, workers=2, progress=False)
     assert budget.met(res.figures)
@@ -322,7 +322,7 @@ def test_optimiser_meets_budget_and_saves_bits():
     assert res.steps and res.evaluations > len(res.steps)
 
 
-def _tried(case, start, budget, **kw) -> tuple[set[str], WordLengthConfig]:
+def _tried(case, start, budget, **kw) -> tuple[set[str], P1Config]:
     """Signals whose format some candidate changed, and the result's config."""
     seen: set[str] = set()
 
@@ -336,7 +336,7 @@ def _tried(case, start, budget, **kw) -> tuple[set[str], WordLengthConfig]:
 def test_optimiser_leaves_host_registers_alone_by_default():
     """Host-written registers keep the start formats unless --tune-registers (or named)."""
     case = scene_case("lab", [32, 40])
-    start = WordLengthConfig.default()
+    start = P1Config.default()
     budget = Budget(0.01, 0.99)
     tried, cfg = _tried(case, start, budget)
     assert tried and not tried & set(HOST_REGISTERS)
@@ -350,7 +350,7 @@ def test_optimiser_leaves_host_registers_alone_by_default():
 
 def test_optimiser_rejects_unsafe_start():
     case = scene_case("lab", [32, 40])
-    cfg = WordLengthConfig.default()
+    cfg = P1Config.default()
     f = cfg.formats["col_state"]
     bad = cfg.with_formats(
         col_state=FixedFormat(f.signed, f.word - 14, f.frac - 12, f.quant, f.overflow)
@@ -383,14 +383,14 @@ def test_cli_optimise_json(capsys):
     assert out["cost_bits"] <= out["default_cost_bits"]
     assert out["median_rel_range_diff"] <= 0.01 and out["valid_agreement"] >= 0.99
     assert "[signals]" in out["config_toml"]
-    WordLengthConfig.from_toml(out["config_toml"])  # loads back
+    P1Config.from_toml(out["config_toml"])  # loads back
     assert out["verify"]["scene"] == "runway" and out["verify"]["mode"] == "motion"
     # the default guard band: tuned to half the budget
     assert out["margin"] == 0.5 and out["tuning_budget"]["median_rel_range_diff"] == 0.005
     assert out["median_rel_range_diff"] <= 0.005
 
 
-def _no_rotation(cfg: WordLengthConfig) -> WordLengthConfig:
+def _no_rotation(cfg: P1Config) -> P1Config:
     """``k_m_reg`` s4.3: the rotation terms round to (almost) nothing. Harmless on the
     stereo ``lab`` pair (no rotation), ruinous on ``runway`` (motion with rotation)."""
     f = cfg.formats["k_m_reg"]
@@ -400,7 +400,7 @@ def _no_rotation(cfg: WordLengthConfig) -> WordLengthConfig:
 def test_multi_scene_rejects_a_config_that_fails_one_scene():
     lab, runway = scene_case("lab", [32, 40]), scene_case("runway", [32, 40])
     budget = Budget(0.01, 0.99)
-    start = WordLengthConfig.default()
+    start = P1Config.default()
     bad = _no_rotation(start)
     goldens = [golden_for(lab, start), golden_for(runway, start)]
     # meets the budget on lab, misses it on runway
@@ -447,7 +447,7 @@ def test_motorcycle_is_a_p1_stereo_case():
     case = real_pair_case("motorcycle")
     assert case.mode == "stereo" and case.image1.shape == (26, 39)
     assert case.image1.dtype.kind == "i" and 0 <= case.image1.min() <= case.image1.max() <= 255
-    cfg = WordLengthConfig.default()
+    cfg = P1Config.default()
     figs = compare_ranges(run_case(case, cfg), golden_for(case, cfg))
     # the default config agrees with golden there (in mm the baseline would saturate
     # k_t_reg and every range would be off by 1 - 128/193 = 0.34)
@@ -464,7 +464,7 @@ def test_plane_is_a_held_out_p1_stereo_case():
     assert case.ranging.range_max == 10.0 and float(case.scene.depth1.max()) == 5.0
     # 30 deg field of view kept at any size (f = 955 px, disparity 0.96 px at 512 wide)
     assert case.camera.f_px == pytest.approx(20 / math.tan(math.radians(15)))
-    cfg = WordLengthConfig.default()
+    cfg = P1Config.default()
     figs = compare_ranges(run_case(case, cfg), golden_for(case, cfg))
     assert figs["median_rel_range_diff"] < 1e-2 and figs["n_valid_both"] > 0
     with pytest.raises(UserError, match="unknown held-out scene 'hill'"):
@@ -517,7 +517,7 @@ def test_cli_optimise_several_scenes_json(capsys):
     assert out["bits_saved"] == out["default_cost_bits"] - out["cost_bits"]
     assert out["median_rel_range_diff"] == max(s["median_rel_range_diff"] for s in scenes.values())
     assert out["valid_agreement"] == min(s["valid_agreement"] for s in scenes.values())
-    cfg = WordLengthConfig.from_toml(out["config_toml"])
+    cfg = P1Config.from_toml(out["config_toml"])
     assert cfg.formats["k_m_reg"].word > 4  # runway keeps the rotation registers
     v = out["verify"]
     assert v["scene"] == "motorcycle" and v["mode"] == "stereo" and v["size"] == [26, 39]
@@ -541,7 +541,7 @@ def test_budget_tightened_by_a_margin():
 
 def test_margin_tightens_acceptance():
     lab, runway = scene_case("lab", [32, 40]), scene_case("runway", [32, 40])
-    budget, start = Budget(0.01, 0.99), WordLengthConfig.default()
+    budget, start = Budget(0.01, 0.99), P1Config.default()
     sig = ["col_state", "row_state"]
     plain = optimise([lab, runway], start, budget, signals=sig, progress=False)
     guarded = optimise([lab, runway], start, budget, margin=0.5, signals=sig, progress=False)
@@ -571,14 +571,14 @@ def test_margin_zero_reproduces_the_plain_optimiser():
     run counts recorded from commit 58c8325 on this case)."""
     lab, runway = scene_case("lab", [32, 40]), scene_case("runway", [32, 40])
     sig = ["col_state", "row_state"]
-    res = optimise([lab, runway], WordLengthConfig.default(), Budget(0.01, 0.99), margin=0,
+    res = optimise([lab, runway], P1Config.default(), Budget(0.01, 0.99), margin=0,
                    signals=sig, progress=False)  # fmt: skip
     assert {s: str(res.config.formats[s]) for s in sig} == {
         "col_state": "u11.3",
         "row_state": "u10.2",
     }
     assert res.evaluations == 19
-    only_lab = optimise(lab, WordLengthConfig.default(), Budget(0.01, 0.99), margin=0.0,
+    only_lab = optimise(lab, P1Config.default(), Budget(0.01, 0.99), margin=0.0,
                         signals=sig, progress=False)  # fmt: skip
     assert {s: str(only_lab.config.formats[s]) for s in sig} == {
         "col_state": "u10.3",
@@ -620,7 +620,7 @@ def test_cli_optimise_tunes_on_the_real_pair(capsys):
         assert sf["median_rel_range_diff"] <= 0.01 and sf["valid_agreement"] >= 0.99
     # v_sq with an LSB of 4096 rounds the pair's vx^2 (~102) to 0: the T_g test stops
     # rejecting; a start like that is refused, naming the real pair
-    cfg = WordLengthConfig.default()
+    cfg = P1Config.default()
     f = cfg.formats["v_sq"]
     coarse = cfg.with_formats(v_sq=FixedFormat(f.signed, 9, -12, f.quant, f.overflow))
     with pytest.raises(UserError, match="misses the budget on 'motorcycle'"):
@@ -674,8 +674,8 @@ def test_cli_sweep_and_errors(tmp_path, capsys):
 
 
 def test_example_definition_has_200_configs():
-    from rangefx.tools.cmd_sweep import example_path
-    from rangefx.tools.sweep import load_sweep
+    from rangefx.tools.cli.sweep import example_path
+    from rangefx.tools.studies.sweep import load_sweep
 
     defn = load_sweep(example_path())
     points = expand(defn)
@@ -687,8 +687,8 @@ def test_example_definition_has_200_configs():
 def test_buildup_hooks_are_validated_and_optional(tmp_path):
     with pytest.raises(UserError, match="unknown buildup_hooks"):
         parse_sweep(SMALL.replace('name = "t"', 'name = "t"\nbuildup_hooks = ["kalman"]'))
-    from rangefx.tools import wlplots
-    from rangefx.tools.sweep import buildup_for
+    from rangefx.tools.report import wlplots
+    from rangefx.tools.studies.sweep import buildup_for
 
     def broken(case, config):
         raise ValueError("model in progress")
@@ -697,7 +697,7 @@ def test_buildup_hooks_are_validated_and_optional(tmp_path):
     old = dict(wlplots.BUILDUP_HOOKS)
     try:
         wlplots.BUILDUP_HOOKS["broken"] = broken
-        profiles, notes = buildup_for(case, WordLengthConfig.default(), ["broken"])
+        profiles, notes = buildup_for(case, P1Config.default(), ["broken"])
     finally:
         wlplots.BUILDUP_HOOKS.clear()
         wlplots.BUILDUP_HOOKS.update(old)

@@ -1,7 +1,7 @@
 """Hardware test vectors (issue 6, SPEC §5): files, manifest, check, diff, readers.
 
 The CLI runs in-process (``rangefx.tools.cli.main``) so the numba model compiles once;
-the lab scene is rendered once per module (``p1_case_from_scene`` is cached here).
+the lab scene is rendered once per module (``scene_case`` is cached per process).
 """
 
 from __future__ import annotations
@@ -17,27 +17,29 @@ from hypothesis import strategies as st
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
-from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
+from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.p1 import FRONTEND_TAPS, RANGE_TAPS
-from rangefx.tools import cmd_vectors
+from rangefx.rtl_model.p1.config import P1Config
+from rangefx.rtl_model.p1.taps import TAP_SIGNALS, tap_format
+from rangefx.rtl_model.pipeline import Case
 from rangefx.tools.cli import main
-from rangefx.tools.pipeline import p1_case_from_scene
+from rangefx.tools.cli import vectors as cli_vectors
+from rangefx.tools.studies.cases import scene_case
 from rangefx.vectors import formats as fio
 from rangefx.vectors import generate
 from rangefx.vectors.generate import build_vectors, check_vectors, diff_dump, write_vectors
-from rangefx.vectors.taps import TAP_SIGNALS, tap_format
 
 CROP = ["--crop", "240", "256", "100", "124"]  # 16 x 24 pixels of the lab pair
 
 
 @functools.cache
 def _lab():
-    return p1_case_from_scene("lab")
+    return scene_case("lab")
 
 
 @pytest.fixture(autouse=True)
 def cached_scene(monkeypatch):
-    monkeypatch.setattr(cmd_vectors, "p1_case_from_scene", lambda name, seed=0: _lab())
+    _lab()
 
 
 def _gen(out: Path, *extra: str) -> int:
@@ -47,10 +49,8 @@ def _gen(out: Path, *extra: str) -> int:
 @pytest.fixture(scope="module")
 def vec(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("vec") / "lab"
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(cmd_vectors, "p1_case_from_scene", lambda name, seed=0: _lab())
-        argv = ["--formats", "mem,coe,mif,csv", "--hblank", "5", "--vblank", "7"]
-        assert _gen(out, *argv, "--gap-prob", "0.25", "--gap-seed", "4") == 0
+    argv = ["--formats", "mem,coe,mif,csv", "--hblank", "5", "--vblank", "7"]
+    assert _gen(out, *argv, "--gap-prob", "0.25", "--gap-seed", "4") == 0
     return out
 
 
@@ -71,7 +71,7 @@ def test_manifest_lists_every_tap_with_its_format_and_checksum(vec):
     import hashlib
 
     man = json.loads((vec / "manifest.json").read_text())
-    cfg = WordLengthConfig.from_toml(man["config"]["toml"])
+    cfg = P1Config.from_toml(man["config"]["toml"])
     assert man["config"]["parsed"]["design"]["variant"] == "paper"
     assert man["timing"] == {"hblank": 5, "vblank": 7, "gap_prob": 0.25, "seed": 4}
     assert man["case"]["scene"] == "lab" and man["case"]["crop"] == [240, 256, 100, 124]
@@ -113,7 +113,7 @@ def test_crop_shifts_the_principal_point(vec):
     assert man["case"]["camera"]["cy"] == full[1] - 240
     xp = generate.read_tap(vec, "xp").reshape(16, 24)
     yp = generate.read_tap(vec, "yp").reshape(16, 24)
-    cfg = WordLengthConfig.default()
+    cfg = P1Config.default()
     fmt = cfg.fmt("coord")
     assert fmt.to_float(xp[0, 0]) == 100 - full[0]
     assert fmt.to_float(yp[3, 0]) == 243 - full[1]
@@ -247,7 +247,7 @@ def test_diff_unknown_signal_is_a_user_error(tmp_path, vec, capsys):
 def test_trn_config_vectors_diffed_against_rnd_expected(tmp_path, vec):
     """Mutation at the vector level: a TRN row_r2 run is caught at its first change."""
     toml = tmp_path / "trn.toml"
-    cfg = WordLengthConfig.default()
+    cfg = P1Config.default()
     from rangefx.rtl_model.fixedpoint import FixedFormat, Quant
 
     trn = cfg.with_formats(
@@ -287,7 +287,7 @@ def test_failed_write_leaves_no_directory(tmp_path, monkeypatch):
         (Path(directory) / "half.mem").write_text("00\n")
         raise OSError("disk full")
 
-    monkeypatch.setattr(cmd_vectors, "write_vectors", boom)
+    monkeypatch.setattr(cli_vectors, "write_vectors", boom)
     with pytest.raises(OSError):
         _gen(tmp_path / "o")
     assert not (tmp_path / "o").exists() and list(tmp_path.iterdir()) == []
@@ -296,11 +296,17 @@ def test_failed_write_leaves_no_directory(tmp_path, monkeypatch):
 def test_motion_mode_one_stream_of_two_frames(tmp_path):
     rng = np.random.default_rng(1)
     im1 = rng.integers(0, 256, (6, 9))
-    vs = build_vectors(
+    case = Case(
         im1, np.roll(im1, 1, axis=0), PinholeCamera(9, 6, 40.0), MotionIncrement.stereo(0.2),
-        WordLengthConfig.default("consistent"), RangingConfig(), TimingConfig(hblank=3, vblank=4),
-        mode="motion", case={"source": "random"},
+        "motion", RangingConfig(),
     )  # fmt: skip
+    vs = build_vectors(
+        "p1",
+        case,
+        P1Config.default(variant="consistent"),
+        TimingConfig(hblank=3, vblank=4),
+        description={"source": "random"},
+    )
     write_vectors(tmp_path, vs)
     man = vs.manifest
     streams = [e for e in man["files"] if e["kind"] == "stream"]

@@ -1,8 +1,10 @@
-"""Vector directories of a P1 case: build, write, check and diff (SPEC §5).
+"""Vector directories of any registered pipeline: build, write, check and diff (SPEC §5, §10).
 
-:func:`build_vectors` runs the model with every tap on and returns the bytes of every
-file plus the manifest; :func:`write_vectors` puts them into a directory (the caller
-makes that directory atomic, e.g. with ``rangefx.tools.outdir.atomic_output_dir``);
+:func:`build_vectors` runs a pipeline (from :data:`rangefx.rtl_model.registry.PIPELINES`)
+with every tap on and returns the bytes of every file plus the manifest; the taps, their
+formats and the cycle of every sample come from the pipeline's tap table;
+:func:`write_vectors` puts them into a directory (the caller makes that directory
+atomic, e.g. with ``rangefx.tools.report.atomic_output_dir``);
 :func:`check_vectors` re-verifies sizes and SHA-256 and re-runs the model from the
 manifest; :func:`diff_dump` compares an RTL dump with an expected tap and reports the
 first mismatch. ``docs/vectors.md`` describes the files and the manifest.
@@ -22,13 +24,14 @@ import numpy as np
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
+from rangefx.golden.riccati import RiccatiConfig
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat
-from rangefx.rtl_model.p1 import FRONTEND_TAPS, RANGE_TAPS, P1Result, run_p1
+from rangefx.rtl_model.pipeline import Case, Pipeline, PipelineResult
+from rangefx.rtl_model.registry import get_pipeline
 from rangefx.rtl_model.stream import make_stream
 
 from . import formats as fmt_io
-from .taps import INPUT_TAP, split_tap, tap_format, tap_latency, tap_signal
 
 __all__ = [
     "FORMATS",
@@ -50,6 +53,8 @@ SCHEMA = "rangefx-vectors/1"
 MANIFEST_NAME = "manifest.json"
 #: Per-tap file formats; ``mem`` is always written.
 FORMATS = ("mem", "coe", "mif", "csv")
+#: Input pixels of a stream (``e1.pix_in``, ``e2.pix_in``): the beats' data.
+INPUT_TAP = "pix_in"
 
 
 def _sha256(data: bytes) -> str:
@@ -74,7 +79,7 @@ class VectorSet:
 
     files: dict[str, bytes]
     manifest: dict
-    result: P1Result = field(repr=False)
+    result: PipelineResult = field(repr=False)
 
     def manifest_bytes(self) -> bytes:
         return (json.dumps(self.manifest, indent=1) + "\n").encode()
@@ -91,13 +96,6 @@ def _motion_dict(motion: MotionIncrement) -> dict:
     return {k: np.asarray(v, dtype=np.float64).tolist() for k, v in asdict(motion).items()}
 
 
-def _tap_order(result: P1Result) -> list[str]:
-    names = [f"{s}.{INPUT_TAP}" for s in ("e1", "e2")]
-    for s in ("e1", "e2"):
-        names += [f"{s}.{t}" for t in FRONTEND_TAPS if f"{s}.{t}" in result.taps]
-    return names + [t for t in RANGE_TAPS if t in result.taps]
-
-
 def _format_entry(f: FixedFormat) -> dict:
     return {
         "format": str(f),
@@ -110,79 +108,81 @@ def _format_entry(f: FixedFormat) -> dict:
     }
 
 
-def build_vectors(
-    image1: np.ndarray,
-    image2: np.ndarray,
-    camera: PinholeCamera,
-    motion: MotionIncrement,
-    config: WordLengthConfig,
-    ranging: RangingConfig,
-    timing: TimingConfig | None = None,
-    *,
-    mode: str = "stereo",
-    case: Mapping | None = None,
-    formats: Iterable[str] = ("mem",),
-) -> VectorSet:
-    """Run P1 with all taps and build every vector file of the case.
-
-    Parameters
-    ----------
-    image1, image2
-        Integer grey levels, E1 and E2 (``run_p1``'s meaning for ``mode``).
-    camera, motion, config, ranging, timing, mode
-        As :func:`rangefx.rtl_model.p1.run_p1`.
-    case
-        Description recorded in the manifest (scene name, seed, crop, ...); JSON-able.
-    formats
-        Per-tap formats among :data:`FORMATS`; ``mem`` is always included.
-
-    Returns
-    -------
-    VectorSet
-
-    Raises
-    ------
-    ValueError
-        Bad images, config, timing or format names (from the model or here).
-    """
-    wanted = {"mem", *formats}
-    unknown = sorted(wanted - set(FORMATS))
-    if unknown:
-        raise ValueError(f"unknown vector formats {unknown}; choose from {', '.join(FORMATS)}")
-    timing = timing or TimingConfig()
-    result = run_p1(
-        image1, image2, camera, motion, config, ranging, timing=timing, mode=mode, taps=True
-    )
-    im1 = np.asarray(image1, dtype=np.int64)
-    im2 = np.asarray(image2, dtype=np.int64)
-    m, n = im1.shape
-    pix = config.fmt("pix_in")
-    for name, im in (("image1", im1), ("image2", im2)):
-        if im.min() < pix.raw_min or im.max() > pix.raw_max:
-            raise ValueError(
-                f"{name} grey levels [{im.min()}, {im.max()}] do not fit pix_in ({pix}); "
-                "the input vectors carry the pixels as the stream's data"
-            )
-    # input streams: stereo = two synchronised streams, motion = one stream of two frames
-    files: dict[str, bytes] = {}
-    entries: list[dict] = []
+def _input_cycles(case: Case, timing: TimingConfig) -> tuple[dict[str, tuple], dict]:
+    """The input stream(s) of a case and each stream's per-pixel input cycles: stereo =
+    two synchronised streams, motion = one stream of two frames."""
+    im1, im2 = (np.asarray(im, dtype=np.int64) for im in (case.image1, case.image2))
     streams: dict[str, tuple] = {}
-    if mode == "stereo":
+    if case.mode == "stereo":
         for s, im in (("e1", im1), ("e2", im2)):
-            st = make_stream(im, timing)
-            streams[f"{s}.{INPUT_TAP}.stream"] = (st, s)
-        cyc = {"e1": streams["e1.pix_in.stream"][0].pixel_cycles()[0]}
+            streams[f"{s}.{INPUT_TAP}.stream"] = (make_stream(im, timing), s)
+        cyc = {"e1": streams[f"e1.{INPUT_TAP}.stream"][0].pixel_cycles()[0]}
         cyc["e2"] = cyc["e1"]
     else:
         st = make_stream(np.stack([im1, im2]), timing)
         streams[f"{INPUT_TAP}.stream"] = (st, "e1+e2")
         pc = st.pixel_cycles()
         cyc = {"e1": pc[0], "e2": pc[1]}
+    return streams, cyc
+
+
+def build_vectors(
+    pipeline: Pipeline | str,
+    case: Case,
+    config: WordLengthConfig | None = None,
+    timing: TimingConfig | None = None,
+    *,
+    description: Mapping | None = None,
+    formats: Iterable[str] = ("mem",),
+) -> VectorSet:
+    """Run ``pipeline`` with all taps on ``case`` and build every vector file.
+
+    Parameters
+    ----------
+    pipeline
+        A registered pipeline or its name (``"p1"``, ``"p2"``).
+    case
+        Images (integer grey levels), camera, motion, mode and the pipelines' settings.
+    config, timing
+        Word-length config (default: the pipeline's shipped default) and input timing.
+    description
+        Recorded in the manifest's ``case`` (scene name, seed, crop, ...); JSON-able.
+    formats
+        Per-tap formats among :data:`FORMATS`; ``mem`` is always included.
+
+    Raises
+    ------
+    ValueError
+        Bad images, config, timing or format names (from the model or here).
+    """
+    pipe = get_pipeline(pipeline) if isinstance(pipeline, str) else pipeline
+    wanted = {"mem", *formats}
+    unknown = sorted(wanted - set(FORMATS))
+    if unknown:
+        raise ValueError(f"unknown vector formats {unknown}; choose from {', '.join(FORMATS)}")
+    timing = timing or TimingConfig()
+    config = config or pipe.default_config()
+    result = pipe.run(case, config, timing, taps=True)
+    im1 = np.asarray(case.image1, dtype=np.int64)
+    im2 = np.asarray(case.image2, dtype=np.int64)
+    m, n = im1.shape
+    table = pipe.tap_table(config, case.mode)
+    pix_spec = next(t for t in table if t.name == f"e1.{INPUT_TAP}")
+    pix = pix_spec.fmt
+    for name, im in (("image1", im1), ("image2", im2)):
+        if im.min() < pix.raw_min or im.max() > pix.raw_max:
+            raise ValueError(
+                f"{name} grey levels [{im.min()}, {im.max()}] do not fit {pix_spec.signal} "
+                f"({pix}); the input vectors carry the pixels as the stream's data"
+            )
+    files: dict[str, bytes] = {}
+    entries: list[dict] = []
+    streams, cyc = _input_cycles(case, timing)
     rows = np.repeat(np.arange(m, dtype=np.int64), n)
     cols = np.tile(np.arange(n, dtype=np.int64), m)
     sof = (rows == 0) & (cols == 0)
     eol = cols == n - 1
-    values = {"e1.pix_in": im1, "e2.pix_in": im2, **result.taps}
+    values = {f"e1.{INPUT_TAP}": im1, f"e2.{INPUT_TAP}": im2, **result.taps}
 
     def add(name: str, data: bytes, entry: dict) -> None:
         files[name] = data
@@ -193,8 +193,8 @@ def build_vectors(
         first = int(np.flatnonzero(st.valid)[0])
         common = {
             "kind": "stream",
-            "tap": "e1.pix_in" if which == "e1" else ("e2.pix_in" if which == "e2" else which),
-            "signal": "pix_in",
+            "tap": f"{which}.{INPUT_TAP}" if which in ("e1", "e2") else which,
+            "signal": pix_spec.signal,
             **_format_entry(pix),
             "stream_word_bits": pix.word + 3,
             "stream_word_bytes": fmt_io.stream_word_bytes(pix.word),
@@ -207,49 +207,56 @@ def build_vectors(
         comment = f"{sname} {{sof,eol,valid,data[{pix.word - 1}:0]}} one word per cycle"
         add(f"{sname}.bin", words_bin, {**common, "encoding": "bin"})
         add(f"{sname}.mem", fmt_io.write_stream_mem(words, pix.word, comment), common)
-    for tap in _tap_order(result):
-        stream, base = split_tap(tap)
-        f = tap_format(tap, config)
-        raw = np.asarray(values[tap], dtype=np.int64).ravel()
-        base_cycles = cyc[stream or "e2"].ravel()
-        cycles = base_cycles + tap_latency(tap, result.stage_latency)
-        if base == "range":
-            assert np.array_equal(cycles, result.out_cycles.ravel())
+    for spec in table:
+        if spec.name not in values:
+            continue
+        f = spec.fmt
+        raw = np.asarray(values[spec.name], dtype=np.int64).ravel()
+        base = cyc[spec.stream or "e2"]
+        cycles = pipe.tap_cycles(spec, config, timing, cyc["e2"], base).ravel()
+        if spec.name == "range" and not np.array_equal(cycles, result.out_cycles.ravel()):
+            raise RuntimeError(f"{pipe.name}: the range tap's cycles are not the output cycles")
+        kind = "input" if spec.stage is None else ("range" if spec.stream is None else "stream_tap")
         entry = {
-            "kind": "input" if base == INPUT_TAP else ("range" if stream is None else "stream_tap"),
-            "tap": tap,
-            "signal": tap_signal(tap, config),
+            "kind": kind,
+            "tap": spec.name,
+            "signal": spec.signal,
+            "stage": spec.stage,
+            "latency": spec.latency,
             **_format_entry(f),
             "count": int(raw.size),
             "first_valid_cycle": int(cycles[0]),
-            "last_valid_cycle": int(cycles[-1]),
+            "last_valid_cycle": int(cycles.max()),
         }
-        comment = f"{tap} {f} {f.describe()} {raw.size} words, scan order"
-        add(f"{tap}.mem", fmt_io.write_mem(raw, f.word, comment), entry)
+        comment = f"{spec.name} {f} {f.describe()} {raw.size} words, scan order"
+        add(f"{spec.name}.mem", fmt_io.write_mem(raw, f.word, comment), entry)
         if "coe" in wanted:
-            add(f"{tap}.coe", fmt_io.write_coe(raw, f.word, comment), entry)
+            add(f"{spec.name}.coe", fmt_io.write_coe(raw, f.word, comment), entry)
         if "mif" in wanted:
-            add(f"{tap}.mif", fmt_io.write_mif(raw, f.word, comment), entry)
+            add(f"{spec.name}.mif", fmt_io.write_mif(raw, f.word, comment), entry)
         if "csv" in wanted:
-            add(f"{tap}.csv", fmt_io.write_csv(raw, cycles, rows, cols, sof, eol), entry)
+            add(f"{spec.name}.csv", fmt_io.write_csv(raw, cycles, rows, cols, sof, eol), entry)
     toml = config.to_toml()
     manifest = {
         "schema": SCHEMA,
         "generator": {"name": "rangefx", "version": _version()},
-        "pipeline": "p1",
-        "mode": mode,
+        "pipeline": pipe.name,
+        "mode": case.mode,
         "shape": [m, n],
         "formats": [f for f in FORMATS if f in wanted],
         "config": {"name": config.name, "toml": toml, "parsed": tomllib.loads(toml)},
         "timing": asdict(timing),
         "case": {
-            **dict(case or {}),
-            "camera": _camera_dict(camera),
-            "motion": _motion_dict(motion),
-            "ranging": asdict(ranging),
+            **dict(description or {}),
+            "camera": _camera_dict(case.camera),
+            "motion": _motion_dict(case.motion),
+            "ranging": asdict(case.ranging),
+            "riccati": asdict(case.riccati),
         },
         "latency": {"total": result.latency, "stages": dict(result.stage_latency)},
         "total_cycles": result.total_cycles,
+        "registers": {k: list(v) for k, v in result.registers.items()},
+        "saturated_registers": list(result.saturated_registers),
         "overflows": {k: v for k, v in result.overflows.items() if v},
         "total_bytes": sum(len(b) for b in files.values()),
         "files": entries,
@@ -261,7 +268,7 @@ def write_vectors(directory: str | Path, vectors: VectorSet) -> None:
     """Write the files and ``manifest.json`` (last) into an existing, empty ``directory``.
 
     Not atomic by itself: give it the temporary directory of an atomic output directory
-    (``rangefx vectors gen`` uses ``rangefx.tools.outdir.atomic_output_dir``).
+    (``rangefx vectors gen`` uses ``rangefx.tools.report.outdir.atomic_output_dir``).
     """
     d = Path(directory)
     for name, data in vectors.files.items():
@@ -322,30 +329,33 @@ def case_from_manifest(directory: str | Path, manifest: Mapping) -> dict:
     """Arguments of :func:`build_vectors` that reproduce a vector directory.
 
     The images come from the input ``.mem`` files (whose checksums the caller verified);
-    camera, motion, ranging, config and timing from the manifest.
+    pipeline, camera, motion, settings, config and timing from the manifest.
     """
     m, n = manifest["shape"]
     images = [read_tap(directory, f"{s}.{INPUT_TAP}", manifest).reshape(m, n) for s in ("e1", "e2")]
     c = manifest["case"]
     try:
-        config = WordLengthConfig.from_toml(manifest["config"]["toml"], manifest["config"]["name"])
-        camera = PinholeCamera(**c["camera"])
-        motion = MotionIncrement(**{k: np.array(v) for k, v in c["motion"].items()})
-        ranging = RangingConfig(**c["ranging"])
+        pipe = get_pipeline(manifest.get("pipeline", "p1"))
+        config = pipe.config_from_toml(manifest["config"]["toml"], manifest["config"]["name"])
+        case = Case(
+            images[0],
+            images[1],
+            PinholeCamera(**c["camera"]),
+            MotionIncrement(**{k: np.array(v) for k, v in c["motion"].items()}),
+            manifest["mode"],
+            RangingConfig(**c["ranging"]),
+            RiccatiConfig(**c["riccati"]) if "riccati" in c else RiccatiConfig(),
+        )
         timing = TimingConfig(**manifest["timing"])
     except (TypeError, KeyError) as exc:
         raise ValueError(f"manifest case is incomplete: {exc}") from None
-    rest = {k: v for k, v in c.items() if k not in ("camera", "motion", "ranging")}
+    rest = {k: v for k, v in c.items() if k not in ("camera", "motion", "ranging", "riccati")}
     return {
-        "image1": images[0],
-        "image2": images[1],
-        "camera": camera,
-        "motion": motion,
+        "pipeline": pipe,
+        "case": case,
         "config": config,
-        "ranging": ranging,
         "timing": timing,
-        "mode": manifest["mode"],
-        "case": rest,
+        "description": rest,
         "formats": manifest["formats"],
     }
 
@@ -534,13 +544,28 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
 
 
 def _tap_cycles(d: Path, manifest: Mapping, tap: str, first: int) -> np.ndarray:
-    """Cycle of every sample of ``tap``: its stream's valid beats shifted to ``first``."""
-    stream, _ = split_tap(tap)
+    """Cycle of every sample of ``tap``, from the input streams' valid beats: a tap with
+    a fixed latency is its stream's beats shifted to ``first``; a scheduled tap (P2's
+    sweep) takes the pipeline's schedule on those beats."""
+    entry = _find_entry(manifest, tap)
+    stream = tap.rpartition(".")[0] or None
     names = [e for e in manifest["files"] if e["kind"] == "stream" and e["path"].endswith(".bin")]
-    entry = next((e for e in names if e["tap"] == f"{stream}.{INPUT_TAP}"), names[0])
-    data = fmt_io.read_stream_bin_valid((d / entry["path"]).read_bytes(), int(entry["word"]))
-    cyc = np.flatnonzero(data).astype(np.int64)
+    beats = {}
+    for e in names:
+        data = fmt_io.read_stream_bin_valid((d / e["path"]).read_bytes(), int(e["word"]))
+        beats[e["tap"]] = np.flatnonzero(data).astype(np.int64)
     m, n = manifest["shape"]
-    if cyc.size > m * n:  # motion: one stream of two frames; e1 = first, others = second
-        cyc = cyc[: m * n] if stream == "e1" else cyc[m * n :]
-    return cyc - cyc[0] + first
+    if f"e1.{INPUT_TAP}" in beats:
+        cyc = {"e1": beats[f"e1.{INPUT_TAP}"], "e2": beats[f"e2.{INPUT_TAP}"]}
+    else:  # motion: one stream of two frames
+        both = next(iter(beats.values()))
+        cyc = {"e1": both[: m * n], "e2": both[m * n :]}
+    base = cyc[stream or "e2"]
+    if entry.get("latency", 0) is not None:
+        return base - base[0] + first
+    pipe = get_pipeline(manifest["pipeline"])
+    config = pipe.config_from_toml(manifest["config"]["toml"], manifest["config"]["name"])
+    spec = next(t for t in pipe.tap_table(config, manifest["mode"]) if t.name == tap)
+    timing = TimingConfig(**manifest["timing"])
+    in_cycles = cyc["e2"].reshape(m, n)
+    return pipe.tap_cycles(spec, config, timing, in_cycles, base.reshape(m, n)).ravel()

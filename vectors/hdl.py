@@ -1,6 +1,6 @@
 """Parameters of the Verilog row + column filter stage (``hdl/p1_rowcol.v``) from a config.
 
-:func:`rowcol_parameters` turns a :class:`~rangefx.rtl_model.config.WordLengthConfig`
+:func:`rowcol_parameters` turns a :class:`~rangefx.rtl_model.config.P1Config`
 into the module's Verilog parameters (word, fraction bits, sign, quantisation and
 overflow mode of each implemented signal); :func:`rowcol_registers` gives the raw codes
 of the host registers ``pole_raw`` and ``bias_raw``. ``HDL_DIR`` locates the sources
@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the simulator process imports this module: keep numba out of it
-    from rangefx.rtl_model.config import WordLengthConfig
+    from rangefx.rtl_model.p1.config import P1Config
 
 __all__ = ["HDL_DIR", "HDL_SOURCES", "ROWCOL_TAPS", "rowcol_parameters", "rowcol_registers"]
 
@@ -47,7 +47,7 @@ _PREFIX = {
 }
 
 
-def rowcol_parameters(config: WordLengthConfig, width: int) -> dict[str, int]:
+def rowcol_parameters(config: P1Config, width: int) -> dict[str, int]:
     """Verilog parameters of ``p1_rowcol`` for ``config`` and lines of ``width`` pixels."""
     params = {
         "MAX_WIDTH": int(width),
@@ -63,7 +63,7 @@ def rowcol_parameters(config: WordLengthConfig, width: int) -> dict[str, int]:
     return params
 
 
-def rowcol_registers(config: WordLengthConfig) -> dict[str, int]:
+def rowcol_registers(config: P1Config) -> dict[str, int]:
     """Raw codes (unsigned words) of ``pole_raw`` and ``bias_raw``, as the host writes them."""
     pole, bias = config.fmt("pole_coef"), config.fmt("bias_reg")
     return {

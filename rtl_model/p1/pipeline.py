@@ -1,0 +1,113 @@
+"""P1 behind the one pipeline interface (SPEC §10)."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+from rangefx.golden.estimator import EstimatorConfig
+from rangefx.golden.methods import run_method
+from rangefx.golden.taps import p1_golden_taps
+
+from ..config import TimingConfig, WordLengthConfig
+from ..cost import CostReport
+from ..pipeline import MODES, Case, GoldenReference, Pipeline, PipelineResult, TapSpec
+from . import cost, model, taps
+from .config import HOST_REGISTERS, P1_SIGNALS, P1Config
+
+__all__ = ["FRONTEND_SIGNALS", "P1Pipeline"]
+
+#: The per-stream signals (bias, row and column filters, x-derivative).
+FRONTEND_SIGNALS: tuple[str, ...] = (
+    "bias_in",
+    "row_state",
+    "row_r1",
+    "row_r2",
+    "col_state",
+    "col_s1",
+    "col_s2",
+    "col2_state",
+    "col2_out",
+    "div_quot",
+)
+
+
+class P1Pipeline(Pipeline):
+    """P1, derivative-based ranging: bias → row/column filters → x-derivative per stream,
+    the eq-28 range stage, thresholds (docs/p1_datapath.md). Its golden is the float64
+    eq-28 method ``g4_<variant>`` with the same estimator settings, so that "fixed vs
+    golden" isolates the word lengths."""
+
+    name: ClassVar[str] = "p1"
+    title: ClassVar[str] = "P1 derivative-based ranging (eq 28)"
+    config_type: ClassVar[type[WordLengthConfig]] = P1Config
+    modes: ClassVar[tuple[str, ...]] = MODES
+    options: ClassVar[tuple[str, ...]] = ("variant", "divider", "pole", "bias")
+    variants: ClassVar[dict[str, dict[str, Any]]] = {
+        "paper": {"variant": "paper"},
+        "consistent": {"variant": "consistent"},
+    }
+
+    @property
+    def signal_groups(self) -> dict[str, tuple[str, ...]]:
+        groups = super().signal_groups
+        groups["frontend"] = FRONTEND_SIGNALS
+        groups["range_stage"] = tuple(
+            s
+            for s in P1_SIGNALS
+            if s not in HOST_REGISTERS and s not in FRONTEND_SIGNALS and s != "pix_in"
+        )
+        return groups
+
+    def run(
+        self,
+        case: Case,
+        config: WordLengthConfig | None = None,
+        timing: TimingConfig | None = None,
+        *,
+        taps: bool = True,
+        threads: int = 2,
+    ) -> PipelineResult:
+        config = self.check_config(config or P1Config.default())
+        return model.run_p1(
+            case.image1, case.image2, case.camera, case.motion, config, case.ranging,
+            timing=timing, mode=case.mode, taps=taps, threads=threads,
+        )  # fmt: skip
+
+    def golden(
+        self, case: Case, config: WordLengthConfig | None = None, *, taps: bool = False
+    ) -> GoldenReference:
+        config = self.check_config(config or P1Config.default())
+        est = EstimatorConfig(pole=config.pole, bias=config.bias, init=config.init)
+        result = run_method(
+            f"g4_{config.variant}", case.image1, case.image2, case.camera, case.motion,
+            estimator=est, ranging=case.ranging,
+        )  # fmt: skip
+        values = {}
+        if taps:
+            values = p1_golden_taps(
+                case.image1, case.image2, case.camera, case.motion,
+                EstimatorConfig(pole=config.pole, variant=config.variant, bias=config.bias,
+                                init=config.init),
+            )  # fmt: skip
+        return GoldenReference(result, values)
+
+    def golden_label(self, config: WordLengthConfig) -> str:
+        return f"g4_{self.check_config(config).variant}"
+
+    def range_max(self, case: Case) -> float:
+        return case.ranging.range_max
+
+    def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
+        return model.stage_latencies(self.check_config(config))
+
+    def tap_table(self, config: WordLengthConfig, mode: str = "stereo") -> tuple[TapSpec, ...]:
+        config = self.check_config(config)
+        return taps.tap_table(config, model.stage_latencies(config))
+
+    def cost(
+        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
+    ) -> CostReport:
+        return cost.config_cost(self.check_config(config), shape, mode)
+
+    def rejected_weight(self, signal: str) -> int:
+        return sum(cost.REGISTER_INSTANCES[signal])

@@ -1,0 +1,141 @@
+"""Word-length and design configuration of the P2 pipeline (Riccati sweep, SPEC §4, §10).
+
+:class:`P2Config` is the P2 case of the one word-length config type
+:class:`~rangefx.rtl_model.config.WordLengthConfig`: one format per name of
+:data:`P2_SIGNALS` (``docs/p2_datapath.md``) plus the design fields; TOML, validation and
+the int64 check naming the signal are shared.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import ClassVar
+
+from ..config import Terms, WordLengthConfig, signed_bits
+from ..fixedpoint import FixedFormat
+from ..runtime import DIVIDERS, divider_latency
+
+__all__ = ["P2_SIGNALS", "P2Config", "loop_latency"]
+
+#: (name, meaning) of every P2 signal and register, in datapath order.
+_SIGNAL_TABLE: tuple[tuple[str, str], ...] = (
+    ("p2_pix", "input pixels E1, E2 (grey levels)"),
+    ("p2_d", "d = E1 - E2 (line buffer)"),
+    ("p2_ghat", "G_hat = E1 + E2 (eq 34, line buffer)"),
+    ("p2_ka_reg", "register: KA = 1 / (f dx) in pixel units (eq 33 with the factor 2 in D)"),
+    ("p2_a", "A at the pixel edge, KA (d_k + d_k+1) (eq 33)"),
+    ("p2_c", "c beta = A^2 (pixel units) and the floor register c_min"),
+    ("p2_m_reg", "register: M = alpha / beta"),
+    ("p2_st", "S~ = S / beta (Riccati variable, eq 27) and gamma_eff"),
+    ("p2_den", "1 + A^2 S~_k+1 = 1 + c S (divider denominator)"),
+    ("p2_r", "r = 1 / (1 + c S) (divider quotient)"),
+    ("p2_h", "h = Q~_k+1 - S~_k+1 dG_k"),
+    ("p2_q", "Q~ = (K + S G_hat) / beta"),
+    ("p2_w", "w = S~_k+1 u + Q~_k+1"),
+    ("p2_lam", "lambda / beta = r w (eq 19, 23)"),
+    ("p2_z", "range z = -A lambda / beta (eq 38) and range_max"),
+    ("p2_e", "e = G - G_hat: e_k+1 = u + A z, u = e_k - dG_k (eq 37)"),
+)
+
+_D_SUM = "@dsum"  # d_k + d_k+1: one bit wider than p2_d
+_DG = "@dg"  # G_hat_k+1 - G_hat_k: one bit wider than p2_ghat, signed
+_ONE = FixedFormat(True, 2, 0)
+
+#: Exact intermediate of each cast (sums of products of operand signals); used to
+#: reject formats whose exact values overflow int64.
+_EXPRESSIONS: dict[str, tuple[tuple[str, ...], ...]] = {
+    "p2_d": (("p2_pix",), ("p2_pix",)),
+    "p2_ghat": (("p2_pix",), ("p2_pix",)),
+    "p2_a": (("p2_ka_reg", _D_SUM),),
+    "p2_c": (("p2_a", "p2_a"),),
+    "p2_den": (("@one",), ("p2_c", "p2_st")),
+    "p2_st": (("p2_m_reg",), ("p2_r", "p2_st")),
+    "p2_h": (("p2_q",), ("p2_st", _DG)),
+    "p2_q": (("p2_r", "p2_h"),),
+    "p2_w": (("p2_st", "p2_e"), ("p2_st", _DG), ("p2_q",)),
+    "p2_lam": (("p2_r", "p2_w"),),
+    "p2_e": (("p2_e",), (_DG,), ("p2_a", "p2_z")),
+    "p2_z": (("p2_a", "p2_lam"),),
+}
+
+
+@dataclass(frozen=True, kw_only=True)
+class P2Config(WordLengthConfig):
+    """Formats of every P2 signal plus the design choices of the sweep.
+
+    Attributes
+    ----------
+    formats
+        One :class:`FixedFormat` per name in :data:`P2_SIGNALS`.
+    divider
+        The shared divider models: ``"restoring"`` or ``"reciprocal"`` (LUT + Newton).
+    recip_lut_bits, recip_bits
+        Reciprocal divider: LUT index bits and reciprocal fraction bits.
+    kappa_min
+        Floor on ``kappa = alpha delta c = M A^2`` (dimensionless): bounds
+        ``S <= alpha delta (1 + 1 / kappa_min)`` after the first step (docs/p2_datapath.md).
+    lanes
+        Lines interleaved by the sweep engine (the recurrence's loop latency is hidden
+        by issuing one step of each lane in turn); 0 = the loop latency.
+    """
+
+    PIPELINE: ClassVar[str] = "p2"
+    SIGNAL_TABLE: ClassVar[tuple[tuple[str, str], ...]] = _SIGNAL_TABLE
+    HOST_REGISTERS: ClassVar[tuple[str, ...]] = ("p2_ka_reg", "p2_m_reg")
+    QUOTIENTS: ClassVar[tuple[str, ...]] = ("p2_r",)
+    DOC: ClassVar[str] = "docs/p2_datapath.md"
+
+    divider: str = "reciprocal"
+    recip_lut_bits: int = 8
+    recip_bits: int = 20
+    kappa_min: float = 2.0**-6
+    lanes: int = 0
+
+    def validate_design(self) -> None:
+        self.check_choice("divider", DIVIDERS)
+        self.check_int_field("recip_lut_bits", 1, 16)
+        self.check_int_field("recip_bits", 4, 28)
+        self.check_int_field("lanes", 0, 256)
+        if self.recip_bits < self.recip_lut_bits + 2:
+            raise ValueError("recip_bits must exceed recip_lut_bits by at least 2")
+        k = self.kappa_min
+        if isinstance(k, bool) or not isinstance(k, int | float) or not (0 < k < math.inf):
+            raise ValueError(f"kappa_min must be a positive finite number, not {k!r}")
+        for name in ("p2_c", "p2_st", "p2_den", "p2_r", "p2_m_reg"):
+            if self.formats[name].signed:
+                raise ValueError(f"signal {name!r} must be unsigned (it is never negative)")
+
+    def exact_intermediates(self) -> Iterable[tuple[str, Terms, int]]:
+        formats = self.formats
+        d, g = formats["p2_d"], formats["p2_ghat"]
+        extra = {
+            _D_SUM: FixedFormat(True, signed_bits(d) + 1, d.frac),
+            _DG: FixedFormat(True, signed_bits(g) + 1, g.frac),
+            "@one": _ONE,
+        }
+        for name, terms in _EXPRESSIONS.items():
+            yield name, tuple(tuple(extra.get(o) or formats[o] for o in t) for t in terms), 0
+
+    def divider_intermediates(self) -> Iterable[tuple[str, int, str]]:
+        den, out = self.formats["p2_den"], self.formats["p2_r"]
+        if self.divider == "restoring":
+            need = max(2 + out.frac + 1 + den.frac, signed_bits(den), out.word + 3)
+        else:
+            need = max(2 + self.recip_bits + 2, 2 * (self.recip_bits + 2))
+        yield "p2_r", need, f"{self.divider} divider"
+
+    def effective_lanes(self) -> int:
+        """Lanes of the sweep engine (``lanes``, or the loop latency when 0)."""
+        return self.lanes or loop_latency(self)
+
+
+#: P2 signals in datapath order.
+P2_SIGNALS: tuple[str, ...] = P2Config.signals()
+
+
+def loop_latency(config: P2Config) -> int:
+    """Cycles of the backward recurrence ``S~_k+1 -> S~_k``: product ``A^2 S~`` and cast
+    (1), divider, product ``r S~`` plus ``M`` and cast (2)."""
+    return 1 + divider_latency(config.divider, config.formats["p2_r"].word) + 2

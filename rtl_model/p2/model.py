@@ -1,0 +1,377 @@
+"""P2: the bit-accurate, cycle-faithful line-buffered Riccati sweep (SPEC §4, ch. 5).
+
+Per pixel, one clock each, ``d = E1 - E2`` and ``Ĝ = E1 + E2`` (eq 34) go into a line
+buffer; a backward sweep over the stored line runs the discrete LQ Riccati recurrence of
+golden G5 (``golden/riccati.py``, ``form="lq"``, ``A`` at the pixel edge) in the
+normalised fixed-point form of ``docs/p2_datapath.md`` (``S~ = S/β``, ``Q~ = (K + SĜ)/β``,
+one divider ``r = 1/(1 + A² S~)`` per pixel, eqs 27-28 as δ → 0); a forward pass yields
+``λ/β``, the range ``z = -A λ/β`` (eqs 19, 38) and ``e = G - Ĝ`` (eq 37). The sweep
+engine interleaves ``lanes`` lines so that its loop-carried recurrence (through the
+divider) issues one step per clock; ping-pong line and sweep buffers let group ``g + 1``
+arrive while group ``g`` is swept. Values do not depend on timing; cycle stamps do.
+
+``tests/oracle_p2.py`` is the independent slow implementation of the same page.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.golden.riccati import RiccatiConfig, stereo_baseline
+
+from ..config import TimingConfig
+from ..pipeline import PipelineResult
+from ..runtime import (
+    RegisterFile,
+    SignalStats,
+    check_image_pair,
+    divider_code,
+    divider_latency,
+    format_table,
+    reciprocal_lut,
+)
+from ..runtime import cast_site as _cast
+from ..runtime import divide_into as _divide_into
+from ..stream import make_stream
+from .config import P2_SIGNALS, P2Config, loop_latency
+
+__all__ = [
+    "N_SITES",
+    "P2_TAPS",
+    "P2Registers",
+    "buffer_bits",
+    "p2_registers",
+    "p2_schedule",
+    "run_p2",
+    "stage_latencies",
+]
+
+_SIG = {name: k for k, name in enumerate(P2_SIGNALS)}
+PIX, DD, GH, KA, AA, CC, MR, ST, DEN, RR, HH, QQ, WW, LAM, ZZ, EE = (_SIG[s] for s in P2_SIGNALS)
+
+#: Taps (int64 raw codes, shape (m, n)); backward-sweep signals of step k (pixel k to
+#: k+1) at column k, ``s``/``q`` at column k are S~_k / Q~_k (column n-1: the start values),
+#: ``e`` at column k is e_k; the last column has no step (z, w, lam, ... = 0, invalid).
+P2_TAPS = (
+    "d", "g_hat", "a", "c", "den", "r", "s", "h", "q", "w", "lam", "z", "e", "valid", "range",
+)  # fmt: skip
+#: Cast sites in the kernel (each logs its own raw min/max).
+N_SITES = 16
+IN_LATENCY = 2  # input cast + d/Ĝ adder, then the line-buffer write
+FWD_LOOP = 4  # forward recurrence e_k -> w -> λ/β -> z -> e_k+1
+OUT_LATENCY = 5  # forward pass: w, λ/β, z, threshold/valid, output register
+
+
+@njit(cache=True, nogil=True)
+def _p2_kernel(
+    im1, im2, regs, kind, lut, r_bits, fm, st, dst, ov, j0, j1,
+    out_range, out_valid, taps, want_taps,
+):  # fmt: skip
+    """Lines ``j0 <= j < j1``: input stage, backward sweep, forward pass (docs/p2_datapath.md)."""
+    n = im1.shape[1]
+    ka, m_reg, cmin, s_end, td, rmax = regs[0], regs[1], regs[2], regs[3], regs[4], regs[5]
+    f_pix, f_d, f_g, f_ka, f_a = fm[PIX, 1], fm[DD, 1], fm[GH, 1], fm[KA, 1], fm[AA, 1]
+    f_c, f_m, f_s, f_den, f_r = fm[CC, 1], fm[MR, 1], fm[ST, 1], fm[DEN, 1], fm[RR, 1]
+    f_h, f_q, f_w, f_lam = fm[HH, 1], fm[QQ, 1], fm[WW, 1], fm[LAM, 1]
+    f_z, f_e = fm[ZZ, 1], fm[EE, 1]
+    f_den_in = max(0, f_c + f_s)
+    f_s_in = max(f_m, f_r + f_s)
+    f_h_in = max(f_q, f_s + f_g)
+    f_u = max(f_e, f_g)
+    f_w_in = max(f_s + f_u, f_q)
+    f_e_in = max(f_u, f_a + f_z)
+    d = np.zeros(n, dtype=np.int64)  # line buffer: d = E1 - E2
+    g = np.zeros(n, dtype=np.int64)  # line buffer: Ĝ = E1 + E2
+    sa = np.zeros(n, dtype=np.int64)  # sweep buffer: A, r, S~_k+1, Q~_k+1 of step k
+    sr = np.zeros(n, dtype=np.int64)
+    ss = np.zeros(n, dtype=np.int64)
+    sq = np.zeros(n, dtype=np.int64)
+    for j in range(j0, j1):
+        for i in range(n):
+            x1 = _cast(im1[j, i], 0, PIX, 0, fm, st, ov)
+            x2 = _cast(im2[j, i], 0, PIX, 1, fm, st, ov)
+            d[i] = _cast(x1 - x2, f_pix, DD, 2, fm, st, ov)
+            g[i] = _cast(x1 + x2, f_pix, GH, 3, fm, st, ov)
+        # backward sweep, right edge to left edge
+        s1 = s_end
+        q1 = np.int64(0)
+        if want_taps:
+            taps[6, j, n - 1] = s1
+            taps[0, j, n - 1] = d[n - 1]
+            taps[1, j, n - 1] = g[n - 1]
+        for k in range(n - 2, -1, -1):
+            dsum = d[k] + d[k + 1]
+            dg = g[k + 1] - g[k]
+            a = _cast(ka * dsum, f_ka + f_d, AA, 4, fm, st, ov)
+            c = max(_cast(a * a, 2 * f_a, CC, 5, fm, st, ov), cmin)
+            den = _cast((np.int64(1) << f_den_in) + (c * s1 << (f_den_in - f_c - f_s)),
+                        f_den_in, DEN, 6, fm, st, ov)  # fmt: skip
+            r, _ = _divide_into(np.int64(1), 0, den, f_den, RR, kind, lut, r_bits, fm, dst,
+                                ov)  # fmt: skip
+            s0 = _cast((m_reg << (f_s_in - f_m)) + (r * s1 << (f_s_in - f_r - f_s)), f_s_in,
+                       ST, 7, fm, st, ov)  # fmt: skip
+            h = _cast((q1 << (f_h_in - f_q)) - (s1 * dg << (f_h_in - f_s - f_g)), f_h_in,
+                      HH, 8, fm, st, ov)  # fmt: skip
+            q0 = _cast(r * h, f_r + f_h, QQ, 9, fm, st, ov)
+            sa[k] = a
+            sr[k] = r
+            ss[k] = s1
+            sq[k] = q1
+            if want_taps:
+                taps[0, j, k] = d[k]
+                taps[1, j, k] = g[k]
+                taps[2, j, k] = a
+                taps[3, j, k] = c
+                taps[4, j, k] = den
+                taps[5, j, k] = r
+                taps[6, j, k] = s0
+                taps[7, j, k] = h
+                taps[8, j, k] = q0
+            s1 = s0
+            q1 = q0
+        # forward pass, left edge to right edge
+        e = np.int64(0)
+        for k in range(n - 1):
+            dg = g[k + 1] - g[k]
+            u = (e << (f_u - f_e)) - (dg << (f_u - f_g))
+            w = _cast((ss[k] * u << (f_w_in - f_s - f_u)) + (sq[k] << (f_w_in - f_q)), f_w_in,
+                      WW, 10, fm, st, ov)  # fmt: skip
+            lam = _cast(sr[k] * w, f_r + f_w, LAM, 11, fm, st, ov)
+            z = _cast(-(sa[k] * lam), f_a + f_lam, ZZ, 12, fm, st, ov)
+            e = _cast((u << (f_e_in - f_u)) + (sa[k] * z << (f_e_in - f_a - f_z)), f_e_in,
+                      EE, 13, fm, st, ov)  # fmt: skip
+            ok = abs(d[k] + d[k + 1]) >= td and z > 0 and z <= rmax
+            out_valid[j, k] = ok
+            out_range[j, k] = z if ok else rmax
+            if want_taps:
+                taps[9, j, k] = w
+                taps[10, j, k] = lam
+                taps[11, j, k] = z
+                taps[12, j, k + 1] = e
+                taps[13, j, k] = ok
+                taps[14, j, k] = out_range[j, k]
+        out_valid[j, n - 1] = False
+        out_range[j, n - 1] = rmax
+        if want_taps:
+            taps[14, j, n - 1] = rmax
+
+
+# --------------------------------------------------------------------------------------
+# host side
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class P2Registers:
+    """Per-frame constants written by the host (raw codes) and their float values."""
+
+    raw: np.ndarray  # KA, M, c_min, S~_end (gamma_eff), T_D, range_max
+    values: dict[str, tuple[float, float]]  # name -> (float requested, value held)
+    saturated: tuple[str, ...] = ()  # registers held at their format's limit
+
+
+def p2_registers(
+    camera: PinholeCamera, motion: MotionIncrement, riccati: RiccatiConfig, config: P2Config
+) -> P2Registers:
+    """Quantise the host's constants (docs/p2_datapath.md, "Registers").
+
+    Pixel units: ``KA = 1/(f_px Δx)`` with ``Δx = -b`` (SPEC §9, camera 2 at ``+b``),
+    ``M = α/β``, ``c_min = κ_min / M``, ``S~_end = min(γ/(β s), max of p2_st)`` (the γ clamp;
+    ``s`` = pixel pitch), ``T_D = ceil(2 T_E 2^F_d)`` and ``range_max``.
+    """
+    registers = RegisterFile(config)
+    reg, values = registers.write, registers.values
+    dx = -stereo_baseline(motion)
+    beta_px = riccati.beta * riccati.pixel_pitch
+    m_ratio = riccati.alpha / riccati.beta
+    st = config.formats["p2_st"]
+    s_end = min(riccati.gamma / beta_px, float(st.to_float(st.raw_max)))
+    td = math.ceil(2.0 * riccati.threshold_e * 2.0 ** config.formats["p2_d"].frac)
+    values["T_D"] = (2.0 * riccati.threshold_e, float(td) * 2.0 ** -config.formats["p2_d"].frac)
+    raw = np.array(
+        [
+            reg("KA", 1.0 / (camera.f_px * dx), "p2_ka_reg"),
+            reg("M", m_ratio, "p2_m_reg"),
+            reg("c_min", config.kappa_min / m_ratio, "p2_c"),
+            reg("S_end", s_end, "p2_st"),
+            td,
+            reg("range_max", riccati.range_max, "p2_z"),
+        ],
+        dtype=np.int64,
+    )
+    values["gamma"] = (riccati.gamma / beta_px, values["S_end"][1])
+    return P2Registers(raw, values, tuple(registers.saturated))
+
+
+def stage_latencies(config: P2Config) -> dict[str, int]:
+    """Declared latencies (cycles) of the P2 stages (docs/p2_datapath.md, Timing)."""
+    return {
+        "input": IN_LATENCY,
+        "divider": divider_latency(config.divider, config.formats["p2_r"].word),
+        "backward_loop": loop_latency(config),
+        "forward_loop": FWD_LOOP,
+        "output": OUT_LATENCY,
+    }
+
+
+def p2_schedule(
+    in_cycles: np.ndarray, config: P2Config, hblank: int
+) -> tuple[np.ndarray, dict[str, int], dict[str, np.ndarray]]:
+    """Output cycle of every pixel from the input cycles (docs/p2_datapath.md, Timing).
+
+    Lines are taken in groups of ``L`` lanes; a group's backward sweep issues one step per
+    clock round-robin over its lanes (``P_b = max(L, T_b)`` cycles per column) and starts
+    when its last pixel is in the line buffer and the previous group's sweep is done; the
+    forward pass of a group follows its sweep likewise. Raises ``ValueError`` when the
+    sweep or the forward pass of a group needs more cycles than the group's lines take to
+    arrive, or when group ``g + 2`` would overwrite the ping-pong line buffer before group
+    ``g``'s sweep has read it: one pixel per clock could not be sustained. A sweep waits
+    for its ping-pong sweep buffer to be read out by the forward pass of group ``g - 2``
+    (this only delays a short last group of a frame).
+    """
+    m, n = in_cycles.shape
+    lanes = config.effective_lanes()
+    tb, tf = loop_latency(config), FWD_LOOP
+    pb, pf = max(lanes, tb), max(lanes, tf)
+    period = lanes * (n + hblank)
+    back, fwd = (n - 1) * pb, n * pf
+    if back > period or fwd > period:
+        raise ValueError(
+            f"P2 cannot sustain one pixel per clock: a group of {lanes} lines arrives in "
+            f"{period} cycles but its backward sweep needs {back} (loop latency {tb}) and its "
+            f"forward pass {fwd}; use lanes >= {tb} or more horizontal blanking"
+        )
+    groups = -(-m // lanes)
+    out = np.empty((m, n), dtype=np.int64)
+    b0s: list[int] = []
+    f0s: list[int] = []
+    kk = np.arange(n, dtype=np.int64)
+    sweep_start = np.empty(m, dtype=np.int64)
+    forward_start = np.empty(m, dtype=np.int64)
+    for gi in range(groups):
+        rows = range(gi * lanes, min(m, (gi + 1) * lanes))
+        ready = int(in_cycles[rows[-1], n - 1]) + 1 + IN_LATENCY
+        b0 = ready if gi == 0 else max(ready, b0s[-1] + back)
+        if gi >= 2:  # the sweep buffer it writes is free once group gi - 2 is read out
+            b0 = max(b0, f0s[gi - 2] + fwd)
+        f0 = b0 + back + tb
+        f0 = f0 if gi == 0 else max(f0, f0s[-1] + fwd)
+        if gi >= 2 and b0s[gi - 2] + back > int(in_cycles[rows[0], 0]):
+            raise ValueError(
+                f"P2 cannot sustain one pixel per clock: group {gi} (lines {rows[0]}..) "
+                f"would overwrite the line buffer still read by group {gi - 2}'s sweep"
+            )
+        for lane, j in enumerate(rows):
+            out[j] = f0 + kk * pf + lane + OUT_LATENCY
+            sweep_start[j] = b0 + lane
+            forward_start[j] = f0 + lane
+        b0s.append(b0)
+        f0s.append(f0)
+    info = {
+        "lanes": lanes,
+        "backward_period": pb,
+        "forward_period": pf,
+        "backward_cycles": back,
+        "forward_cycles": fwd,
+        "group_period": period,
+    }
+    return out, info, {"sweep_start": sweep_start, "forward_start": forward_start}
+
+
+def buffer_bits(config: P2Config, width: int) -> dict[str, int]:
+    """Ping-pong input line buffers (d, Ĝ) and ping-pong sweep buffers (A, r, S~, Q~,
+    ΔĜ one bit wider, the threshold bit), each ``lanes`` lines deep."""
+    f = config.formats
+    lanes = config.effective_lanes()
+    lb = f["p2_d"].word + f["p2_ghat"].word
+    sweep = f["p2_a"].word + f["p2_r"].word + f["p2_st"].word + f["p2_q"].word
+    sweep += f["p2_ghat"].word + 1 + 1
+    return {
+        "line_buffer_bits": 2 * lanes * width * lb,
+        "sweep_buffer_bits": 2 * lanes * width * sweep,
+    }
+
+
+def run_p2(
+    image1: np.ndarray,
+    image2: np.ndarray,
+    camera: PinholeCamera,
+    motion: MotionIncrement,
+    config: P2Config | None = None,
+    riccati: RiccatiConfig | None = None,
+    *,
+    timing: TimingConfig | None = None,
+    taps: bool = True,
+    threads: int = 2,
+) -> PipelineResult:
+    """Run P2 on a registered stereo pair (E1 = ``image1`` left, E2 = ``image2``, camera 2
+    displaced ``b`` to the right), integer grey levels; ``riccati`` gives the weights
+    (α, β, γ, pixel pitch), ``threshold_e`` and ``range_max`` of golden G5 (its ``form``
+    must be ``"lq"`` and ``a_sampling`` ``"edge"``, the discretisation P2 implements)."""
+    if threads not in (1, 2):
+        raise ValueError(f"threads must be 1 or 2, not {threads!r}")
+    config = config or P2Config.default()
+    riccati = riccati or RiccatiConfig()
+    if riccati.form != "lq" or riccati.a_sampling != "edge":
+        raise ValueError("P2 implements the lq sweep with A at the pixel edge only")
+    timing = timing or TimingConfig()
+    if not isinstance(config, P2Config):
+        raise ValueError(f"P2 needs a P2Config, not {type(config).__name__}")
+    im1, im2 = check_image_pair(image1, image2, camera, pipeline="p2", min_shape=(1, 2))
+    m, n = im1.shape
+    regs = p2_registers(camera, motion, riccati, config)
+    # timing first: an impossible schedule is rejected before any work
+    stream = make_stream(im2, timing)
+    in_cycles = stream.pixel_cycles()[-1]
+    out_cycles, sched, _ = p2_schedule(in_cycles, config, timing.hblank)
+    fm = format_table(config)
+    kind = divider_code(config.divider)
+    lut = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
+    out_range = np.empty((m, n), dtype=np.int64)
+    out_valid = np.empty((m, n), dtype=np.bool_)
+    tp = np.zeros((len(P2_TAPS), m, n) if taps else (len(P2_TAPS), 0, 0), dtype=np.int64)
+
+    def band(j0: int, j1: int):
+        stats = SignalStats(N_SITES, len(P2_SIGNALS))
+        st, dst, ov = stats.arrays
+        _p2_kernel(
+            im1, im2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
+            out_range, out_valid, tp, taps,
+        )  # fmt: skip
+        return stats
+
+    if threads == 2 and m >= 2:
+        with ThreadPoolExecutor(2) as pool:
+            parts = list(pool.map(lambda b: band(*b), ((0, m // 2), (m // 2, m))))
+    else:
+        parts = [band(0, m)]
+    overflows, minmax = SignalStats.merge(parts, P2_SIGNALS)
+    tap_dict = {name: tp[k] for k, name in enumerate(P2_TAPS)} if taps else {}
+    zf = config.formats["p2_z"]
+    latency = int((out_cycles - in_cycles).max())
+    return PipelineResult(
+        pipeline="p2",
+        range=zf.to_float(out_range),
+        valid=out_valid,
+        range_raw=out_range,
+        taps=tap_dict,
+        overflows=overflows,
+        minmax=minmax,
+        in_cycles=in_cycles,
+        out_cycles=out_cycles,
+        latency=latency,
+        stage_latency=stage_latencies(config),
+        schedule=sched,
+        **buffer_bits(config, n),
+        frame_store_bits=0,
+        total_cycles=int(out_cycles.max()) + 1,
+        registers=regs.values,
+        saturated_registers=regs.saturated,
+        mode="stereo",
+        config=config,
+        timing=timing,
+    )

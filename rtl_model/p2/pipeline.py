@@ -1,0 +1,84 @@
+"""P2 behind the one pipeline interface (SPEC §10)."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from rangefx.golden.riccati import range_g5
+from rangefx.golden.taps import p2_golden_taps
+
+from ..config import TimingConfig, WordLengthConfig
+from ..cost import CostReport
+from ..pipeline import Case, GoldenReference, Pipeline, PipelineResult, TapSpec
+from . import cost, model, taps
+from .config import P2Config
+
+__all__ = ["P2Pipeline"]
+
+
+class P2Pipeline(Pipeline):
+    """P2, the line-buffered Riccati sweep (docs/p2_datapath.md), stereo only. Its golden
+    is G5 (:func:`rangefx.golden.riccati.range_g5`) with the case's Riccati settings, so
+    "fixed vs golden" isolates the word lengths and the two bounding choices (γ clamp,
+    κ floor)."""
+
+    name: ClassVar[str] = "p2"
+    title: ClassVar[str] = "P2 Riccati sweep (ch. 5)"
+    config_type: ClassVar[type[WordLengthConfig]] = P2Config
+    modes: ClassVar[tuple[str, ...]] = ("stereo",)
+    options: ClassVar[tuple[str, ...]] = ("divider",)
+    variants: ClassVar[dict[str, dict[str, Any]]] = {"": {}}
+
+    def run(
+        self,
+        case: Case,
+        config: WordLengthConfig | None = None,
+        timing: TimingConfig | None = None,
+        *,
+        taps: bool = True,
+        threads: int = 2,
+    ) -> PipelineResult:
+        config = self.check_config(config or P2Config.default())
+        self.check_mode(case)
+        return model.run_p2(
+            case.image1, case.image2, case.camera, case.motion, config, case.riccati,
+            timing=timing, taps=taps, threads=threads,
+        )  # fmt: skip
+
+    def golden(
+        self, case: Case, config: WordLengthConfig | None = None, *, taps: bool = False
+    ) -> GoldenReference:
+        self.check_mode(case)
+        result = range_g5(case.image1, case.image2, case.camera, case.motion, case.riccati)
+        return GoldenReference(result, p2_golden_taps(result) if taps else {})
+
+    def golden_label(self, config: WordLengthConfig) -> str:
+        return "g5_riccati"
+
+    def range_max(self, case: Case) -> float:
+        return case.riccati.range_max
+
+    def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
+        return model.stage_latencies(self.check_config(config))
+
+    def tap_table(self, config: WordLengthConfig, mode: str = "stereo") -> tuple[TapSpec, ...]:
+        return taps.tap_table(self.check_config(config))
+
+    def tap_cycles(
+        self,
+        tap: TapSpec,
+        config: WordLengthConfig,
+        timing: TimingConfig,
+        in_cycles: np.ndarray,
+        base: np.ndarray,
+    ) -> np.ndarray:
+        config = self.check_config(config)
+        _, info, rows = model.p2_schedule(in_cycles, config, timing.hblank)
+        return taps.tap_cycles(tap.name, config, in_cycles, rows, info)
+
+    def cost(
+        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
+    ) -> CostReport:
+        return cost.config_cost(self.check_config(config), shape, mode)

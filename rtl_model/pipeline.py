@@ -1,0 +1,305 @@
+"""The one pipeline interface (SPEC §10): cases, results, tap tables, cost, and the base
+class every bit-accurate pipeline implements once.
+
+A consumer (``rangefx run | demo | bench | vectors | sweep | optimise | config | eval``)
+takes a :class:`Pipeline` from :data:`rangefx.rtl_model.registry.PIPELINES` and calls
+:meth:`Pipeline.run`, :meth:`Pipeline.golden`, :meth:`Pipeline.tap_table` and
+:meth:`Pipeline.cost`; it never imports a pipeline's model functions. Cost and latency
+are methods of the pipeline, as FINN's ``HWCustomOp`` carries its cycle and resource
+estimates, so no tool re-derives them.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any, ClassVar
+
+import numpy as np
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.golden.ranging import RangeResult, RangingConfig
+from rangefx.golden.riccati import RiccatiConfig
+from rangefx.golden.scenes import Scene
+
+from .config import TimingConfig, WordLengthConfig
+from .cost import CostReport
+from .fixedpoint import FixedFormat, Overflow, Quant
+
+__all__ = [
+    "MODES",
+    "VALID_FORMAT",
+    "Case",
+    "GoldenReference",
+    "Pipeline",
+    "PipelineResult",
+    "TapSpec",
+]
+
+#: Input modes: two synchronised streams, or one stream of two frames.
+MODES = ("stereo", "motion")
+#: The 1-bit flag ``valid``: unsigned, one bit, no fraction.
+VALID_FORMAT = FixedFormat(False, 1, 0, Quant.TRN, Overflow.WRAP)
+
+
+@dataclass(frozen=True)
+class Case:
+    """Everything one pipeline run needs besides the word-length config and timing.
+
+    ``image1`` is E1 (left camera, or the previous frame in motion mode), ``image2`` E2;
+    ``mode`` is the scene's kind (``Scene.kind``). ``ranging`` holds the derivative
+    pipelines' thresholds and ``range_max`` (P1), ``riccati`` the Riccati weights,
+    threshold and ``range_max`` (P2); each pipeline reads its own. ``scene`` is the
+    rendered scene with its truth, ``label`` a name when there is no scene (a real pair).
+    """
+
+    image1: np.ndarray
+    image2: np.ndarray
+    camera: PinholeCamera
+    motion: MotionIncrement
+    mode: str = "stereo"
+    ranging: RangingConfig = field(default_factory=RangingConfig)
+    riccati: RiccatiConfig = field(default_factory=RiccatiConfig)
+    scene: Scene | None = None
+    label: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"unknown mode {self.mode!r}; choose from {', '.join(MODES)}")
+
+    @property
+    def name(self) -> str:
+        """The scene's name, else the label, else ``"case"``."""
+        if self.scene is not None:
+            return self.scene.name
+        return self.label or "case"
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return tuple(np.shape(self.image1))  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class TapSpec:
+    """One tap of a pipeline: a signal observed in the datapath, one sample per pixel.
+
+    ``name`` as in :attr:`PipelineResult.taps` (``e1.``/``e2.`` prefixes for per-stream
+    taps); ``signal`` the config signal whose format it carries (``"valid"`` for the
+    flag); ``stream`` ``"e1"``, ``"e2"`` or ``None``; ``stage`` the stage whose output it
+    is; ``latency`` cycles from the pixel's input beat to the sample (``None``: the
+    pipeline's schedule gives each sample's cycle, see :meth:`Pipeline.tap_cycles`).
+    """
+
+    name: str
+    signal: str
+    fmt: FixedFormat
+    stage: str | None
+    latency: int | None
+    stream: str | None = None
+
+
+@dataclass(frozen=True)
+class PipelineResult:
+    """Outputs, taps, instrumentation and timing of one run of any pipeline.
+
+    ``range`` is float64 in the scene's unit (``range_max`` where invalid), ``valid`` a
+    bool map, ``range_raw`` the raw output codes. ``taps`` maps tap names
+    (:meth:`Pipeline.tap_table`) to int64 raw arrays of shape (m, n) (empty without taps).
+    ``overflows`` and ``minmax`` are per signal. ``in_cycles`` is the clock at which each
+    pixel (of E2's frame) entered, ``out_cycles`` when its range left; ``latency`` the
+    largest ``out - in``; ``stage_latency`` the declared latency of every stage.
+    Buffers in bits: ``line_buffer_bits`` (line buffers of the filters / input lines),
+    ``frame_store_bits`` (motion mode), ``sweep_buffer_bits`` (a sweep's stored line).
+    ``registers``: host register name -> (float requested, value held);
+    ``saturated_registers`` the registers whose value lies outside their format (held at
+    its limit: a silent scale error no overflow counter sees); ``timing`` the
+    input stream's timing. ``schedule``:
+    pipeline-specific timing facts (e.g. the sweep's lanes and periods);
+    ``kernel_cpu_s``: CPU seconds per kernel, for the benchmark's breakdown.
+    """
+
+    pipeline: str
+    range: np.ndarray
+    valid: np.ndarray
+    range_raw: np.ndarray
+    taps: dict[str, np.ndarray]
+    overflows: dict[str, int]
+    minmax: dict[str, tuple[float, float]]
+    in_cycles: np.ndarray
+    out_cycles: np.ndarray
+    latency: int
+    stage_latency: dict[str, int]
+    line_buffer_bits: int
+    frame_store_bits: int
+    sweep_buffer_bits: int
+    total_cycles: int
+    registers: dict[str, tuple[float, float]]
+    saturated_registers: tuple[str, ...]
+    mode: str
+    config: WordLengthConfig = field(repr=False)
+    timing: TimingConfig = field(default_factory=TimingConfig)
+    schedule: dict[str, int] = field(default_factory=dict)
+    kernel_cpu_s: dict[str, float] = field(default_factory=dict, repr=False)
+
+    @property
+    def overflow_total(self) -> int:
+        return int(sum(self.overflows.values()))
+
+    @property
+    def valid_fraction(self) -> float:
+        return float(np.count_nonzero(self.valid)) / self.valid.size
+
+    @property
+    def buffer_bits(self) -> int:
+        """Every buffer's bits: line buffers + frame store + sweep buffers."""
+        return self.line_buffer_bits + self.frame_store_bits + self.sweep_buffer_bits
+
+
+@dataclass(frozen=True)
+class GoldenReference:
+    """A pipeline's float64 reference on one case: the golden range result and the float
+    value of every tap that has an order-by-order counterpart (tap name -> array)."""
+
+    result: RangeResult
+    taps: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+
+class Pipeline(abc.ABC):
+    """A bit-accurate, cycle-faithful pipeline: implemented once per pipeline.
+
+    Class attributes: :attr:`name` (registry key), :attr:`title`, :attr:`config_type`
+    (its :class:`WordLengthConfig` subclass), :attr:`modes` (input modes it models),
+    :attr:`options` (command-line design options it accepts, besides ``--config``),
+    :attr:`variants` (the named design variants a demo or benchmark runs),
+    :attr:`signal_groups` (named signal groups a sweep axis may move together).
+    """
+
+    name: ClassVar[str]
+    title: ClassVar[str]
+    config_type: ClassVar[type[WordLengthConfig]]
+    modes: ClassVar[tuple[str, ...]]
+    options: ClassVar[tuple[str, ...]] = ()
+    #: Named design variants a demo or benchmark runs (label -> design fields).
+    variants: ClassVar[dict[str, dict[str, Any]]] = {}
+
+    # -- configs ----------------------------------------------------------------------
+    def default_config(self, **design: Any) -> WordLengthConfig:
+        """The shipped default config, with design fields overridden."""
+        return self.config_type.default(**design)
+
+    def load_config(self, path: str) -> WordLengthConfig:
+        return self.config_type.load(path)
+
+    def config_from_toml(self, text: str, name: str = "custom") -> WordLengthConfig:
+        return self.config_type.from_toml(text, name=name)
+
+    def check_config(self, config: WordLengthConfig) -> WordLengthConfig:
+        """``config``, or ``ValueError`` if it belongs to another pipeline."""
+        if not isinstance(config, self.config_type):
+            raise ValueError(
+                f"{self.name.upper()} needs a {self.config_type.__name__}, not "
+                f"{type(config).__name__}"
+            )
+        return config
+
+    def check_mode(self, case: Case) -> None:
+        if case.mode not in self.modes:
+            raise ValueError(
+                f"{self.name.upper()} models {' and '.join(self.modes)} mode only; case "
+                f"{case.name!r} is {case.mode}"
+            )
+
+    @property
+    def signal_groups(self) -> dict[str, tuple[str, ...]]:
+        """Named groups of signals for sweep axes: ``all``, ``datapath`` (every cast
+        signal but the sensor's input and the host registers), ``registers``."""
+        signals = self.config_type.signals()
+        regs = self.config_type.HOST_REGISTERS
+        return {
+            "all": signals,
+            "datapath": tuple(s for s in signals[1:] if s not in regs),
+            "registers": regs,
+        }
+
+    # -- the model ----------------------------------------------------------------------
+    @abc.abstractmethod
+    def run(
+        self,
+        case: Case,
+        config: WordLengthConfig | None = None,
+        timing: TimingConfig | None = None,
+        *,
+        taps: bool = True,
+        threads: int = 2,
+    ) -> PipelineResult:
+        """Run the bit-accurate model on ``case``; ``ValueError`` for bad inputs."""
+
+    @abc.abstractmethod
+    def golden(
+        self, case: Case, config: WordLengthConfig | None = None, *, taps: bool = False
+    ) -> GoldenReference:
+        """The float64 reference of this pipeline with ``config``'s design settings."""
+
+    @abc.abstractmethod
+    def golden_label(self, config: WordLengthConfig) -> str:
+        """Name of the golden method :meth:`golden` runs under ``config``."""
+
+    @abc.abstractmethod
+    def range_max(self, case: Case) -> float:
+        """The ``range_max`` this pipeline uses on ``case`` (invalid pixels carry it)."""
+
+    @abc.abstractmethod
+    def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
+        """Declared latency in cycles of every stage, in pipeline order."""
+
+    @abc.abstractmethod
+    def tap_table(self, config: WordLengthConfig, mode: str = "stereo") -> tuple[TapSpec, ...]:
+        """Every tap the model writes under ``config`` and ``mode``, in pipeline order."""
+
+    def tap_cycles(
+        self,
+        tap: TapSpec,
+        config: WordLengthConfig,
+        timing: TimingConfig,
+        in_cycles: np.ndarray,
+        base: np.ndarray,
+    ) -> np.ndarray:
+        """Cycle of every sample of ``tap`` (shape (m, n)). ``in_cycles`` is the input
+        cycle of every pixel of E2's frame, ``base`` that of the tap's own stream (E1's
+        frame for an ``e1.`` tap in motion mode). A tap with a fixed latency leaves at
+        ``base + latency``; pipelines whose samples leave on a schedule override this."""
+        if tap.latency is None:
+            raise NotImplementedError(f"{self.name}: tap {tap.name} has no fixed latency")
+        return base + tap.latency
+
+    @abc.abstractmethod
+    def cost(
+        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
+    ) -> CostReport:
+        """Cost proxies of ``config`` on ``shape`` = (height, width) images in ``mode``."""
+
+    def cost_weights(
+        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
+    ) -> dict[str, int]:
+        """``cost_bits`` added by one more bit of each signal's word (0: signal unused);
+        a signal whose wider format is rejected counts as one register bit."""
+        base = self.cost(config, shape, mode).cost_bits
+        out = {}
+        for name in config.signals():
+            f = config.formats[name]
+            try:
+                wider = config.with_formats(**{name: replace(f, word=f.word + 1)})
+            except ValueError:
+                out[name] = self.rejected_weight(name)
+                continue
+            out[name] = self.cost(wider, shape, mode).cost_bits - base
+        return out
+
+    def registers_for_manifest(self, result: PipelineResult) -> dict[str, tuple[float, float]]:
+        """Host registers of a run (name -> float requested, value held)."""
+        return dict(result.registers)
+
+    def rejected_weight(self, signal: str) -> int:
+        """Weight of a signal whose one-bit-wider format the config rejects."""
+        return 1

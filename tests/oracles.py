@@ -1,0 +1,81 @@
+"""The independent oracles of every registered pipeline, behind the pipelines' ``run``
+signature (SPEC §10), so that one parametrised bit-exact test covers every pipeline, as
+Amaranth's tests swap ``FIFOModel`` for the design.
+
+Each oracle is a slow, exact reference (apytypes + Python integers) written from the
+pipeline's datapath page, not from its model: ``oracle_p1.py`` (docs/p1_datapath.md) and
+``oracle_p2.py`` (docs/p2_datapath.md). Values do not depend on timing, so ``timing`` and
+``threads`` are accepted and ignored.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from oracle_p1 import oracle_p1
+from oracle_p2 import oracle_p2
+
+from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
+from rangefx.rtl_model.pipeline import Case
+
+
+@dataclass
+class OracleRun:
+    """What a bit-exact test compares: taps, outputs, overflow counts, min/max."""
+
+    taps: dict[str, np.ndarray]
+    overflows: dict[str, int]
+    minmax: dict[str, tuple[float, float]]
+
+    @property
+    def range_raw(self) -> np.ndarray:
+        return self.taps["range"]
+
+    @property
+    def valid(self) -> np.ndarray:
+        return self.taps["valid"].astype(bool)
+
+
+class P1Oracle:
+    name = "p1"
+
+    def run(
+        self,
+        case: Case,
+        config: WordLengthConfig,
+        timing: TimingConfig | None = None,
+        *,
+        taps: bool = True,
+        threads: int = 1,
+    ) -> OracleRun:
+        ref = oracle_p1(
+            case.image1, case.image2, case.camera, case.motion, config, case.ranging,
+            mode=case.mode,
+        )  # fmt: skip
+        return OracleRun(ref.taps, ref.overflows, ref.minmax)
+
+
+class P2Oracle:
+    name = "p2"
+
+    def run(
+        self,
+        case: Case,
+        config: WordLengthConfig,
+        timing: TimingConfig | None = None,
+        *,
+        taps: bool = True,
+        threads: int = 1,
+    ) -> OracleRun:
+        ref = oracle_p2(case.image1, case.image2, case.camera, case.motion, config, case.riccati)
+        return OracleRun(ref.taps, ref.overflows, ref.minmax)
+
+
+#: Pipeline name -> its oracle (same keys as ``rangefx.rtl_model.registry.PIPELINES``).
+ORACLES = {"p1": P1Oracle(), "p2": P2Oracle()}

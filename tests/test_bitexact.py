@@ -1,0 +1,332 @@
+"""Bit-exactness of every registered pipeline against its independent oracle (SPEC §4, §10).
+
+One test, parametrised over :data:`rangefx.rtl_model.registry.PIPELINES`: every tap,
+every overflow count and every pre-quantisation min/max of ``Pipeline.run`` must equal
+the pipeline's oracle (``tests/oracles.py``) exactly, over small scenes x configs putting
+every signal into each quantisation mode and each overflow mode (narrowed so that
+overflows happen) x the pipeline's design choices (variants, dividers, modes, design
+fields) x three timings (which must not change any value); and the shipped default config
+under every timing.
+
+Per pipeline, :data:`SPECS` says how its cases are drawn: P1 over stereo and motion, both
+estimator variants and both dividers, on a textured plane and random textures; P2 over
+both dividers, four sets of Riccati weights, on ``lab`` crops and random shifted
+textures with a flat run (E1 = E2, where the ``c`` floor acts).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pytest
+from oracles import ORACLES
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.golden.ranging import RangingConfig
+from rangefx.golden.riccati import PAPER_PIXEL_PITCH_IN, RiccatiConfig
+from rangefx.golden.scenes import render_plane, render_scene
+from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
+from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.pipeline import Case, Pipeline
+from rangefx.rtl_model.registry import PIPELINES
+
+TIMINGS = (
+    TimingConfig(),
+    TimingConfig(hblank=5, vblank=7),
+    TimingConfig(hblank=3, vblank=2, gap_prob=0.4, seed=11),
+)
+
+
+def fixed_signals(pipeline: Pipeline) -> tuple[str, ...]:
+    """The input pixel and the host-written registers: never narrowed."""
+    cfg = pipeline.config_type
+    return (cfg.signals()[0], *cfg.HOST_REGISTERS)
+
+
+def mode_config(
+    pipeline: Pipeline,
+    quant: Quant,
+    overflow: Overflow,
+    narrow: bool,
+    seed: int,
+    int_drop: tuple[int, int],
+    **design: Any,
+) -> WordLengthConfig:
+    """The default config with every signal in ``quant``/``overflow`` (divider quotients
+    keep a saturating mode); ``narrow`` drops ``int_drop`` (low, high exclusive) integer
+    bits and 0..3 fraction bits of every datapath signal so that overflows happen."""
+    base = pipeline.default_config(**design)
+    rng = np.random.default_rng(seed)
+    keep = fixed_signals(pipeline)
+    formats = {}
+    for name in base.signals():
+        f = base.fmt(name)
+        ovf = Overflow.SAT if name in base.QUOTIENTS and overflow is Overflow.WRAP else overflow
+        word, frac = f.word, f.frac
+        if narrow and name not in keep:
+            d_int, d_frac = int(rng.integers(*int_drop)), int(rng.integers(0, 4))
+            word = max(2, word - d_int - d_frac)
+            frac -= d_frac
+        formats[name] = FixedFormat(f.signed, word, frac, quant, ovf)
+    return base.with_(formats=formats)
+
+
+# -- P1 cases --------------------------------------------------------------------------
+P1_RANGING = RangingConfig(threshold_e=1.0, threshold_g=0.7, range_max=60.0, min_denominator=0.3)
+P1_MOTION = MotionIncrement.from_attitudes(
+    camera_angles=(0.0, -0.05, 0.0),
+    camera_offset=(1.0, 0.0, 0.2),
+    attitude1=(0.10, -0.03, 0.01),
+    attitude2=(0.1014, -0.0290, 0.0121),
+    position1=(0.0, 0.0, -3.0),
+    position2=(0.6, -0.05, -2.98),
+)
+P1_DESIGNS = (
+    {},
+    {"pole": 0.3, "bias": 5.3, "init": "zero"},
+    {"pole": 0.75, "recip_lut_bits": 5, "recip_bits": 13},
+    {"pole": 0.61, "bias": 20.7, "recip_lut_bits": 3, "recip_bits": 8},
+    {"init": "zero", "bias": 0.0},
+)
+_SCENES: dict[str, Any] = {}
+
+
+def _plane():
+    if "plane" not in _SCENES:
+        _SCENES["plane"] = render_plane(depth=4.0, size=(24, 24), seed=5, baseline=0.2)
+    return _SCENES["plane"]
+
+
+def p1_case(seed: int, kind: str, mode: str) -> Case:
+    """A tiny random P1 case: a crop of a textured plane, or a random texture shifted by
+    a fraction of a pixel plus noise; random principal point half the time."""
+    rng = np.random.default_rng(seed)
+    m, n = int(rng.integers(6, 11)), int(rng.integers(8, 12))
+    if kind == "plane":
+        scene = _plane()
+        j0, i0 = int(rng.integers(0, 24 - m)), int(rng.integers(0, 24 - n))
+        crop = (slice(j0, j0 + m), slice(i0, i0 + n))
+        im1, im2 = scene.image1[crop].copy(), scene.image2[crop].copy()
+        f_px = scene.camera.f_px
+    else:
+        im1 = rng.integers(0, 256, (m, n)).astype(np.uint8)
+        shifted = 0.7 * im1.astype(float) + 0.3 * np.roll(im1, 1, axis=1)
+        im2 = np.clip(np.rint(shifted + rng.normal(0, 3, (m, n))), 0, 255).astype(np.uint8)
+        f_px = float(rng.uniform(12.0, 40.0))
+    cx = float(rng.uniform(0, n - 1)) if rng.random() < 0.5 else None
+    cy = float(rng.uniform(0, m - 1)) if rng.random() < 0.5 else None
+    camera = PinholeCamera(n, m, f_px, cx=cx, cy=cy)
+    motion = P1_MOTION if mode == "motion" else MotionIncrement.stereo(0.2)
+    return Case(im1, im2, camera, motion, mode, P1_RANGING)
+
+
+def p1_cases() -> list[dict[str, Any]]:
+    out = []
+    for i, (quant, overflow) in enumerate(itertools.product(Quant, Overflow)):
+        mode = ("stereo", "motion")[(i // 4) % 2]
+        kind = "plane" if i % 5 == 0 else "random"
+        design = {
+            "variant": ("paper", "consistent")[i % 2],
+            "divider": ("restoring", "reciprocal")[(i // 2) % 2],
+            **P1_DESIGNS[i % len(P1_DESIGNS)],
+        }
+        out.append(
+            dict(
+                quant=quant,
+                overflow=overflow,
+                narrow=i % 5 != 2,
+                timing=TIMINGS[(i // 3) % 3],
+                seed=1000 + i,
+                design=design,
+                mode=mode,
+                kind=kind,
+                case=lambda s=1000 + i, k=kind, m=mode: p1_case(s, k, m),
+            )
+        )
+    return out
+
+
+def p1_defaults() -> list[tuple[dict[str, Any], Callable[[], Case]]]:
+    return [
+        ({"variant": v}, lambda m=mode: p1_case(7 if m == "stereo" else 8, "plane", m))
+        for v in ("paper", "consistent")
+        for mode in ("stereo", "motion")
+    ]
+
+
+# -- P2 cases --------------------------------------------------------------------------
+P2_RICCATI = (
+    RiccatiConfig(threshold_e=2.0, range_max=100.0),
+    RiccatiConfig(alpha=2.0, beta=4e-3, gamma=1e3, threshold_e=1.5, range_max=60.0),
+    RiccatiConfig(alpha=1.0, beta=1e-3, gamma=1e6, pixel_pitch=1.0, threshold_e=0.5),
+    RiccatiConfig(alpha=0.5, beta=2e-3, gamma=1e8, pixel_pitch=PAPER_PIXEL_PITCH_IN * 2),
+)
+P2_DESIGNS = (
+    {},
+    {"kappa_min": 0.1, "recip_lut_bits": 5, "recip_bits": 13},
+    {"kappa_min": 2.0**-9, "lanes": 40},
+    {"recip_lut_bits": 3, "recip_bits": 8},
+)
+
+
+def p2_case(seed: int, kind: str, riccati: RiccatiConfig) -> Case:
+    """A tiny random stereo case: a crop of ``lab``, or a random texture shifted by a
+    fraction of a pixel plus noise with a flat run (E1 = E2: A = 0, the c floor acts)."""
+    rng = np.random.default_rng(seed)
+    m, n = int(rng.integers(2, 5)), int(rng.integers(8, 14))
+    if kind == "lab":
+        if "lab" not in _SCENES:
+            _SCENES["lab"] = render_scene("lab")
+        s = _SCENES["lab"]
+        j0, i0 = int(rng.integers(100, 400)), int(rng.integers(100, 400))
+        crop = (slice(j0, j0 + m), slice(i0, i0 + n))
+        im1, im2 = s.image1[crop].copy(), s.image2[crop].copy()
+        camera = PinholeCamera(n, m, s.camera.f_px)
+    else:
+        im1 = rng.integers(0, 256, (m, n)).astype(np.uint8)
+        shifted = 0.6 * im1.astype(float) + 0.4 * np.roll(im1, -1, axis=1)
+        im2 = np.clip(np.rint(shifted + rng.normal(0, 2, (m, n))), 0, 255).astype(np.uint8)
+        im2[:, : n // 3] = im1[:, : n // 3]
+        camera = PinholeCamera(n, m, float(rng.uniform(400, 800)))
+    return Case(im1, im2, camera, MotionIncrement.stereo(0.1), "stereo", riccati=riccati)
+
+
+def p2_cases() -> list[dict[str, Any]]:
+    out = []
+    for i, (quant, overflow) in enumerate(itertools.product(Quant, Overflow)):
+        kind = "lab" if i % 3 == 0 else "random"
+        riccati = P2_RICCATI[(i // 3) % len(P2_RICCATI)]
+        design = {"divider": ("restoring", "reciprocal")[i % 2], **P2_DESIGNS[i % len(P2_DESIGNS)]}
+        out.append(
+            dict(
+                quant=quant,
+                overflow=overflow,
+                narrow=i % 5 != 2,
+                timing=TIMINGS[(i // 2) % 3],
+                seed=2000 + i,
+                design=design,
+                mode="stereo",
+                kind=kind,
+                case=lambda s=2000 + i, k=kind, r=riccati: p2_case(s, k, r),
+            )
+        )
+    return out
+
+
+def p2_defaults() -> list[tuple[dict[str, Any], Callable[[], Case]]]:
+    return [({}, lambda: p2_case(3, "lab", RiccatiConfig(threshold_e=2.0, range_max=100.0)))]
+
+
+@dataclass(frozen=True)
+class Spec:
+    """How one pipeline's bit-exact cases are drawn."""
+
+    cases: Callable[[], list[dict[str, Any]]]
+    defaults: Callable[[], list[tuple[dict[str, Any], Callable[[], Case]]]]
+    int_drop: tuple[int, int]
+    #: design fields whose every value the mode cases must cover
+    design_keys: dict[str, set]
+    kinds: set[str]
+
+
+SPECS = {
+    "p1": Spec(
+        p1_cases,
+        p1_defaults,
+        (1, 6),
+        {
+            "variant": {"paper", "consistent"},
+            "divider": {"restoring", "reciprocal"},
+            "init": {"first", "zero"},
+        },
+        {"plane", "random"},
+    ),
+    "p2": Spec(
+        p2_cases, p2_defaults, (2, 13), {"divider": {"restoring", "reciprocal"}}, {"lab", "random"}
+    ),
+}
+
+
+def assert_bit_exact(res, ref) -> None:
+    """Every tap (int64, equal), the outputs, every overflow count and every min/max."""
+    assert set(res.taps) == set(ref.taps)
+    bad = []
+    for name, want in ref.taps.items():
+        got = np.asarray(res.taps[name])
+        if got.dtype != np.int64:
+            bad.append(f"{name}: dtype {got.dtype}")
+        if not np.array_equal(got.astype(np.int64), want):
+            where = np.argwhere(got.astype(np.int64) != want)
+            j, i = (int(v) for v in where[0]) if len(where) else (-1, -1)
+            first = (got[j, i], want[j, i]) if j >= 0 else ("shape", got.shape)
+            bad.append(f"{name}: {len(where)} pixels differ, first at (j={j}, i={i}): {first}")
+    assert not bad, "taps differ from the oracle:\n" + "\n".join(bad)
+    assert np.array_equal(res.range_raw, ref.range_raw)
+    assert np.array_equal(res.valid, ref.valid)
+    assert dict(res.overflows) == ref.overflows
+    assert dict(res.minmax) == ref.minmax
+
+
+def _params():
+    for name in PIPELINES:
+        for i, c in enumerate(SPECS[name].cases()):
+            yield pytest.param(name, c, id=f"{name}-{i}-{c['quant'].name}-{c['overflow'].name}")
+
+
+@pytest.mark.parametrize(("name", "spec"), list(_params()))
+def test_bit_exact(name, spec):
+    pipeline, oracle = PIPELINES[name], ORACLES[name]
+    config = mode_config(pipeline, spec["quant"], spec["overflow"], spec["narrow"], spec["seed"],
+                         SPECS[name].int_drop, **spec["design"])  # fmt: skip
+    case = spec["case"]()
+    ref = oracle.run(case, config)
+    res = pipeline.run(case, config, spec["timing"], taps=True)
+    assert_bit_exact(res, ref)
+    if spec["narrow"]:
+        # not vacuous: the overflow mode under test acted on some datapath signal
+        skip = {*config.QUOTIENTS, *fixed_signals(pipeline)}
+        assert sum(n for s, n in ref.overflows.items() if s not in skip) > 0
+
+
+def _defaults():
+    for name in PIPELINES:
+        for k, (design, _) in enumerate(SPECS[name].defaults()):
+            yield pytest.param(name, k, id=f"{name}-default-{k}-{design}")
+
+
+@pytest.mark.parametrize(("name", "k"), list(_defaults()))
+def test_default_config_bit_exact_under_every_timing(name, k):
+    """The shipped config on a small case: no overflow, some valid pixels, and the same
+    values under three timings (gaps and blanking change no value)."""
+    design, make_case = SPECS[name].defaults()[k]
+    pipeline = PIPELINES[name]
+    config = pipeline.default_config(**design)
+    case = make_case()
+    ref = ORACLES[name].run(case, config)
+    assert sum(ref.overflows.values()) == 0, {s: n for s, n in ref.overflows.items() if n}
+    assert ref.valid.any()
+    for timing in TIMINGS:
+        assert_bit_exact(pipeline.run(case, config, timing), ref)
+
+
+@pytest.mark.parametrize("name", list(PIPELINES))
+def test_cases_cover_every_mode(name):
+    spec = SPECS[name]
+    cases = spec.cases()
+    assert {c["quant"] for c in cases if c["narrow"]} == set(Quant)
+    assert {c["overflow"] for c in cases if c["narrow"]} == set(Overflow)
+    assert {c["narrow"] for c in cases} == {True, False}
+    assert {c["timing"] for c in cases} == set(TIMINGS)
+    assert {c["kind"] for c in cases} == spec.kinds
+    assert {c["mode"] for c in cases} == set(PIPELINES[name].modes)
+    for key, values in spec.design_keys.items():
+        default = getattr(PIPELINES[name].default_config(), key)
+        assert {c["design"].get(key, default) for c in cases} == values, key
+
+
+def test_every_pipeline_has_an_oracle_and_cases():
+    assert set(ORACLES) == set(PIPELINES) == set(SPECS)

@@ -1,0 +1,96 @@
+"""``rangefx config show|propose --pipeline p1|p2``: a pipeline's word-length config.
+
+``show`` prints (or writes) the shipped default TOML, or ``--config``'s; ``propose``
+runs the pipeline on ``--scene`` cases (and ``--real`` pairs), logs every signal's
+pre-quantisation range and widens integer bits to hold it plus ``--guard-bits``,
+iterated to a fixpoint (MATLAB's "propose word lengths").
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from ..errors import UserError
+from ..report import atomic_write_text, json_safe
+from ..studies.cases import REAL_PAIRS, real_pair_case, scene_case
+from ..studies.runner import load_config, propose_from_cases
+from .options import add_design_args, add_pipeline_arg, design_from_args, pipeline_from_args
+
+__all__ = ["DEFAULT_SCENES", "add_parser", "cmd_config"]
+
+#: Scenes ``propose`` logs by default (those whose mode the pipeline models).
+DEFAULT_SCENES = ("lab", "runway")
+
+
+def _write_toml(path: str, text: str) -> None:
+    p = Path(path)
+    if p.is_dir():
+        raise UserError(f"--out {path} is a directory; give a file name for the TOML")
+    try:
+        atomic_write_text(p, text)
+    except OSError as exc:
+        raise UserError(f"cannot write {path}: {exc.strerror}") from None
+
+
+def cmd_config(args: argparse.Namespace) -> int:
+    pipeline = pipeline_from_args(args)
+    config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
+    if args.action == "show":
+        text = config.to_toml()
+        if args.out:
+            _write_toml(args.out, text)
+        else:
+            sys.stdout.write(text)
+        return 0
+    if args.scene is None:  # every preset the pipeline models
+        cases = [c for c in map(scene_case, DEFAULT_SCENES) if c.mode in pipeline.modes]
+    else:
+        cases = [scene_case(name) for name in args.scene]
+    cases += [real_pair_case(name) for name in args.real or ()]
+    for case in cases:
+        if case.mode not in pipeline.modes:
+            raise UserError(
+                f"{pipeline.name} models {' and '.join(pipeline.modes)} mode only; scene "
+                f"{case.name!r} is {case.mode}"
+            )
+    proposed, minmax, overflows = propose_from_cases(
+        pipeline, config, cases, guard_bits=args.guard_bits
+    )
+    if args.out:
+        _write_toml(args.out, proposed.to_toml())
+    rows = {
+        sig: {
+            "min": minmax.get(sig, (None, None))[0],
+            "max": minmax.get(sig, (None, None))[1],
+            "current": str(config.formats[sig]),
+            "proposed": str(proposed.formats[sig]),
+        }
+        for sig in config.signals()
+    }
+    if args.json:
+        print(json.dumps(json_safe({"pipeline": pipeline.name, "overflows": overflows,
+                                    "signals": rows})))  # fmt: skip
+    else:
+        for sig, r in rows.items():
+            lo, hi = r["min"], r["max"]
+            print(f"{sig:12s} {r['current']:>8s} -> {r['proposed']:>8s}  range [{lo}, {hi}]")
+        print(f"overflows on the cases under the proposed config: {overflows}")
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("config", help="a pipeline's word-length config: show, or propose")
+    p.add_argument("action", choices=("show", "propose"))
+    add_pipeline_arg(p)
+    add_design_args(p)
+    p.add_argument(
+        "--scene", nargs="+", help="scenes to log (default: lab and runway, as the mode allows)"
+    )
+    p.add_argument("--real", nargs="*", choices=REAL_PAIRS, help="real pairs to log too")
+    p.add_argument("--guard-bits", type=int, default=1, help="extra integer bits (propose)")
+    p.add_argument("--out", help="write the TOML here")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_config)

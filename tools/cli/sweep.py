@@ -1,0 +1,330 @@
+"""``rangefx sweep`` and ``rangefx optimise``: word-length studies of P1 (SPEC §6, §8).
+
+``rangefx sweep DEF.toml --out DIR [--scheduler ADDR] [--workers N] [--json]`` runs a
+sweep definition (:mod:`rangefx.tools.studies.sweep`; example ``tools/sweeps/p1_lab.toml``,
+``rangefx sweep --example`` prints its path) and writes to ``DIR``: ``results.jsonl``
+(one line per finished point, appended as it finishes: re-running the same command
+after an interruption computes only the missing points), then ``points.csv``,
+``pareto_<scene>.png/.csv``, ``sensitivity.png/.csv``, ``buildup_base.png`` + CSV and
+``summary.json`` (``complete: true``) once every point is in.
+
+``rangefx optimise --scene lab [runway motorcycle ...] --budget 0.01 [--agreement 0.99]
+[--margin M] [--verify SCENE] [--config PATH] [--variant V] [--size H W] [--workers N]
+[--out DIR] [--json]`` finds the cheapest config meeting the budget on every tuning scene
+(:mod:`rangefx.tools.studies.optimiser`; with ``--margin M`` the budget tightened by the guard band
+M while tuning, JSON ``tuning_budget``) and prints it (TOML), ``cost_bits`` and
+``default_cost_bits`` on the first tuning scene's shape and mode (the cost minimised),
+the accuracy and cost on each tuning scene (JSON ``scenes``; the top-level
+``median_rel_range_diff``, ``p95_rel_range_diff`` and ``valid_agreement`` are the worst
+case over them, reported against the user's budget) and on the verification scene
+(``verify``), which must not be a tuning scene. A tuning or verification scene is a
+synthetic preset (rendered at ``--size``) or ``motorcycle``, the real Middlebury pair
+(:func:`rangefx.tools.studies.runner.real_pair_case`, its own 26x39 size); ``--verify`` also
+takes ``plane``, a synthetic scene held out of tuning (``--scene plane`` is a one-line
+error; :func:`rangefx.tools.studies.runner.held_out_case`, rendered at ``--size``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from rangefx.golden.scenes import SCENE_NAMES
+from rangefx.rtl_model.p1.config import HOST_REGISTERS, P1_SIGNALS, P1Config
+from rangefx.rtl_model.p1.cost import config_cost
+from rangefx.rtl_model.registry import PIPELINES
+
+from ..errors import UserError
+from ..report import atomic_write_text, json_safe
+from ..studies.cases import HELD_OUT_SCENES, REAL_PAIRS, held_out_case, real_pair_case
+from ..studies.runner import load_config
+
+__all__ = [
+    "DEFAULT_MARGIN",
+    "TUNING_SCENES",
+    "VERIFY_SCENES",
+    "add_parser",
+    "cmd_optimise",
+    "cmd_sweep",
+    "example_path",
+]
+
+#: ``rangefx optimise``'s guard band (``--margin``): the smallest measured margin at which
+#: the median on the real pair held out of lab + runway tuning stays within a 1 % budget
+#: (docs/wordlength.md, "Guard band"). :func:`rangefx.tools.studies.optimiser.optimise`
+#: defaults to 0.
+DEFAULT_MARGIN = 0.5
+
+#: Scenes ``--scene`` accepts: the synthetic presets and the real pairs.
+TUNING_SCENES: tuple[str, ...] = (*SCENE_NAMES, *REAL_PAIRS)
+#: Scenes ``--verify`` accepts: the tuning scenes and the held-out synthetic ones.
+VERIFY_SCENES: tuple[str, ...] = (*TUNING_SCENES, *HELD_OUT_SCENES)
+
+
+def example_path() -> Path:
+    """Path of the shipped example sweep definition."""
+    return Path(str(resources.files("rangefx.tools.studies").joinpath("sweeps", "p1_lab.toml")))
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from ..studies.sweep import load_sweep, run_sweep, write_outputs
+
+    if args.example:
+        print(example_path())
+        return 0
+    if not args.definition or not args.out:
+        raise UserError("sweep needs a definition file and --out DIR (or --example)")
+    defn = load_sweep(args.definition)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"output path {str(out)!r} exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()) and not (out / "results.jsonl").exists():
+        raise UserError(
+            f"output directory {str(out)!r} is not empty and holds no sweep results; "
+            "choose a new directory"
+        )
+    summary_path = out / "summary.json"
+    if summary_path.exists():
+        summary_path.unlink()  # a resumed sweep is incomplete until it finishes
+    outcome = run_sweep(
+        defn, out, workers=args.workers, scheduler=args.scheduler, progress=not args.json
+    )
+    summary = write_outputs(defn, outcome, out)
+    if args.json:
+        print(json.dumps(json_safe(summary)))
+    else:
+        print(
+            f"sweep {defn.name!r}: {summary['n_points']} points ({summary['n_ok']} ran, "
+            f"{summary['n_invalid']} invalid configs), {summary['computed_this_run']} computed "
+            f"now in {summary['wall_seconds_this_run']:.1f} s; results in {out}"
+        )
+        for scene, front in summary["pareto"].items():
+            print(f"Pareto front on {scene}: {len(front)} configs")
+    return 0
+
+
+def _case(name: str, size: list[int] | None):
+    """A synthetic scene preset or held-out scene (rendered at ``size``) or a real pair
+    (its own size)."""
+    from ..studies.cases import scene_case
+
+    if name in REAL_PAIRS:
+        return real_pair_case(name)
+    if name in HELD_OUT_SCENES:
+        return held_out_case(name, tuple(size) if size else None)
+    return scene_case(name, size)
+
+
+def _figures(figs: dict[str, Any]) -> dict[str, Any]:
+    return {k: figs[k] for k in ("median_rel_range_diff", "p95_rel_range_diff", "valid_agreement")}
+
+
+def cmd_optimise(args: argparse.Namespace) -> int:
+    from ..studies.optimiser import Budget, evaluate, optimise
+
+    try:
+        budget = Budget(args.budget, args.agreement)
+    except ValueError as exc:
+        raise UserError(f"--budget/--agreement: {exc}") from None
+    tuning = budget.tightened(args.margin)  # a one-line UserError for a bad --margin
+    if args.signals:
+        bad = [s for s in args.signals if s not in P1_SIGNALS]
+        if bad:
+            raise UserError(f"--signals: unknown signals {bad}")
+    scenes: list[str] = list(args.scene)
+    held = [s for s in scenes if s in HELD_OUT_SCENES]
+    if held:
+        raise UserError(
+            f"--scene {held[0]}: it is held out of tuning, for --verify only; tune on "
+            f"{', '.join(TUNING_SCENES)}"
+        )
+    if len(set(scenes)) != len(scenes):
+        raise UserError(f"--scene: a scene is named twice in {scenes}")
+    if args.verify in scenes:
+        raise UserError(
+            f"--verify {args.verify}: it is a tuning scene; verify on one the optimiser did "
+            f"not see ({', '.join(s for s in VERIFY_SCENES if s not in scenes)})"
+        )
+    start = load_config(PIPELINES["p1"], args.config, variant=args.variant)
+    default = P1Config.default(variant=start.variant)
+    cases = [_case(name, args.size) for name in scenes]
+    res = optimise(
+        cases, start, budget, margin=args.margin, signals=args.signals,
+        tune_registers=args.tune_registers, workers=args.workers, progress=not args.json,
+    )  # fmt: skip
+    case = cases[0]
+    shape, mode = case.image1.shape, case.mode
+    cost = config_cost(res.config, shape, mode)
+    dcost = config_cost(default, shape, mode)
+    per_scene: dict[str, Any] = {}
+    for name, c, figs, sfigs, runs in zip(
+        scenes, cases, res.scene_figures, res.start_scene_figures, res.scene_runs, strict=True
+    ):
+        per_scene[name] = {
+            "mode": c.mode,
+            "size": list(c.image1.shape),
+            **_figures(figs),
+            "start_median_rel_range_diff": sfigs["median_rel_range_diff"],
+            "start_valid_agreement": sfigs["valid_agreement"],
+            "cost_bits": config_cost(res.config, c.image1.shape, c.mode).cost_bits,
+            "default_cost_bits": config_cost(default, c.image1.shape, c.mode).cost_bits,
+            "runs": runs,
+        }
+    figures: dict[str, Any] = {
+        "scene": scenes[0],
+        "tuning_scenes": scenes,
+        "mode": mode,
+        "size": list(shape),
+        "variant": start.variant,
+        "budget": {"median_rel_range_diff": budget.median, "valid_agreement": budget.agreement},
+        "margin": args.margin,
+        "tuning_budget": {
+            "median_rel_range_diff": tuning.median,
+            "valid_agreement": tuning.agreement,
+        },
+        "tune_registers": args.tune_registers,
+        "config_toml": res.config.to_toml(),
+        "cost_scene": scenes[0],
+        "cost_bits": cost.cost_bits,
+        "default_cost_bits": dcost.cost_bits,
+        "bits_saved": dcost.cost_bits - cost.cost_bits,
+        "cost": cost.as_dict(),
+        "default_cost": dcost.as_dict(),
+        "median_rel_range_diff": res.figures["median_rel_range_diff"],
+        "p95_rel_range_diff": res.figures["p95_rel_range_diff"],
+        "valid_agreement": res.figures["valid_agreement"],
+        "start_median_rel_range_diff": res.start_figures["median_rel_range_diff"],
+        "start_valid_agreement": res.start_figures["valid_agreement"],
+        "scenes": per_scene,
+        "evaluations": res.evaluations,
+        "seconds": res.seconds,
+        "steps": res.steps,
+    }
+    if args.verify:
+        vcase = _case(args.verify, args.size)
+        golden = PIPELINES["p1"].golden(vcase, res.config).result
+        fig_opt = evaluate(vcase, res.config, golden)
+        fig_def = evaluate(vcase, default, golden)
+        if fig_opt is None:
+            raise UserError(f"the optimised config cannot run on {args.verify!r}")
+        figures["verify"] = {
+            "scene": args.verify,
+            "mode": vcase.mode,
+            "size": list(vcase.image1.shape),
+            **_figures(fig_opt),
+            "meets_budget": budget.met(fig_opt),
+            "default_median_rel_range_diff": fig_def["median_rel_range_diff"] if fig_def else None,
+            "default_valid_agreement": fig_def["valid_agreement"] if fig_def else None,
+            "cost_bits": config_cost(res.config, vcase.image1.shape, vcase.mode).cost_bits,
+            "default_cost_bits": config_cost(default, vcase.image1.shape, vcase.mode).cost_bits,
+        }
+    if args.out:
+        _write_optimise_out(Path(args.out), res, figures, case)
+    if args.json:
+        print(json.dumps(json_safe(figures)))
+        return 0
+    sys.stdout.write(res.config.to_toml())
+    print(
+        f"# cost_bits on {scenes[0]} {cost.cost_bits} (default {dcost.cost_bits}, saved "
+        f"{figures['bits_saved']}); DSP {cost.dsp} (default {dcost.dsp}); BRAM18 {cost.bram18} "
+        f"(default {dcost.bram18}); {res.evaluations} runs, {res.seconds:.1f} s"
+    )
+    if args.margin:
+        print(
+            f"# tuned with margin {args.margin}: median_rel_range_diff <= {tuning.median:.4g}, "
+            f"valid_agreement >= {tuning.agreement:.6g} on every tuning scene (budget "
+            f"{budget.median:.4g}, {budget.agreement:.6g})"
+        )
+    for name, sf in per_scene.items():
+        print(
+            f"# {name} ({sf['mode']}): median_rel_range_diff {sf['median_rel_range_diff']:.3e}, "
+            f"valid_agreement {sf['valid_agreement']:.5f}, cost_bits {sf['cost_bits']} "
+            f"(default {sf['default_cost_bits']})"
+        )
+    if args.verify:
+        v = figures["verify"]
+        print(
+            f"# verify {args.verify} ({v['mode']}): median_rel_range_diff "
+            f"{v['median_rel_range_diff']:.3e}, valid_agreement {v['valid_agreement']:.5f}, "
+            f"meets budget: {v['meets_budget']}"
+        )
+    return 0
+
+
+def _write_optimise_out(out: Path, res, figures: dict[str, Any], case) -> None:
+    from ..report.wlplots import save_buildup
+    from ..studies.sweep import buildup_for
+
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"cannot create output directory {str(out)!r}: {exc.strerror}") from None
+    atomic_write_text(out / "optimised.toml", res.config.to_toml())
+    for stem, cfg in (("buildup_optimised", res.config), ("buildup_start", res.start)):
+        profiles, notes = buildup_for(case, cfg)
+        save_buildup(out, stem, profiles, stem.replace("_", " ").replace("buildup", "build-up,"))
+        figures[f"{stem}_notes"] = notes
+    atomic_write_text(out / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
+    return v
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("sweep", help="word-length sweep of P1 (resumable, local or dask)")
+    p.add_argument("definition", nargs="?", help="sweep definition TOML")
+    p.add_argument("--out", help="output directory (re-run the same command to resume)")
+    p.add_argument("--scheduler", help="address of a dask.distributed scheduler")
+    p.add_argument("--workers", type=_positive_int, default=2, help="local threads (default 2)")
+    p.add_argument("--example", action="store_true", help="print the example definition's path")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.set_defaults(func=cmd_sweep)
+    p = sub.add_parser("optimise", help="cheapest P1 word lengths meeting an accuracy budget")
+    p.add_argument("--scene", choices=VERIFY_SCENES, nargs="+", default=["lab"],
+                   help="tuning scene(s): a config must meet the budget on every one; the "
+                   "cost minimised is the first's (default lab; motorcycle: the real "
+                   "Middlebury pair, stereo; plane is held out: --verify only)")  # fmt: skip
+    p.add_argument("--budget", type=float, default=0.01,
+                   help="max median relative range error vs golden, on every tuning scene "
+                   "(default 0.01)")  # fmt: skip
+    p.add_argument("--agreement", type=float, default=0.99,
+                   help="min validity agreement with golden, on every tuning scene "
+                   "(default 0.99)")  # fmt: skip
+    p.add_argument("--margin", type=float, default=DEFAULT_MARGIN,
+                   help="guard band M in [0, 1): while tuning, a candidate must meet median "
+                   "<= budget*(1-M) and disagreement <= (1-agreement)*(1-M); the result is "
+                   f"reported against the budget itself (default {DEFAULT_MARGIN}; 0: no "
+                   "guard band)")  # fmt: skip
+    p.add_argument("--verify", choices=VERIFY_SCENES,
+                   help="scene to verify the result on (not a tuning scene; motorcycle: the "
+                   "real Middlebury pair, stereo; plane: a synthetic textured plane no "
+                   "tuning run may use)")  # fmt: skip
+    p.add_argument("--config", help="starting (safe) config TOML (default: the shipped one)")
+    p.add_argument("--variant", choices=("paper", "consistent"))
+    p.add_argument("--size", type=_positive_int, nargs=2, metavar=("H", "W"),
+                   help="render synthetic scenes at this size (not motorcycle)")  # fmt: skip
+    p.add_argument("--signals", nargs="+",
+                   help="only these signals, host registers included if named (default: all "
+                   "but pix_in and the host-written registers, see --tune-registers)")  # fmt: skip
+    p.add_argument("--tune-registers", action="store_true",
+                   help=f"also narrow the host-written registers ({', '.join(HOST_REGISTERS)}); "
+                   "off by default: their formats must cover every camera and geometry the "
+                   "host may load (focal length, baseline, thresholds), which tuning scenes "
+                   "do not sample, so they keep the starting config's formats")  # fmt: skip
+    p.add_argument("--workers", type=_positive_int, default=2, help="concurrent runs (default 2)")
+    p.add_argument("--out", help="write optimised.toml, build-up plots and summary.json here")
+    p.add_argument("--json", action="store_true",
+                   help="print the figures as one JSON object (top-level accuracy: worst case "
+                   "over the tuning scenes; per scene under 'scenes')")  # fmt: skip
+    p.set_defaults(func=cmd_optimise)

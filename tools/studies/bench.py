@@ -1,0 +1,189 @@
+"""``rangefx bench``: throughput of every registered pipeline beside its float64 golden,
+and the unit costs that explain it (SPEC §4 "Speed matters").
+
+Figures are medians of ``repeats`` timed runs after a warm-up, on the ``lab`` pair
+(stereo); the machine's CPU model and vector extensions are reported with them, since
+the machines here differ (some AVX-512, some only AVX2).
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.rtl_model.config import WordLengthConfig
+from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
+from rangefx.rtl_model.pipeline import Case, Pipeline
+from rangefx.rtl_model.registry import PIPELINES
+
+from .cases import scene_case
+
+__all__ = [
+    "bench_figures",
+    "cold_run",
+    "constant_cast_loop",
+    "cpu_description",
+    "median_time",
+    "minmax_loop",
+]
+
+
+def median_time(fn: Callable[[], Any], repeats: int) -> float:
+    """Median wall seconds of ``repeats`` calls of ``fn``."""
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def cpu_description() -> dict[str, Any]:
+    """CPU model name and the vector extensions numba may use (from /proc/cpuinfo)."""
+    model, flags = "unknown", set()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                key, _, value = line.partition(":")
+                if key.strip() == "model name" and model == "unknown":
+                    model = value.strip()
+                elif key.strip() == "flags" and not flags:
+                    flags = set(value.split())
+    except OSError:
+        pass
+    ext = [f for f in ("avx2", "avx512f", "avx512bw", "avx512dq", "avx512vl") if f in flags]
+    return {"model": model, "vector_extensions": ext, "cpu_count": os.cpu_count()}
+
+
+def _bench_pipeline(
+    pipeline: Pipeline, case: Case, config: WordLengthConfig, variant: str, repeats: int
+) -> dict[str, float]:
+    """One pipeline variant's figures, keyed ``<name>_stereo[_<variant>]_...``."""
+    pixels = case.image1.size
+    stereo = f"{pipeline.name}_stereo" + (f"_{variant}" if variant else "")
+    key = pipeline.name + (f"_{variant}" if variant else "")
+    pipeline.run(case, config, taps=False)  # JIT warm-up
+    cpu: list[dict[str, float]] = []
+
+    def run(threads: int = 2, taps: bool = False) -> None:
+        cpu.append(pipeline.run(case, config, taps=taps, threads=threads).kernel_cpu_s)
+
+    out = {f"{stereo}_mpix_s": pixels / median_time(run, repeats) / 1e6}
+    # where the time goes: CPU ns per pixel of each kernel, where the model reports it
+    for kernel in cpu[0]:
+        ns = statistics.median(c[kernel] for c in cpu) / pixels * 1e9
+        out[f"{key}_{kernel}_cpu_ns_px"] = ns
+    out[f"{stereo}_1thread_mpix_s"] = pixels / median_time(lambda: run(threads=1), repeats) / 1e6
+    out[f"{stereo}_taps_mpix_s"] = pixels / median_time(lambda: run(taps=True), repeats) / 1e6
+    t = median_time(lambda: pipeline.golden(case, config), repeats)
+    out[f"golden_{key}_mpix_s"] = pixels / t / 1e6
+    return out
+
+
+def bench_figures(repeats: int = 5, size: int = 512) -> dict[str, Any]:
+    """Mpixel/s of every pipeline and variant (stereo ``size``², default config: two
+    threads without taps, one thread, with taps; per-kernel CPU ns/pixel where the model
+    reports it) beside its golden on the same pair, the unit costs of a cast, and the
+    cold start of a second process."""
+    case = scene_case("lab", (size, size) if size != 512 else None)
+    out: dict[str, Any] = {"size": [size, size], "repeats": repeats, "cpu": cpu_description()}
+    out["cpu_count"] = os.cpu_count()
+    for pipeline in PIPELINES.values():
+        for variant, design in pipeline.variants.items():
+            config = pipeline.default_config(**design)
+            out.update(_bench_pipeline(pipeline, case, config, variant, repeats))
+    out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
+    out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
+    out["cast_ns"], out["cast_overflowing_row_ns"] = _cast_ns()
+    out["log_floor_ns"] = _floor_ns(minmax_loop)
+    out["constant_cast_floor_ns"] = _floor_ns(constant_cast_loop)
+    code = (
+        "import time; t=time.perf_counter(); import numpy as np;"
+        "from rangefx.tools.studies.bench import cold_run; cold_run();"
+        "print(time.perf_counter()-t)"
+    )
+    t = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+    out["cold_process_s"] = time.perf_counter() - t
+    return out
+
+
+def _cast_ns(size: int = 1 << 16, repeats: int = 21) -> tuple[float, float]:
+    """CPU ns per element of one cast (``cast_array``, s16.4 RND/SAT from 8 more fraction
+    bits): the unit cost the pipeline pays ~41 times per stereo pixel. Two figures: a
+    row inside the format (the common case: overflow is decided on the row's extremes)
+    and the same row with one element out of range (a second, element-wise pass)."""
+    raw = np.random.default_rng(0).integers(-(2**22), 2**22, size)
+    fmt = FixedFormat.from_string("s16.4", Quant.RND, Overflow.SAT)
+    figures = []
+    for row in (raw, np.concatenate([raw[:-1], [2**40]])):
+        cast_array(row, 12, fmt)  # JIT warm-up
+        times = []
+        for _ in range(repeats):
+            t = time.thread_time()
+            cast_array(row, 12, fmt)
+            times.append(time.thread_time() - t)
+        figures.append(statistics.median(times) / size * 1e9)
+    return figures[0], figures[1]
+
+
+@njit(cache=True, nogil=True)
+def minmax_loop(raw, out, reps):
+    """Only the min/max log of an int64 row, ``reps`` times (a calibration: see below)."""
+    lo, hi = raw[0], raw[0]
+    for _ in range(reps):
+        for i in range(raw.shape[0]):
+            lo = min(lo, raw[i])
+            hi = max(hi, raw[i])
+    return lo, hi, 0
+
+
+@njit(cache=True, nogil=True)
+def constant_cast_loop(raw, out, reps):
+    """A cast with its format folded in as constants (s16.4 RND/SAT from 8 more fraction
+    bits), saturated element by element, logged and counted, ``reps`` times: what a kernel
+    specialised on one config pays without the row-extremes overflow check of cast_row."""
+    lo, hi, count = raw[0], raw[0], 0
+    for _ in range(reps):
+        for i in range(raw.shape[0]):
+            r = raw[i]
+            lo = min(lo, r)
+            hi = max(hi, r)
+            q = (r + 128) >> 8
+            value = min(max(q, -32768), 32767)
+            out[i] = value
+            count += value != q
+    return lo, hi, count
+
+
+def _floor_ns(loop, size: int = 512, reps: int = 4000, repeats: int = 7) -> float:
+    """CPU ns per element of a calibration ``loop`` over a 512-element int64 row (min of
+    ``repeats``): floors for one logged cast on this CPU (AVX2 has no 64-bit vector
+    min/max), to set beside ``cast_ns``."""
+    raw = np.random.default_rng(1).integers(-(2**22), 2**22, size)
+    out = np.empty_like(raw)
+    loop(raw, out, 1)
+    times = []
+    for _ in range(repeats):
+        t = time.thread_time()
+        loop(raw, out, reps)
+        times.append(time.thread_time() - t)
+    return min(times) / (size * reps) * 1e9
+
+
+def cold_run() -> None:
+    """A second process's first run of every pipeline on a 64x64 pair (numba cache warm)."""
+    rng = np.random.default_rng(0)
+    a = rng.integers(0, 256, (64, 64))
+    cam = PinholeCamera(64, 64, 100.0)
+    for pipeline in PIPELINES.values():
+        pipeline.run(Case(a, np.roll(a, 1, axis=1), cam, MotionIncrement.stereo(0.1)), taps=False)

@@ -1,0 +1,368 @@
+"""Word-length optimiser: the cheapest P1 config meeting an accuracy budget (SPEC §6).
+
+Coordinate descent from a safe configuration (the default, which meets the budget by a
+wide margin). Signals are visited in decreasing order of their cost weight (bits of
+``cost_bits`` per bit of word: line-buffer signals first, :func:`cost_weights`). For
+each signal, first its fraction bits are lowered (integer bits kept, so the word
+shrinks), then its integer bits (fraction kept), each to the smallest value for which
+the *whole* config still meets the budget, found by a k-ary search (``workers``
+candidates evaluated concurrently per round; monotone error in the bits is assumed to
+steer the search, never to accept: every accepted config was run and met the budget).
+Hence the result meets the budget on the tuning scenes by construction; it is then run
+on a verification scene it was not tuned on.
+
+Host-written registers (:data:`~rangefx.rtl_model.config.HOST_REGISTERS`: bias, filter
+pole, focal length, translation and rotation terms, T_g^2) keep the start config's
+formats unless ``tune_registers`` (or they are named in ``signals``): their values are
+host constants whose range is set by the cameras and geometries to serve, not by image
+content, so narrowing them to fit a few tuning scenes fails on others (a 5 mm baseline
+in ``k_t_reg`` s13.9 is 3 LSB).
+
+Several tuning scenes (one pipeline that must serve all of them, e.g. the stereo ``lab``
+and the motion ``runway`` with rotation): a candidate is accepted only if it meets the
+budget on *every* scene (worst case). Scenes are run in the given order and a candidate
+stops at its first failing scene, so put the scene that fails most often first. The
+cost minimised is ``cost_bits`` on the *first* scene's shape and mode (the signals are
+visited in the order of their weights there); signals that cost nothing there but
+something on another tuning scene are still narrowed, after the others. Narrowing a
+word never raises any scene's cost, so every scene's cost falls or stays.
+
+The budget (:class:`Budget`): median relative range difference vs the float golden on
+pixels valid in both ``<= median`` and validity agreement ``>= agreement``.
+
+Guard band (``margin`` M, ``0 <= M < 1``): during tuning a candidate must meet the
+tightened budget :meth:`Budget.tightened` — median ``<= median·(1 − M)`` and
+disagreement ``1 − agreement' <= (1 − agreement)·(1 − M)`` — so the result keeps a
+reserve for scenes it was not tuned on; the result is still reported against the
+user's budget. ``M = 0`` is the plain budget (the same object: same decisions).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from tqdm import tqdm
+
+from rangefx.golden.ranging import RangeResult
+from rangefx.rtl_model.fixedpoint import FixedFormat
+from rangefx.rtl_model.p1 import run_p1
+from rangefx.rtl_model.p1.config import HOST_REGISTERS, P1_SIGNALS, P1Config
+from rangefx.rtl_model.p1.cost import REGISTER_INSTANCES, config_cost
+from rangefx.rtl_model.pipeline import Case
+from rangefx.rtl_model.registry import PIPELINES
+
+from ..errors import UserError
+from .runner import compare_ranges
+
+__all__ = [
+    "Budget",
+    "OptimiseResult",
+    "check_margin",
+    "cost_weights",
+    "evaluate",
+    "evaluate_scenes",
+    "optimise",
+    "worst_case",
+]
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Accuracy budget against the float golden."""
+
+    median: float = 0.01
+    agreement: float = 0.99
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.median, int | float) and 0 < self.median < math.inf):
+            raise ValueError(f"budget must be a positive number, not {self.median!r}")
+        if not (isinstance(self.agreement, int | float) and 0 <= self.agreement <= 1):
+            raise ValueError(f"agreement must be in [0, 1], not {self.agreement!r}")
+
+    def tightened(self, margin: float) -> Budget:
+        """The budget a tuning candidate must meet with guard band ``margin``: median
+        ``<= median·(1 − margin)``, disagreement ``<= (1 − agreement)·(1 − margin)``.
+        ``margin == 0`` returns this budget itself."""
+        check_margin(margin)
+        if margin == 0:
+            return self
+        return Budget(self.median * (1 - margin), 1 - (1 - self.agreement) * (1 - margin))
+
+    def met(self, figures: dict[str, Any]) -> bool:
+        med = figures.get("median_rel_range_diff")
+        agr = figures.get("valid_agreement")
+        if med is None or agr is None or not math.isfinite(med):
+            return False
+        return med <= self.median and agr >= self.agreement
+
+
+def check_margin(margin: float) -> float:
+    """``margin`` if it is a number in ``[0, 1)``; a one-line :class:`UserError` otherwise."""
+    ok = isinstance(margin, int | float) and not isinstance(margin, bool)
+    if not (ok and 0 <= margin < 1):
+        raise UserError(f"--margin must be a number in [0, 1), not {margin!r}")
+    return margin
+
+
+@dataclass(frozen=True)
+class OptimiseResult:
+    """The optimised config and its figures.
+
+    ``figures`` / ``start_figures`` are the worst case over the tuning scenes
+    (:func:`worst_case`); ``scene_figures`` / ``start_scene_figures`` hold each tuning
+    scene's own figures, in the order of the scenes given to :func:`optimise`.
+    ``evaluations`` counts candidate configs, ``scene_runs`` the P1 runs on each scene
+    (a candidate stops at its first failing scene, so later scenes run less often).
+    ``tuning_budget`` is the budget candidates had to meet (``Budget.tightened`` by the
+    margin; the user's budget when the margin is 0).
+    """
+
+    config: P1Config
+    start: P1Config
+    figures: dict[str, Any]
+    start_figures: dict[str, Any]
+    evaluations: int
+    seconds: float
+    steps: list[dict[str, Any]] = field(default_factory=list)
+    scene_figures: list[dict[str, Any]] = field(default_factory=list)
+    start_scene_figures: list[dict[str, Any]] = field(default_factory=list)
+    scene_runs: list[int] = field(default_factory=list)
+    tuning_budget: Budget | None = None
+
+
+def worst_case(scene_figures: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The worst of several scenes' figures: largest median and p95 relative range
+    difference, smallest validity agreement, total overflows. A config meets a budget on
+    every scene exactly when it meets it on this worst case."""
+
+    def worst(key: str, pick: Callable[[Sequence[float]], float]) -> float:
+        vals = [f[key] for f in scene_figures]
+        if any(v is None or not math.isfinite(v) for v in vals):
+            return math.nan
+        return pick(vals)
+
+    out: dict[str, Any] = {
+        "median_rel_range_diff": worst("median_rel_range_diff", max),
+        "p95_rel_range_diff": worst("p95_rel_range_diff", max),
+        "valid_agreement": worst("valid_agreement", min),
+        "n_valid_both": min(f["n_valid_both"] for f in scene_figures),
+    }
+    if all("overflow_total" in f for f in scene_figures):
+        out["overflow_total"] = sum(f["overflow_total"] for f in scene_figures)
+    return out
+
+
+def cost_weights(config: P1Config, shape: tuple[int, int], mode: str) -> dict[str, int]:
+    """``cost_bits`` added by one more bit of each signal's word (0: signal unused)."""
+    base = config_cost(config, shape, mode).cost_bits
+    out = {}
+    for name in P1_SIGNALS:
+        f = config.formats[name]
+        try:
+            wider = config.with_formats(**{name: replace(f, word=f.word + 1)})
+        except ValueError:
+            out[name] = sum(REGISTER_INSTANCES[name])
+            continue
+        out[name] = config_cost(wider, shape, mode).cost_bits - base
+    return out
+
+
+def evaluate(case: Case, config: P1Config, golden: RangeResult, threads: int = 2):
+    """Fixed vs golden figures of ``config`` (``None`` if the config cannot run)."""
+    try:
+        result = run_p1(
+            case.image1, case.image2, case.camera, case.motion, config, case.ranging,
+            mode=case.mode, taps=False, threads=threads,
+        )  # fmt: skip
+    except ValueError:
+        return None
+    figs = compare_ranges(result, golden)
+    figs["overflow_total"] = result.overflow_total
+    return figs
+
+
+def _candidates(lo: int, hi: int, k: int) -> list[int]:
+    """Up to ``k`` probe points in ``[lo, hi)`` splitting it into ``k + 1`` parts."""
+    return sorted({lo + ((hi - lo) * i) // (k + 1) for i in range(1, k + 1)})
+
+
+def _with(config: P1Config, name: str, word: int, frac: int) -> P1Config | None:
+    if word < 1 or word > 62:
+        return None
+    f = config.formats[name]
+    try:
+        return config.with_formats(**{name: FixedFormat(f.signed, word, frac, f.quant, f.overflow)})
+    except ValueError:
+        return None
+
+
+def _label(case: Case, index: int) -> str:
+    if case.scene is not None:
+        return case.scene.name
+    return case.label or f"scene {index + 1}"
+
+
+def evaluate_scenes(
+    cases: Sequence[Case],
+    config: P1Config,
+    goldens: Sequence[RangeResult],
+    budget: Budget,
+    threads: int = 2,
+) -> list[dict[str, Any] | None]:
+    """:func:`evaluate` on each case in order, stopping after the first that misses
+    ``budget`` (a rejected candidate need not pay for the other scenes). The list is as
+    long as the scenes run; its last entry is ``None`` if the config cannot run there."""
+    out: list[dict[str, Any] | None] = []
+    for case, golden in zip(cases, goldens, strict=True):
+        figs = evaluate(case, config, golden, threads=threads)
+        out.append(figs)
+        if figs is None or not budget.met(figs):
+            break
+    return out
+
+
+def optimise(
+    cases: Case | Sequence[Case],
+    start: P1Config,
+    budget: Budget,
+    *,
+    margin: float = 0.0,
+    signals: Sequence[str] | None = None,
+    tune_registers: bool = False,
+    workers: int = 2,
+    max_frac_drop: int = 40,
+    progress: bool = True,
+    on_eval: Callable[[P1Config, list[dict | None]], None] | None = None,
+) -> OptimiseResult:
+    """Cheapest config reachable from ``start`` meeting ``budget`` on every case.
+
+    ``cases``: one tuning case or several (worst case, module docstring); the cost
+    minimised is ``cost_bits`` on the first case's shape and mode. ``margin``: guard band,
+    candidates must meet ``budget.tightened(margin)`` (module docstring). ``signals``: only
+    these (default: all but ``pix_in`` and, unless ``tune_registers``, the host-written
+    :data:`~rangefx.rtl_model.config.HOST_REGISTERS`; a register named in ``signals`` is
+    tuned). ``on_eval`` sees each candidate with the figures of the scenes it was run on (it
+    stops at the first miss).
+    """
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise UserError(f"--workers must be a positive integer, not {workers!r}")
+    tuning = budget.tightened(margin)
+    cases = [cases] if isinstance(cases, Case) else list(cases)
+    if not cases:
+        raise ValueError("optimise needs at least one tuning case")
+    t0 = time.perf_counter()
+    goldens = [PIPELINES["p1"].golden(case, start).result for case in cases]
+    threads = 2 if workers == 1 else 1
+    n_evals = 0
+    scene_runs = [0] * len(cases)
+
+    def run(cfgs: list[P1Config]) -> list[list[dict | None]]:
+        nonlocal n_evals
+        n_evals += len(cfgs)
+        if len(cfgs) == 1 or workers == 1:
+            figs = [evaluate_scenes(cases, c, goldens, tuning, threads=2) for c in cfgs]
+        else:
+            with ThreadPoolExecutor(min(workers, len(cfgs))) as pool:
+                figs = list(
+                    pool.map(lambda c: evaluate_scenes(cases, c, goldens, tuning, threads), cfgs)
+                )
+        for f in figs:
+            for k in range(len(f)):
+                scene_runs[k] += 1
+        if on_eval is not None:
+            for c, f in zip(cfgs, figs, strict=True):
+                on_eval(c, f)
+        return figs
+
+    def met(scene_figs: list[dict | None]) -> bool:
+        return len(scene_figs) == len(cases) and all(
+            f is not None and tuning.met(f) for f in scene_figs
+        )
+
+    start_figs = run([start])[0]
+    if not met(start_figs):
+        k = len(start_figs) - 1
+        band = "" if tuning is budget else f" tightened by the margin {margin}"
+        raise UserError(
+            f"the starting config {start.name!r} misses the budget{band} on "
+            f"{_label(cases[k], k)!r} (figures {start_figs[k]}); start from a wider config"
+        )
+    # Weights on every tuning scene; the first scene's cost is the one minimised.
+    all_weights = [cost_weights(start, case.image1.shape, case.mode) for case in cases]
+    weights = all_weights[0]
+    others = {s: sum(w.get(s, 0) for w in all_weights[1:]) for s in P1_SIGNALS}
+    if signals:
+        pool = list(signals)
+    else:
+        skip = ("pix_in",) if tune_registers else ("pix_in", *HOST_REGISTERS)
+        pool = [s for s in P1_SIGNALS if s not in skip]
+    names = [s for s in pool if s != "pix_in" and (weights.get(s, 0) > 0 or others[s] > 0)]
+    names.sort(key=lambda s: (-weights[s], -others[s], P1_SIGNALS.index(s)))
+    current, cur_figs = start, start_figs
+    steps: list[dict[str, Any]] = []
+    bar = tqdm(
+        total=2 * len(names), desc="optimise", disable=not progress or not sys.stderr.isatty(),
+        file=sys.stderr,
+    )  # fmt: skip
+    try:
+        for name in names:
+            for dim in ("frac", "int"):
+                f = current.formats[name]
+                integer = f.word - f.frac
+                if dim == "frac":
+                    lo, hi = max(f.frac - max_frac_drop, f.frac - f.word + 1), f.frac
+
+                    def make(v: int, c=current, n=name, i=integer) -> P1Config | None:
+                        return _with(c, n, i + v, v)
+                else:
+                    lo, hi = max(integer - 62, 1 - f.frac), integer
+
+                    def make(v: int, c=current, n=name, fr=f.frac) -> P1Config | None:
+                        return _with(c, n, v + fr, fr)
+
+                best, best_figs = hi, cur_figs
+                while lo < hi:
+                    cands = _candidates(lo, hi, workers)
+                    cfgs = [make(v) for v in cands]
+                    figs: list[list[dict | None]] = [[None]] * len(cands)
+                    runnable = [k for k, c in enumerate(cfgs) if c is not None]
+                    for k, r in zip(runnable, run([cfgs[k] for k in runnable]), strict=True):
+                        figs[k] = r
+                    passing = [k for k, r in enumerate(figs) if met(r)]
+                    if passing:
+                        k = passing[0]
+                        hi = cands[k]
+                        best, best_figs = hi, figs[k]
+                    failing = [cands[k] for k in range(len(cands)) if k not in passing]
+                    below = [v for v in failing if v < hi]
+                    lo = max(below) + 1 if below else lo
+                    if not passing and not below:
+                        break
+                if best != (f.frac if dim == "frac" else integer):
+                    new = make(best)
+                    assert new is not None
+                    old = str(current.formats[name])
+                    current, cur_figs = new, best_figs
+                    worst = worst_case(cur_figs)
+                    steps.append(
+                        {
+                            "signal": name, "dim": dim, "from": old,
+                            "to": str(current.formats[name]),
+                            "median_rel_range_diff": worst["median_rel_range_diff"],
+                            "valid_agreement": worst["valid_agreement"],
+                        }
+                    )  # fmt: skip
+                bar.update(1)
+    finally:
+        bar.close()
+    final = current.with_(name=f"{start.name}-optimised")
+    return OptimiseResult(
+        final, start, worst_case(cur_figs), worst_case(start_figs), n_evals,
+        time.perf_counter() - t0, steps, list(cur_figs), list(start_figs), scene_runs, tuning,
+    )  # fmt: skip
