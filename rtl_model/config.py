@@ -218,6 +218,18 @@ class WordLengthConfig:
         if v not in choices:
             raise ValueError(f"unknown {key} {v!r}; choose from {', '.join(choices)}")
 
+    def check_reciprocal_fields(self) -> None:
+        """The reciprocal divider's design fields (``recip_lut_bits`` L in 1..16,
+        ``recip_bits`` R in 4..28, R >= L + 2: the ROM and Newton step of
+        :func:`rangefx.rtl_model.runtime.reciprocal_lut`), for configs that have them."""
+        self.check_int_field("recip_lut_bits", 1, 16)
+        self.check_int_field("recip_bits", 4, 28)
+        if self.recip_bits < self.recip_lut_bits + 2:
+            raise ValueError(
+                f"recip_bits ({self.recip_bits}) must exceed recip_lut_bits "
+                f"({self.recip_lut_bits}) by at least 2"
+            )
+
     def check_saturating(self, *names: str) -> None:
         """Divider quotients saturate: their overflow mode must be SAT, SAT_ZERO or SAT_SYM."""
         for name in names:

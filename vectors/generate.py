@@ -297,10 +297,6 @@ def load_manifest(directory: str | Path) -> dict:
     return manifest
 
 
-def _entry_format(entry: Mapping) -> FixedFormat:
-    return FixedFormat(bool(entry["signed"]), int(entry["word"]), int(entry["frac"]))
-
-
 def read_tap(directory: str | Path, tap: str, manifest: Mapping | None = None) -> np.ndarray:
     """Raw int64 codes of ``tap`` from its ``.mem`` file (scan order).
 

@@ -139,13 +139,7 @@ class P1Config(WordLengthConfig):
             raise ValueError(f"filter pole must be in (0, 1], not {self.pole!r}")
         if not (isinstance(self.bias, int | float) and math.isfinite(self.bias) and self.bias >= 0):
             raise ValueError(f"bias must be a finite non-negative number, not {self.bias!r}")
-        self.check_int_field("recip_lut_bits", 1, 16)
-        self.check_int_field("recip_bits", 4, 28)
-        if self.recip_bits < self.recip_lut_bits + 2:
-            raise ValueError(
-                f"recip_bits ({self.recip_bits}) must exceed recip_lut_bits "
-                f"({self.recip_lut_bits}) by at least 2"
-            )
+        self.check_reciprocal_fields()
         pole_raw = self.formats["pole_coef"].from_float(self.pole)
         if pole_raw <= 0:
             raise ValueError(

@@ -95,11 +95,8 @@ class P2Config(WordLengthConfig):
 
     def validate_design(self) -> None:
         self.check_choice("divider", DIVIDERS)
-        self.check_int_field("recip_lut_bits", 1, 16)
-        self.check_int_field("recip_bits", 4, 28)
+        self.check_reciprocal_fields()
         self.check_int_field("lanes", 0, 256)
-        if self.recip_bits < self.recip_lut_bits + 2:
-            raise ValueError("recip_bits must exceed recip_lut_bits by at least 2")
         k = self.kappa_min
         if isinstance(k, bool) or not isinstance(k, int | float) or not (0 < k < math.inf):
             raise ValueError(f"kappa_min must be a positive finite number, not {k!r}")
