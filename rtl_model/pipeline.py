@@ -296,10 +296,6 @@ class Pipeline(abc.ABC):
             out[name] = self.cost(wider, shape, mode).cost_bits - base
         return out
 
-    def registers_for_manifest(self, result: PipelineResult) -> dict[str, tuple[float, float]]:
-        """Host registers of a run (name -> float requested, value held)."""
-        return dict(result.registers)
-
     def rejected_weight(self, signal: str) -> int:
         """Weight of a signal whose one-bit-wider format the config rejects."""
         return 1

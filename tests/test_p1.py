@@ -4,6 +4,7 @@ the default config's budgets on the preset scenes, and the CLI."""
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -292,10 +293,42 @@ def test_bench_calibration_loops_compute_what_they_claim():
     assert bench.minmax_loop(raw, out, 1)[:2] == (raw.min(), raw.max())
 
 
+@pytest.mark.parametrize("pole_raw", [128, 450])
+def test_calibration_kernel_is_the_bit_exact_row_column_filter(pole_raw):
+    """``calib_rowcol``: the first-order row then column filter in s18.8, RND + SAT after
+    each step, against exact rationals (pole 450/256 > 1 makes the states saturate)."""
+    from fractions import Fraction
+
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (5, 9))
+    out = np.empty_like(image)
+    sat = bench.calib_rowcol(image, pole_raw, out)
+    c, lsb, top = Fraction(pole_raw, 256), Fraction(1, 256), Fraction(2**17 - 1, 256)
+
+    def cast(x: Fraction) -> tuple[Fraction, int]:
+        q = Fraction(math.floor(x / lsb + Fraction(1, 2))) * lsb  # round half up
+        return min(max(q, -top - lsb), top), int(q > top or q < -top - lsb)
+
+    want, count = np.empty((5, 9), dtype=object), 0
+    line = [Fraction(0)] * 9
+    for j in range(5):
+        p = Fraction(int(image[j, 0]))
+        for i in range(9):
+            p, k1 = cast(p + c * (int(image[j, i]) - p))
+            q = p if j == 0 else line[i]
+            q, k2 = cast(q + c * (p - q))
+            line[i], want[j, i], count = q, q, count + k1 + k2
+    assert [[Fraction(int(v), 256) for v in row] for row in out] == want.tolist()
+    assert sat == count and (count > 0) == (pole_raw > 256)
+
+
 def test_bench_reports_the_cost_breakdown():
     figures = bench.bench_figures(repeats=1, size=32)
     for key in ("p1_stereo_mpix_s", "golden_p1_mpix_s", "cold_process_s", "cast_ns",
                 "cast_overflowing_row_ns", "log_floor_ns", "constant_cast_floor_ns",
                 "p1_paper_front_end_cpu_ns_px", "p1_consistent_range_cpu_ns_px",
-                "p2_stereo_mpix_s", "p2_stereo_taps_mpix_s", "golden_p2_mpix_s"):  # fmt: skip
+                "p2_stereo_mpix_s", "p2_stereo_taps_mpix_s", "golden_p2_mpix_s",
+                "calib_rowcol_mpix_s", "p1_over_calib", "p2_over_calib",
+                "p1_stereo_consistent_1thread_over_calib",
+                "p2_stereo_taps_over_calib"):  # fmt: skip
         assert figures[key] > 0, key

@@ -29,11 +29,13 @@ from .cases import scene_case
 
 __all__ = [
     "bench_figures",
+    "calib_rowcol",
     "cold_run",
     "constant_cast_loop",
     "cpu_description",
     "median_time",
     "minmax_loop",
+    "over_calib",
 ]
 
 
@@ -103,6 +105,8 @@ def bench_figures(repeats: int = 5, size: int = 512) -> dict[str, Any]:
             out.update(_bench_pipeline(pipeline, case, config, variant, repeats))
     out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
     out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
+    out["calib_rowcol_mpix_s"] = _calib_mpix_s(np.asarray(case.image1, dtype=np.int64), repeats)
+    out.update(over_calib(out))
     out["cast_ns"], out["cast_overflowing_row_ns"] = _cast_ns()
     out["log_floor_ns"] = _floor_ns(minmax_loop)
     out["constant_cast_floor_ns"] = _floor_ns(constant_cast_loop)
@@ -114,6 +118,70 @@ def bench_figures(repeats: int = 5, size: int = 512) -> dict[str, Any]:
     t = time.perf_counter()
     subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
     out["cold_process_s"] = time.perf_counter() - t
+    return out
+
+
+#: Format of the calibration kernel's states: Q10.8 (s18.8), RND + SAT; the pole C = 0.5
+#: with 8 fraction bits.
+CALIB_FRAC = 8
+CALIB_WORD = 18
+CALIB_POLE_RAW = 128
+
+
+@njit(cache=True, nogil=True)
+def calib_rowcol(image, pole_raw, out):
+    """The calibration kernel of ``calib_rowcol_mpix_s``: a bare bit-exact first-order row
+    filter then column filter (line buffer, read before write) on one stream in strict
+    scan order, states in s18.8 rounded half up (RND) and saturated (SAT) after every
+    step, nothing logged or counted: the least a bit-exact model of P1's first stage
+    can do per pixel. ``out`` receives the column filter's state; returns the number of
+    saturations (so the work cannot be optimised away)."""
+    m, n = image.shape
+    f = CALIB_FRAC
+    hi = (np.int64(1) << (CALIB_WORD - 1)) - 1
+    lo = -hi - 1
+    half = np.int64(1) << (f - 1)
+    line = np.zeros(n, dtype=np.int64)
+    sat = 0
+    for j in range(m):
+        p = image[j, 0] << f
+        for i in range(n):
+            b = image[j, i] << f
+            pre = (p << f) + pole_raw * (b - p)  # exact, 2f fraction bits
+            q = (pre + half) >> f
+            p = min(max(q, lo), hi)
+            sat += p != q
+            c = p if j == 0 else line[i]
+            pre = (c << f) + pole_raw * (p - c)
+            q = (pre + half) >> f
+            c = min(max(q, lo), hi)
+            sat += c != q
+            line[i] = c
+            out[j, i] = c
+    return sat
+
+
+def _calib_mpix_s(image: np.ndarray, repeats: int) -> float:
+    """Mpixel/s of :func:`calib_rowcol` on ``image`` (median of ``repeats``, one thread)."""
+    out = np.empty_like(image)
+    calib_rowcol(image, CALIB_POLE_RAW, out)  # JIT warm-up
+    t = median_time(lambda: calib_rowcol(image, CALIB_POLE_RAW, out), repeats)
+    return image.size / t / 1e6
+
+
+def over_calib(figures: dict[str, Any]) -> dict[str, float]:
+    """Every pipeline throughput of ``figures`` (``<name>_stereo..._mpix_s``) divided by
+    ``calib_rowcol_mpix_s`` measured in the same run: a property of the code, not of the
+    machine (issue 18). Keys ``<figure>_over_calib``, plus ``p1_over_calib`` (paper, no
+    taps, two threads) and ``p2_over_calib``."""
+    calib = figures["calib_rowcol_mpix_s"]
+    out = {}
+    for key, value in figures.items():
+        if key.endswith("_mpix_s") and "_stereo" in key and not key.startswith("golden"):
+            out[key.removesuffix("_mpix_s") + "_over_calib"] = value / calib
+    for name in PIPELINES:
+        first = next(k for k in out if k.startswith(f"{name}_stereo"))
+        out[f"{name}_over_calib"] = out[first]
     return out
 
 
