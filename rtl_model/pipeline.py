@@ -26,6 +26,7 @@ from rangefx.golden.scenes import Scene
 from .config import TimingConfig, WordLengthConfig
 from .cost import CostReport
 from .fixedpoint import FixedFormat, Overflow, Quant
+from .runtime import divider_roms
 
 __all__ = [
     "MODES",
@@ -77,7 +78,9 @@ class Case:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return tuple(np.shape(self.image1))  # type: ignore[return-value]
+        """(height, width) of the images."""
+        m, n = np.shape(self.image1)
+        return int(m), int(n)
 
 
 @dataclass(frozen=True)
@@ -113,7 +116,8 @@ class PipelineResult:
     ``frame_store_bits`` (motion mode), ``sweep_buffer_bits`` (a sweep's stored line).
     ``registers``: host register name -> (float requested, value held);
     ``saturated_registers`` the registers whose value lies outside their format (held at
-    its limit: a silent scale error no overflow counter sees); ``timing`` the
+    its limit: a silent scale error no overflow counter sees); ``register_codes``: host
+    register name -> (signal whose format holds it, raw code written); ``timing`` the
     input stream's timing. ``schedule``:
     pipeline-specific timing facts (e.g. the sweep's lanes and periods);
     ``kernel_cpu_s``: CPU seconds per kernel, for the benchmark's breakdown.
@@ -136,6 +140,7 @@ class PipelineResult:
     total_cycles: int
     registers: dict[str, tuple[float, float]]
     saturated_registers: tuple[str, ...]
+    register_codes: dict[str, tuple[str, int]]
     mode: str
     config: WordLengthConfig = field(repr=False)
     timing: TimingConfig = field(default_factory=TimingConfig)
@@ -295,6 +300,11 @@ class Pipeline(abc.ABC):
                 continue
             out[name] = self.cost(wider, shape, mode).cost_bits - base
         return out
+
+    def roms(self, config: WordLengthConfig) -> dict[str, np.ndarray]:
+        """Read-only tables the datapath reads (name -> unsigned words), for the vectors:
+        the reciprocal divider's seed ROM where the config uses it."""
+        return divider_roms(config)
 
     def rejected_weight(self, signal: str) -> int:
         """Weight of a signal whose one-bit-wider format the config rejects."""

@@ -39,6 +39,7 @@ __all__ = [
     "divide_scalar",
     "divider_code",
     "divider_latency",
+    "divider_roms",
     "floor_div",
     "format_table",
     "ldexp2",
@@ -234,6 +235,15 @@ def reciprocal_lut(lut_bits: int, r_bits: int) -> np.ndarray:
     return (2 * num + den) // (2 * den)
 
 
+def divider_roms(config: WordLengthConfig) -> dict[str, np.ndarray]:
+    """The ROMs a config's divider reads: the reciprocal divider's seed table
+    (``recip_rom``, :func:`reciprocal_lut`, ``2**recip_lut_bits`` unsigned words); none
+    for the restoring divider or a config without a divider."""
+    if getattr(config, "divider", None) != "reciprocal":
+        return {}
+    return {"recip_rom": reciprocal_lut(config.recip_lut_bits, config.recip_bits)}
+
+
 def format_table(config: WordLengthConfig) -> np.ndarray:
     """(signals, :data:`FMT_COLS`) int64 table of a config's formats, in signal order:
     what the kernels read (indices are positions in ``config.signals()``)."""
@@ -309,6 +319,7 @@ class RegisterFile:
     def __init__(self, config: WordLengthConfig) -> None:
         self.config = config
         self.values: dict[str, tuple[float, float]] = {}
+        self.codes: dict[str, tuple[str, int]] = {}
         self.saturated: list[str] = []
 
     def write(self, name: str, value: float, signal: str) -> int:
@@ -318,6 +329,15 @@ class RegisterFile:
         if not lo <= value <= hi:
             self.saturated.append(name)
         self.values[name] = (float(value), float(fmt.to_float(raw)))
+        self.codes[name] = (signal, int(raw))
+        return raw
+
+    def hold(self, name: str, raw: int, signal: str, requested: float) -> int:
+        """Record a register whose code the host computes otherwise (e.g. a threshold
+        rounded up), held at ``signal``'s fraction bits."""
+        fmt = self.config.fmt(signal)
+        self.values[name] = (float(requested), float(raw) * 2.0**-fmt.frac)
+        self.codes[name] = (signal, int(raw))
         return raw
 
 

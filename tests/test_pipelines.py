@@ -17,6 +17,7 @@ from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.pipeline import VALID_FORMAT, Case, PipelineResult
 from rangefx.rtl_model.registry import PIPELINES, get_pipeline
+from rangefx.rtl_model.runtime import reciprocal_lut
 from rangefx.tools.cli import main
 from rangefx.tools.cli.vectors import crop_case
 from rangefx.tools.studies.cases import scene_case
@@ -164,8 +165,20 @@ def test_vectors_of_every_pipeline(name, tmp_path, capsys):
     assert main([*argv, "--hblank", "4", "--gap-prob", "0.2", "--formats", "mem,csv"]) == 0
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["pipeline"] == name
-    taps = {e["tap"] for e in manifest["files"] if e["kind"] != "stream"}
-    assert taps == {t.name for t in PIPELINES[name].tap_table(PIPELINES[name].default_config())}
+    cfg = PIPELINES[name].default_config()
+    taps = {e["tap"] for e in manifest["files"] if e["kind"] not in ("stream", "rom")}
+    assert taps == {t.name for t in PIPELINES[name].tap_table(cfg)}
+    # everything a bench needs beyond the streams: the ROM and every register code
+    assert cfg.divider == "reciprocal"
+    rom = next(e for e in manifest["files"] if e["kind"] == "rom")
+    lines = (out / rom["path"]).read_text().splitlines()
+    words = [int(w, 16) for w in lines if w and not w.startswith("//")]
+    assert words == reciprocal_lut(cfg.recip_lut_bits, cfg.recip_bits).tolist()
+    assert manifest["registers"] and not manifest["saturated_registers"]
+    for reg, r in manifest["registers"].items():
+        fmt = cfg.fmt(r["signal"])
+        assert str(fmt) == r["format"] and fmt.raw_min <= r["raw"] <= fmt.raw_max, reg
+        assert r["raw"] * 2.0**-fmt.frac == r["value"], reg
     assert main(["vectors", "check", str(out)]) == 0
     capsys.readouterr()
     # a planted mismatch: the first differing sample is found with its cycle, row, col

@@ -207,6 +207,12 @@ def build_vectors(
         comment = f"{sname} {{sof,eol,valid,data[{pix.word - 1}:0]}} one word per cycle"
         add(f"{sname}.bin", words_bin, {**common, "encoding": "bin"})
         add(f"{sname}.mem", fmt_io.write_stream_mem(words, pix.word, comment), common)
+    for rom, rom_words in pipe.roms(config).items():
+        word = max(1, int(rom_words.max()).bit_length())
+        comment = f"{rom}: {rom_words.size} unsigned {word}-bit words, address = table index"
+        entry = {"kind": "rom", "tap": rom, "signal": None, "word": word, "signed": False,
+                 "count": int(rom_words.size), "design": config.design()}  # fmt: skip
+        add(f"{rom}.mem", fmt_io.write_mem(rom_words, word, comment), entry)
     for spec in table:
         if spec.name not in values:
             continue
@@ -255,7 +261,17 @@ def build_vectors(
         },
         "latency": {"total": result.latency, "stages": dict(result.stage_latency)},
         "total_cycles": result.total_cycles,
-        "registers": {k: list(v) for k, v in result.registers.items()},
+        "registers": {
+            name: {
+                "signal": signal,
+                "format": str(config.fmt(signal)),
+                "describe": config.fmt(signal).describe(),
+                "raw": raw,
+                "requested": result.registers[name][0],
+                "value": result.registers[name][1],
+            }
+            for name, (signal, raw) in result.register_codes.items()
+        },
         "saturated_registers": list(result.saturated_registers),
         "overflows": {k: v for k, v in result.overflows.items() if v},
         "total_bytes": sum(len(b) for b in files.values()),

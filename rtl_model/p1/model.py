@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -358,6 +358,7 @@ class FrameRegisters:
     rotation: np.ndarray  # (3, 3): R_i0, R_i1 / f, R_i2 / f
     values: dict[str, tuple[float, float]]  # name -> (float requested, value held)
     saturated: tuple[str, ...] = ()  # registers held at their format's limit
+    codes: dict[str, tuple[str, int]] = field(default_factory=dict)  # name -> (signal, raw)
 
 
 def frame_registers(
@@ -395,8 +396,9 @@ def frame_registers(
     pole = reg("pole", config.pole, "pole_coef")
     bias = reg("bias", config.bias, "bias_reg")
     return FrameRegisters(
-        pole, bias, scalars, rotation, registers.values, tuple(registers.saturated)
-    )
+        pole, bias, scalars, rotation, registers.values, tuple(registers.saturated),
+        dict(registers.codes),
+    )  # fmt: skip
 
 
 def stage_latencies(config: P1Config) -> dict[str, int]:
@@ -567,6 +569,7 @@ def run_p1(
         total_cycles=int(out_cycles.max()) + 1,
         registers=regs.values,
         saturated_registers=regs.saturated,
+        register_codes=regs.codes,
         mode=mode,
         config=config,
         timing=timing,

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -172,6 +172,7 @@ class P2Registers:
     raw: np.ndarray  # KA, M, c_min, S~_end (gamma_eff), T_D, range_max
     values: dict[str, tuple[float, float]]  # name -> (float requested, value held)
     saturated: tuple[str, ...] = ()  # registers held at their format's limit
+    codes: dict[str, tuple[str, int]] = field(default_factory=dict)  # name -> (signal, raw)
 
 
 def p2_registers(
@@ -191,7 +192,7 @@ def p2_registers(
     st = config.formats["p2_st"]
     s_end = min(riccati.gamma / beta_px, float(st.to_float(st.raw_max)))
     td = math.ceil(2.0 * riccati.threshold_e * 2.0 ** config.formats["p2_d"].frac)
-    values["T_D"] = (2.0 * riccati.threshold_e, float(td) * 2.0 ** -config.formats["p2_d"].frac)
+    registers.hold("T_D", td, "p2_d", 2.0 * riccati.threshold_e)
     raw = np.array(
         [
             reg("KA", 1.0 / (camera.f_px * dx), "p2_ka_reg"),
@@ -204,7 +205,7 @@ def p2_registers(
         dtype=np.int64,
     )
     values["gamma"] = (riccati.gamma / beta_px, values["S_end"][1])
-    return P2Registers(raw, values, tuple(registers.saturated))
+    return P2Registers(raw, values, tuple(registers.saturated), dict(registers.codes))
 
 
 def stage_latencies(config: P2Config) -> dict[str, int]:
@@ -371,6 +372,7 @@ def run_p2(
         total_cycles=int(out_cycles.max()) + 1,
         registers=regs.values,
         saturated_registers=regs.saturated,
+        register_codes=regs.codes,
         mode="stereo",
         config=config,
         timing=timing,
