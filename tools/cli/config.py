@@ -1,6 +1,8 @@
 """``rangefx config show|propose --pipeline p1|p2``: a pipeline's word-length config.
 
-``show`` prints (or writes) the shipped default TOML, or ``--config``'s; ``propose``
+``show`` prints (or writes) the shipped default TOML, or ``--config``'s; ``export``
+writes it as an HLS header (``--hls``) and/or a VHDL ``fixed_pkg`` package (``--vhdl``);
+``propose``
 runs the pipeline on ``--scene`` cases (and ``--real`` pairs), logs every signal's
 pre-quantisation range and widens integer bits to hold it plus ``--guard-bits``,
 iterated to a fixpoint (MATLAB's "propose word lengths").
@@ -12,6 +14,9 @@ import argparse
 import json
 import sys
 from pathlib import Path
+
+from rangefx.rtl_model.config import WordLengthConfig
+from rangefx.vectors.export import hls_header, vhdl_inexact, vhdl_package
 
 from ..errors import UserError
 from ..report import atomic_write_text, json_safe
@@ -25,23 +30,50 @@ __all__ = ["DEFAULT_SCENES", "add_parser", "cmd_config"]
 DEFAULT_SCENES = ("lab", "runway")
 
 
-def _write_toml(path: str, text: str) -> None:
+def _write_text(path: str, text: str) -> None:
     p = Path(path)
     if p.is_dir():
-        raise UserError(f"--out {path} is a directory; give a file name for the TOML")
+        raise UserError(f"{path} is a directory; give a file name")
     try:
         atomic_write_text(p, text)
     except OSError as exc:
         raise UserError(f"cannot write {path}: {exc.strerror}") from None
 
 
+def _export(config: WordLengthConfig, args: argparse.Namespace) -> int:
+    if not (args.hls or args.vhdl):
+        raise UserError("config export needs --hls FILE.h and/or --vhdl FILE.vhd")
+    if args.hls:
+        _write_text(args.hls, hls_header(config))
+    if args.vhdl:
+        _write_text(args.vhdl, vhdl_package(config))
+        inexact = vhdl_inexact(config)
+        if inexact:
+            modes = sorted({m for v in inexact.values() for m in v.split(", ")})
+            print(
+                f"rangefx: warning: {len(inexact)} of {len(config.signals())} signals use "
+                f"modes fixed_pkg lacks ({', '.join(modes)}): the VHDL package gives them the "
+                "nearest style, marked NOT EXACT",
+                file=sys.stderr,
+            )
+    written = [p for p in (args.hls, args.vhdl) if p]
+    if args.json:
+        print(json.dumps({"pipeline": config.PIPELINE, "written": written,
+                          "vhdl_inexact": vhdl_inexact(config)}))  # fmt: skip
+    else:
+        print(f"wrote {', '.join(written)}")
+    return 0
+
+
 def cmd_config(args: argparse.Namespace) -> int:
     pipeline = pipeline_from_args(args)
     config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
+    if args.action == "export":
+        return _export(config, args)
     if args.action == "show":
         text = config.to_toml()
         if args.out:
-            _write_toml(args.out, text)
+            _write_text(args.out, text)
         else:
             sys.stdout.write(text)
         return 0
@@ -60,7 +92,7 @@ def cmd_config(args: argparse.Namespace) -> int:
         pipeline, config, cases, guard_bits=args.guard_bits
     )
     if args.out:
-        _write_toml(args.out, proposed.to_toml())
+        _write_text(args.out, proposed.to_toml())
     rows = {
         sig: {
             "min": minmax.get(sig, (None, None))[0],
@@ -83,7 +115,7 @@ def cmd_config(args: argparse.Namespace) -> int:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("config", help="a pipeline's word-length config: show, or propose")
-    p.add_argument("action", choices=("show", "propose"))
+    p.add_argument("action", choices=("show", "propose", "export"))
     add_pipeline_arg(p)
     add_design_args(p)
     p.add_argument(
@@ -92,5 +124,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--real", nargs="*", choices=REAL_PAIRS, help="real pairs to log too")
     p.add_argument("--guard-bits", type=int, default=1, help="extra integer bits (propose)")
     p.add_argument("--out", help="write the TOML here")
+    p.add_argument("--hls", help="export: C++ header, one ap_[u]fixed typedef per signal")
+    p.add_argument("--vhdl", help="export: VHDL-2008 package of fixed_pkg subtypes")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_config)
