@@ -282,3 +282,15 @@ def test_config_show_and_propose_for_every_pipeline(name, capsys, tmp_path):
     assert PIPELINES[name].load_config(str(path)).name == "p"
     assert "is a directory" in _error(capsys, ["config", "show", "--pipeline", name,
                                                "--out", str(tmp_path)])  # fmt: skip
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_eval_runs_the_chosen_pipelines_on_the_real_pair(name, capsys):
+    """``rangefx eval --pipeline NAME``: the fixed point beside its golden on the
+    motorcycle pair, shipped default config: no overflow, no saturated register."""
+    assert main(["eval", "--dataset", "motorcycle", "--pipeline", name, "--json"]) == 0
+    fixed = json.loads(capsys.readouterr().out)["fixed_point"]
+    assert {k.split("_")[0] for k in fixed} == {name}
+    for f in fixed.values():
+        assert f["overflows"] == 0 and f["saturated_registers"] == []
+        assert f["median_rel_range_diff"] < 1e-3 and f["valid_agreement"] > 0.99

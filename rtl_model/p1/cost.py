@@ -43,6 +43,7 @@ from __future__ import annotations
 from ..cost import CostReport, Multiplier, bram18_blocks, reciprocal_multipliers, sum_bits
 from ..cost import operand_bits as _bits
 from .config import P1Config
+from .model import buffer_bits, frame_store_word, line_buffer_words
 
 __all__ = ["REGISTER_INSTANCES", "config_cost", "multipliers", "register_bits"]
 
@@ -157,25 +158,18 @@ def multipliers(config: P1Config, mode: str = "stereo") -> list[Multiplier]:
 
 
 def config_cost(config: P1Config, shape: tuple[int, int], mode: str = "stereo") -> CostReport:
-    """Cost proxies of ``config`` on ``shape`` = (height, width) images in ``mode``."""
+    """Cost proxies of ``config`` on ``shape`` = (height, width) images in ``mode``; the
+    buffers are the model's own (:func:`rangefx.rtl_model.p1.model.buffer_bits`)."""
     m, n = shape
     streams = _streams(mode)
-    f = config.formats
-    buffers = [f["col_state"].word]
-    if config.variant == "consistent":
-        buffers.append(f["col2_state"].word)
-    lb_bits = streams * n * sum(buffers)
-    bram = streams * sum(bram18_blocks(n, w) for w in buffers)
-    store_bits = 0
+    bits = buffer_bits(config, shape, mode)
+    bram = streams * sum(bram18_blocks(n, w) for w in line_buffer_words(config))
     if mode == "motion":
-        ex = f["col2_out" if config.variant == "consistent" else "div_quot"]
-        word = f["col_s1"].word + ex.word + f["col_s2"].word
-        store_bits = m * n * word
-        bram += bram18_blocks(m * n, word)
+        bram += bram18_blocks(m * n, frame_store_word(config))
     return CostReport(
         register_bits=register_bits(config, mode),
-        line_buffer_bits=lb_bits,
-        frame_store_bits=store_bits,
+        line_buffer_bits=bits["line_buffer_bits"],
+        frame_store_bits=bits["frame_store_bits"],
         bram18=bram,
         dsp=sum(mul.dsp for mul in multipliers(config, mode)),
     )

@@ -8,6 +8,7 @@ import json
 from ..errors import UserError
 from ..report import json_safe
 from ..studies.bench import bench_figures
+from .options import add_pipelines_arg
 
 __all__ = ["add_parser", "cmd_bench"]
 
@@ -15,7 +16,7 @@ __all__ = ["add_parser", "cmd_bench"]
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.repeats < 1 or args.size < 16:
         raise UserError("bench needs --repeats >= 1 and --size >= 16")
-    figures = bench_figures(repeats=args.repeats, size=args.size)
+    figures = bench_figures(repeats=args.repeats, size=args.size, names=args.pipeline)
     if args.json:
         print(json.dumps(json_safe(figures)))
     else:
@@ -28,5 +29,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="throughput of every pipeline (Mpixel/s) beside golden")
     p.add_argument("--repeats", type=int, default=5, help="timed runs per figure (median)")
     p.add_argument("--size", type=int, default=512, help="image side in pixels (default 512)")
+    add_pipelines_arg(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_bench)

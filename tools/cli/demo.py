@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,7 @@ from ..report import atomic_output_dir, atomic_write_text, json_safe
 from ..studies.cases import case_from_scene
 from ..studies.runner import golden_case, load_config, pipeline_figures, run_case
 from . import guide
-from .options import design_from_args
+from .options import add_pipelines_arg, design_from_args
 from .run import estimator_from_args
 
 __all__ = ["DEMO_METHODS", "add_parser", "cmd_demo", "demo_pipelines", "package_version"]
@@ -55,15 +56,19 @@ def _render(name: str, seed: int) -> Scene:
 
 
 def demo_pipelines(
-    scene: Scene, out_dir: Path, design: dict[str, Any] | None = None
+    scene: Scene,
+    out_dir: Path,
+    design: dict[str, Any] | None = None,
+    names: Sequence[str] | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Every registered pipeline, in each of its variants (default config, ``design``
     applied where the pipeline has the field), beside its golden on ``scene``: range
     map and error histogram PNGs, Table-1 CSV and the figures (without the per-signal
-    ranges), keyed ``<pipeline>_<variant>`` (``<pipeline>`` for a single variant)."""
+    ranges), keyed ``<pipeline>_<variant>`` (``<pipeline>`` for a single variant);
+    ``names`` restricts the pipelines (default: all)."""
     case = case_from_scene(scene)
     summary = {}
-    for pipeline in PIPELINES.values():
+    for pipeline in (PIPELINES[n] for n in names or PIPELINES):
         if case.mode not in pipeline.modes:
             continue
         own = {k: v for k, v in (design or {}).items() if k in pipeline.options}
@@ -153,7 +158,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
             summary_methods[m] = _method_figures(scene, results[m])
             bar.update()
         bar.set_postfix_str("p1/p2 fixed point")
-        p1_summary = demo_pipelines(scene, tmp, design=design_from_args(PIPELINES["p1"], args))
+        design = design_from_args(PIPELINES["p1"], args)
+        p1_summary = demo_pipelines(scene, tmp, design, args.pipeline)
         bar.update()
         bar.set_postfix_str("end to end")
         (tmp / "guide").mkdir()
@@ -249,5 +255,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pole", type=float, help="filter pole c per pixel (default 0.5)")
     p.add_argument("--bias", type=float, help="input bias B, eq 19 (default 16)")
     p.add_argument("--seed", type=int, default=0, help="scene noise seed")
+    add_pipelines_arg(p)
     p.add_argument("--json", action="store_true", help="print one JSON object with the figures")
     p.set_defaults(func=cmd_demo)

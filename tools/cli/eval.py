@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -33,6 +34,7 @@ from ..errors import UserError
 from ..report import json_safe
 from ..studies.cases import real_pair_case
 from ..studies.runner import golden_case, load_config, run_case
+from .options import add_pipelines_arg
 
 __all__ = ["EVAL_METHODS", "add_parser", "cmd_eval", "evaluate_dataset", "evaluate_fixed_point"]
 
@@ -71,7 +73,9 @@ def evaluate_dataset(data: StereoData) -> dict[str, dict[str, float | int]]:
     return out
 
 
-def evaluate_fixed_point(data: StereoData, name: str, factor: int | None) -> dict[str, dict]:
+def evaluate_fixed_point(
+    data: StereoData, name: str, factor: int | None, pipelines: Sequence[str] | None = None
+) -> dict[str, dict]:
     """Every registered pipeline (each variant, shipped default config) on the pair as
     :func:`~rangefx.tools.studies.cases.real_pair_case` builds it (integer grey levels,
     metres), beside its golden on the same case: overflows, saturated host registers,
@@ -80,7 +84,7 @@ def evaluate_fixed_point(data: StereoData, name: str, factor: int | None) -> dic
     case = real_pair_case(name, factor)
     to_dataset_unit = 1e3  # the case is in metres, the dataset's depth in mm
     out = {}
-    for pipeline in PIPELINES.values():
+    for pipeline in (PIPELINES[n] for n in pipelines or PIPELINES):
         for variant, design in pipeline.variants.items():
             config = load_config(pipeline, None, **design)
             result = run_case(pipeline, case, config)
@@ -138,7 +142,7 @@ def _num(x: float) -> float | None:
 def cmd_eval(args: argparse.Namespace) -> int:
     data = _load(args.dataset, args.factor)
     figures = evaluate_dataset(data)
-    fixed = evaluate_fixed_point(data, args.dataset, _factor(args.factor))
+    fixed = evaluate_fixed_point(data, args.dataset, _factor(args.factor), args.pipeline)
     if args.json:
         print(
             json.dumps(
@@ -194,5 +198,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--factor",
         help="area-mean down-sampling factor (default: median disparity about 2 px)",
     )
+    add_pipelines_arg(p)
     p.add_argument("--json", action="store_true", help="print one JSON object with the figures")
     p.set_defaults(func=cmd_eval)

@@ -27,6 +27,7 @@ __all__ = [
     "TIMING_OPTIONS",
     "add_design_args",
     "add_pipeline_arg",
+    "add_pipelines_arg",
     "add_timing_args",
     "apply_case_options",
     "design_from_args",
@@ -63,6 +64,17 @@ def add_pipeline_arg(p: argparse.ArgumentParser, *, default: str | None = "p1") 
         choices=tuple(PIPELINES),
         default=default,
         help=f"bit-accurate pipeline: {', '.join(PIPELINES)} (default {default})",
+    )
+
+
+def add_pipelines_arg(p: argparse.ArgumentParser) -> None:
+    """``--pipeline NAME [NAME ...]``: the pipelines a command covers (default: all)."""
+    p.add_argument(
+        "--pipeline",
+        nargs="+",
+        choices=tuple(PIPELINES),
+        default=list(PIPELINES),
+        help=f"the fixed-point pipelines to include (default: all: {' '.join(PIPELINES)})",
     )
 
 

@@ -13,7 +13,7 @@ import statistics
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -91,20 +91,24 @@ def _bench_pipeline(
     return out
 
 
-def bench_figures(repeats: int = 5, size: int = 512) -> dict[str, Any]:
+def bench_figures(
+    repeats: int = 5, size: int = 512, names: Sequence[str] | None = None
+) -> dict[str, Any]:
     """Mpixel/s of every pipeline and variant (stereo ``size``², default config: two
     threads without taps, one thread, with taps; per-kernel CPU ns/pixel where the model
     reports it) beside its golden on the same pair, the unit costs of a cast, and the
-    cold start of a second process."""
+    cold start of a second process; ``names`` restricts the pipelines (default: all)."""
     case = scene_case("lab", (size, size) if size != 512 else None)
     out: dict[str, Any] = {"size": [size, size], "repeats": repeats, "cpu": cpu_description()}
     out["cpu_count"] = os.cpu_count()
-    for pipeline in PIPELINES.values():
+    names = list(names or PIPELINES)
+    for pipeline in (PIPELINES[n] for n in names):
         for variant, design in pipeline.variants.items():
             config = pipeline.default_config(**design)
             out.update(_bench_pipeline(pipeline, case, config, variant, repeats))
-    out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
-    out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
+    if "p1" in names:  # the headline figures: P1 paper
+        out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
+        out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
     out["calib_rowcol_mpix_s"] = _calib_mpix_s(np.asarray(case.image1, dtype=np.int64), repeats)
     out.update(over_calib(out))
     out["cast_ns"], out["cast_overflowing_row_ns"] = _cast_ns()
@@ -180,8 +184,9 @@ def over_calib(figures: dict[str, Any]) -> dict[str, float]:
         if key.endswith("_mpix_s") and "_stereo" in key and not key.startswith("golden"):
             out[key.removesuffix("_mpix_s") + "_over_calib"] = value / calib
     for name in PIPELINES:
-        first = next(k for k in out if k.startswith(f"{name}_stereo"))
-        out[f"{name}_over_calib"] = out[first]
+        first = next((k for k in out if k.startswith(f"{name}_stereo")), None)
+        if first is not None:
+            out[f"{name}_over_calib"] = out[first]
     return out
 
 
