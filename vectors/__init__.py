@@ -1,1 +1,28 @@
-"""vectors."""
+"""Test vectors of the pipelines for hardware benches (SPEC §5): :mod:`.generate` (build,
+write, check, diff, manifest), :mod:`.formats` (``.mem``/``.coe``/``.mif``/``.csv``, packed
+stream words), :mod:`.export` (HLS and VHDL types of a config), :mod:`.hdl` and
+:mod:`.cocotb_axis` (the HDL replay). Names below are exported lazily."""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "FORMATS": "generate",
+    "build_vectors": "generate",
+    "check_vectors": "generate",
+    "diff_dump": "generate",
+    "load_manifest": "generate",
+    "read_tap": "generate",
+    "write_vectors": "generate",
+    "hls_header": "export",
+    "vhdl_package": "export",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
