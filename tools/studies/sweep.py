@@ -55,7 +55,6 @@ reads no config field).
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import itertools
 import json
@@ -74,7 +73,7 @@ from typing import Any
 from tqdm import tqdm
 
 from rangefx.golden.scenes import SCENE_NAMES
-from rangefx.rtl_model.config import WordLengthConfig
+from rangefx.rtl_model.config import WordLengthConfig, near_hint
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.pipeline import Case, GoldenReference, Pipeline
 from rangefx.rtl_model.registry import get_pipeline
@@ -129,21 +128,11 @@ def _err(where: str, msg: str) -> UserError:
     return UserError(f"{where}: {msg}")
 
 
-def _near(name: str, known: Iterable[str]) -> str:
-    close = difflib.get_close_matches(name, list(known), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
-
-
 def check_signals(signals: Iterable[str], config: WordLengthConfig) -> None:
     """``ValueError`` naming the first of ``signals`` that ``config``'s pipeline does not
-    have, with the nearest name it has."""
-    known = config.signals()
+    have, with the nearest name it has (:meth:`WordLengthConfig.fmt`'s message)."""
     for s in signals:
-        if s not in known:
-            raise ValueError(
-                f"unknown {config.PIPELINE.upper()} signal {s!r}{_near(s, known)}; "
-                f"signals: {', '.join(known)}"
-            )
+        config.fmt(s)
 
 
 # ------------------------------------------------------------------------ definition
@@ -279,7 +268,7 @@ def _parse_axis(raw: Any, k: int, source: str, pipe: Pipeline, base: WordLengthC
             raise _err(
                 where,
                 f"unknown signal or group {sig!r} of {pipe.name}"
-                f"{_near(sig, (*groups, *base.signals()))}; groups: {', '.join(groups)}; "
+                f"{near_hint(sig, (*groups, *base.signals()))}; groups: {', '.join(groups)}; "
                 f"signals: {', '.join(base.signals())}",
             )
     else:
