@@ -33,6 +33,7 @@ __all__ = [
     "WordLengthConfig",
     "exact_bits",
     "integer_bits_needed",
+    "near_hint",
     "parse_format",
     "propose_config",
     "signed_bits",
@@ -99,7 +100,8 @@ def parse_format(name: str, entry: object) -> FixedFormat:
         raise ValueError(f"signal {name!r}: {exc}") from None
 
 
-def _near(name: str, known: Iterable[str]) -> str:
+def near_hint(name: str, known: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` naming the closest of ``known`` to ``name``, or ``""``."""
     close = difflib.get_close_matches(name, list(known), n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
@@ -168,7 +170,7 @@ class WordLengthConfig:
         label = f"{self.PIPELINE.upper()} word-length config"
         unknown = [s for s in formats if s not in doc]
         if unknown:
-            hints = "; ".join(f"{s!r}{_near(s, doc)}" for s in unknown)
+            hints = "; ".join(f"{s!r}{near_hint(s, doc)}" for s in unknown)
             raise ValueError(f"{label} has unknown signals: {hints}")
         missing = [s for s in self.signals() if s not in formats]
         if missing:
@@ -247,7 +249,7 @@ class WordLengthConfig:
             return self.formats[name]
         except KeyError:
             raise ValueError(
-                f"unknown {self.PIPELINE.upper()} signal {name!r}{_near(name, self.formats)}; "
+                f"unknown {self.PIPELINE.upper()} signal {name!r}{near_hint(name, self.formats)}; "
                 f"signals: {', '.join(self.signals())}"
             ) from None
 
@@ -287,7 +289,7 @@ class WordLengthConfig:
             raise ValueError("[design] must be a table")
         unknown = sorted(set(design) - set(cls.design_fields()))
         if unknown:
-            hints = ", ".join(f"{k!r}{_near(k, cls.design_fields())}" for k in unknown)
+            hints = ", ".join(f"{k!r}{near_hint(k, cls.design_fields())}" for k in unknown)
             raise ValueError(f"[design]: unknown keys {hints}")
         signals = data.get("signals")
         if not isinstance(signals, Mapping):

@@ -187,6 +187,9 @@ class Pipeline(abc.ABC):
     options: ClassVar[tuple[str, ...]] = ()
     #: Named design variants a demo or benchmark runs (label -> design fields).
     variants: ClassVar[dict[str, dict[str, Any]]] = {}
+    #: Design fields of the config that :meth:`golden` reads (``None``: every one), so
+    #: that a cache of goldens keys on what they depend on (:meth:`golden_key`).
+    golden_fields: ClassVar[tuple[str, ...] | None] = None
 
     # -- configs ----------------------------------------------------------------------
     def default_config(self, **design: Any) -> WordLengthConfig:
@@ -245,6 +248,12 @@ class Pipeline(abc.ABC):
         self, case: Case, config: WordLengthConfig | None = None, *, taps: bool = False
     ) -> GoldenReference:
         """The float64 reference of this pipeline with ``config``'s design settings."""
+
+    def golden_key(self, config: WordLengthConfig) -> tuple[tuple[str, Any], ...]:
+        """(field, value) of every design field of ``config`` that :meth:`golden` reads:
+        two configs with the same key have the same golden on a case."""
+        names = config.design_fields() if self.golden_fields is None else self.golden_fields
+        return tuple((name, getattr(config, name)) for name in names)
 
     @abc.abstractmethod
     def golden_label(self, config: WordLengthConfig) -> str:

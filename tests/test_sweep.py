@@ -1,14 +1,19 @@
-"""Word-length studies (issue 7): sweep definition, resumable execution, dask, Pareto
-front, cost model, optimiser, command line. Small images keep it fast."""
+"""Word-length studies (issues 7, 14): sweep definition, resumable execution, dask, Pareto
+front, cost model, optimiser, command line, for every pipeline of the registry. Small
+images keep it fast."""
 
 from __future__ import annotations
 
+import csv
 import json
 import math
+import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from rangefx.rtl_model.config import WordLengthConfig
 from rangefx.rtl_model.cost import bram18_blocks, dsp_slices
 from rangefx.rtl_model.fixedpoint import FixedFormat
 from rangefx.rtl_model.p1.config import HOST_REGISTERS, P1Config
@@ -17,27 +22,24 @@ from rangefx.rtl_model.registry import PIPELINES
 from rangefx.tools import cli
 from rangefx.tools.errors import UserError
 from rangefx.tools.studies import runner
+from rangefx.tools.studies.buildup import buildup_for
 from rangefx.tools.studies.cases import held_out_case, real_pair_case, scene_case
 from rangefx.tools.studies.optimiser import Budget, evaluate_scenes, optimise, worst_case
 from rangefx.tools.studies.runner import compare_ranges
 from rangefx.tools.studies.sweep import (
     RESULTS_NAME,
+    cached_golden,
     expand,
     load_results,
     pareto_front,
     parse_sweep,
+    point_key,
     run_sweep,
     write_outputs,
 )
 
-
-def run_case(case, config, timing=None, *, taps=False):
-    return runner.run_case(PIPELINES["p1"], case, config, timing, taps=taps)
-
-
-def golden_for(case, config):
-    return PIPELINES["p1"].golden(case, config).result
-
+P1 = PIPELINES["p1"]
+P2 = PIPELINES["p2"]
 
 SMALL = """
 [sweep]
@@ -59,8 +61,39 @@ values = [-4, -2]
 """
 
 
-def _small():
-    return parse_sweep(SMALL)
+#: The P2 counterpart: a single-signal axis of the Riccati variable and a group move of
+#: the sweep engine (P2's own group); 32x40 lab, stereo (P2 models stereo only).
+SMALL_P2 = """
+[sweep]
+name = "t2"
+pipeline = "p2"
+scenes = ["lab"]
+size = [32, 40]
+combine = "one_at_a_time"
+metrics = ["golden", "truth", "sqnr", "overflows"]
+
+[[axis]]
+signals = "p2_st"
+param = "frac"
+range = [4, 7]
+
+[[axis]]
+signals = "backward_loop"
+param = "frac_delta"
+values = [-4, -2]
+"""
+#: Small sweep definition per pipeline of the registry.
+SMALL_DEFS = {"p1": SMALL, "p2": SMALL_P2}
+
+
+def _small(pipeline: str = "p1"):
+    return parse_sweep(SMALL_DEFS[pipeline])
+
+
+def test_every_pipeline_has_a_small_definition():
+    assert set(SMALL_DEFS) == set(PIPELINES)
+    for name in PIPELINES:
+        assert _small(name).pipeline == name
 
 
 def _lines(path: Path) -> list[dict]:
@@ -82,6 +115,25 @@ def test_expand_counts_and_dedup():
     grp = [p for p in points if p.labels and p.labels[0][0] == "datapath.frac_delta"]
     assert grp[0].config.formats["col_state"].frac == base.formats["col_state"].frac - 4
     assert grp[0].config.formats["pix_in"] == base.formats["pix_in"]  # not in "datapath"
+
+
+def test_expand_p2_moves_its_own_groups():
+    defn = _small("p2")
+    points = expand(defn)
+    assert len(points) == 1 + 4 + 2 and len({p.key for p in points}) == len(points)
+    base = points[0].config
+    assert type(base) is type(P2.default_config()) and base == P2.default_config()
+    grp = [p for p in points if p.labels and p.labels[0][0] == "backward_loop.frac_delta"]
+    for sig in P2.signal_groups["backward_loop"]:
+        assert grp[0].config.formats[sig].frac == base.formats[sig].frac - 4, sig
+    for sig in ("p2_pix", "p2_e", "p2_z", "p2_ka_reg"):  # not in the sweep engine's group
+        assert grp[0].config.formats[sig] == base.formats[sig], sig
+
+
+def test_point_key_includes_the_pipeline():
+    args = ("lab", [32, 40], 0, ["golden"])
+    assert point_key("p1", "x", *args) != point_key("p2", "x", *args)
+    assert point_key("p2", "x", *args) == point_key("p2", "x", *args)
 
 
 def test_expand_grid():
@@ -121,10 +173,51 @@ def test_bad_definitions_are_user_errors(text, match):
     assert "\n" not in str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        (
+            SMALL_P2.replace('"p2_st"', '"p2_stt"'),
+            "unknown signal or group 'p2_stt' of p2 (did you mean 'p2_st'?)",
+        ),
+        (SMALL_P2.replace('"p2_st"', '"row_state"'), "unknown signal or group 'row_state' of p2"),
+        (SMALL_P2.replace('"p2_st"', '["p2_st", "p2_ee"]'), "unknown P2 signal 'p2_ee' (did you"),
+        (SMALL_P2.replace('"backward_loop"', '"frontend"'), "unknown signal or group 'frontend'"),
+        (SMALL_P2.replace('name = "t2"', 'name = "t2"\nvariant = "paper"'), "variant does not"),
+        (SMALL_P2.replace('pipeline = "p2"', 'pipeline = "p9"'), "unknown pipeline 'p9'"),
+        (
+            SMALL.replace('name = "t"', 'name = "t"\nbuildup_hooks = ["riccati"]'),
+            "buildup_hooks is no longer a key: every sweep writes its pipeline's own build-up "
+            "(the Riccati sweep's is P2's: a sweep with pipeline = \"p2\")",
+        ),
+        (SMALL_P2, None),
+    ],
+)
+def test_bad_p2_definitions_are_user_errors(text, match):
+    if match is None:
+        assert parse_sweep(text).pipeline == "p2"  # control: valid
+        return
+    with pytest.raises(UserError, match=re.escape(match)) as info:
+        parse_sweep(text, where="def.toml")
+    assert str(info.value).startswith("def.toml")
+    assert "\n" not in str(info.value)
+
+
+def test_p2_sweep_on_a_motion_scene_is_a_user_error(tmp_path):
+    defn = parse_sweep(SMALL_P2.replace('scenes = ["lab"]', 'scenes = ["runway"]'))
+    with pytest.raises(UserError, match=r"P2 models stereo mode only; case 'runway' is motion"):
+        run_sweep(defn, tmp_path, progress=False)
+    assert not (tmp_path / RESULTS_NAME).exists()
+
+
 def test_bad_base_and_missing_file(tmp_path):
     bad = SMALL.replace('name = "t"', 'name = "t"\nbase = "nope.toml"')
     with pytest.raises(UserError, match="base"):
         parse_sweep(bad, root=tmp_path)
+    P1Config.default().save(tmp_path / "p1.toml")  # a P1 config as a P2 sweep's base
+    other = SMALL_P2.replace('name = "t2"', 'name = "t2"\nbase = "p1.toml"')
+    with pytest.raises(UserError, match=r"\[sweep\] base: .*p1.toml: \[design\]: unknown keys"):
+        parse_sweep(other, root=tmp_path)
     assert cli.main(["sweep", str(tmp_path / "missing.toml"), "--out", str(tmp_path / "o")]) == 2
 
 
@@ -145,8 +238,10 @@ class _Stop(Exception):
     pass
 
 
-def test_kill_and_resume_computes_every_point_once(tmp_path):
-    defn = _small()
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_kill_and_resume_computes_every_point_once(tmp_path, pipeline):
+    # P2's points take milliseconds: more of them, so that the sweep stops before its end
+    defn = parse_sweep(SMALL_DEFS[pipeline].replace("range = [4, 7]", "range = [-6, 7]"))
     all_keys = {p.key for p in expand(defn)}
     first: list[str] = []
 
@@ -173,15 +268,23 @@ def test_kill_and_resume_computes_every_point_once(tmp_path):
     final = _lines(tmp_path / RESULTS_NAME)
     keys = [r["key"] for r in final]
     assert sorted(keys) == sorted(all_keys)  # each point exactly once, none lost
-    assert all(r["status"] == "ok" for r in final)
+    assert all(r["status"] == "ok" and r["pipeline"] == pipeline for r in final)
     # a third run computes nothing
     third = run_sweep(defn, tmp_path, workers=2, progress=False)
     assert third.computed == ()
     assert len(_lines(tmp_path / RESULTS_NAME)) == len(all_keys)
 
 
-def test_outputs_written(tmp_path):
-    defn = _small()
+#: Build-up CSVs of each pipeline's sweep: P1's row and column filters, P2's backward sweep.
+BUILDUP_CSVS = {
+    "p1": ("buildup_base_row.csv", "buildup_base_col.csv"),
+    "p2": ("buildup_base_riccati.csv",),
+}
+
+
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_outputs_written(tmp_path, pipeline):
+    defn = _small(pipeline)
     outcome = run_sweep(defn, tmp_path, workers=2, progress=False)
     summary = write_outputs(defn, outcome, tmp_path)
     for name in (
@@ -191,12 +294,32 @@ def test_outputs_written(tmp_path):
         "sensitivity.csv",
         "sensitivity.png",
         "buildup_base.png",
-        "buildup_base_row.csv",
-        "buildup_base_col.csv",
+        *BUILDUP_CSVS[pipeline],
         "summary.json",
     ):
         assert (tmp_path / name).stat().st_size > 0, name
+    assert sorted(p.name for p in tmp_path.glob("buildup_base_*.csv")) == sorted(
+        BUILDUP_CSVS[pipeline]
+    )
     assert summary["complete"] and summary["n_points"] == len(outcome.records)
+    assert summary["pipeline"] == pipeline and summary["pareto"]["lab"]
+    assert summary["sensitivity"] == [defn.axes[0].label]  # the single-signal axis
+    assert summary["golden"] == PIPELINES[pipeline].golden_label(defn.base)
+    header = (tmp_path / "points.csv").read_text().splitlines()[0].split(",")
+    assert header[:3] == ["key", "pipeline", "scene"]
+    if pipeline == "p2":
+        base = outcome.records[expand(defn)[0].key]
+        assert base["taps"]["g_hat"] == {"sqnr_db": None, "max_abs_err": 0.0}  # lossless
+        assert base["taps"]["z"]["sqnr_db"] > 50 and base["taps"]["e"]["sqnr_db"] > 25
+        # narrowing the sweep engine's fractions by 4 bits costs accuracy and saves bits
+        grp = next(p for p in outcome.points if p.labels == (("backward_loop.frac_delta", -4),))
+        rec = outcome.records[grp.key]
+        assert rec["cost_bits"] < base["cost_bits"]
+        assert rec["median_rel_range_diff"] > base["median_rel_range_diff"]
+        with open(tmp_path / "sensitivity.csv") as f:
+            sens = list(csv.DictReader(f))
+        assert [(r["signal"], int(r["value"])) for r in sens] == [("p2_st", v) for v in range(4, 8)]
+        return
     rec = next(iter(outcome.records.values()))
     for key in (
         "median_rel_range_diff",
@@ -217,9 +340,10 @@ def test_outputs_written(tmp_path):
 
 
 # ----------------------------------------------------------------------- dask
-def test_dask_local_cluster_equals_local_run(tmp_path):
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_dask_local_cluster_equals_local_run(tmp_path, pipeline):
     distributed = pytest.importorskip("distributed")
-    defn = _small()
+    defn = _small(pipeline)
     local = run_sweep(defn, tmp_path / "local", workers=2, progress=False)
     with distributed.LocalCluster(
         n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
@@ -296,33 +420,63 @@ def test_cost_model_of_the_default():
     assert register_bits(cfg, "stereo") > register_bits(cfg, "motion")
 
 
-def test_cost_matches_model_memories():
-    case = scene_case("runway", [24, 32])
-    for variant in ("paper", "consistent"):
-        cfg = P1Config.default(variant=variant)
-        res = run_case(case, cfg)
-        cost = config_cost(cfg, case.image1.shape, case.mode)
-        assert cost.line_buffer_bits == res.line_buffer_bits
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_cost_matches_model_memories(pipeline):
+    """The cost model's buffers are the model's: line buffers (sweep buffers included,
+    P2) and the frame store, for every design variant, on a motion case where the
+    pipeline models one (P1's frame store), else stereo."""
+    pipe = PIPELINES[pipeline]
+    case = scene_case("runway" if "motion" in pipe.modes else "lab", [24, 32])
+    assert len(pipe.variants) >= 1
+    for design in pipe.variants.values():
+        cfg = pipe.default_config(**design)
+        res = runner.run_case(pipe, case, cfg)
+        cost = pipe.cost(cfg, case.shape, case.mode)
+        assert cost.line_buffer_bits == res.line_buffer_bits + res.sweep_buffer_bits > 0
         assert cost.frame_store_bits == res.frame_store_bits
+        assert cost.frame_store_bits > 0 if case.mode == "motion" else cost.frame_store_bits == 0
+
+
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_cost_weights_follow_the_cost(pipeline):
+    """One more bit of a signal's word costs what the cost model says; a line-buffered
+    signal costs at least a line per bit, the input pixel of a stereo pair two words."""
+    pipe = PIPELINES[pipeline]
+    cfg, shape = pipe.default_config(), (32, 40)
+    weights = pipe.cost_weights(cfg, shape)
+    assert set(weights) == set(cfg.signals()) and min(weights.values()) >= 0
+    heaviest = max(weights, key=weights.get)
+    assert weights[heaviest] >= shape[1]
+    f = cfg.formats[heaviest]
+    wider = cfg.with_formats(**{heaviest: FixedFormat(f.signed, f.word + 1, f.frac, f.quant,
+                                                      f.overflow)})  # fmt: skip
+    assert pipe.cost(wider, shape).cost_bits - pipe.cost(cfg, shape).cost_bits == weights[heaviest]
 
 
 # ----------------------------------------------------------------------- optimiser
-def test_optimiser_meets_budget_and_saves_bits():
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_optimiser_meets_budget_and_saves_bits(pipeline):
+    pipe = PIPELINES[pipeline]
     case = scene_case("lab", [48, 64])
-    start = P1Config.default()
+    start = pipe.default_config()
     budget = Budget(0.01, 0.99)
     res = optimise(case, start, budget, workers=2, progress=False)
+    assert type(res.config) is type(start)  # the start's pipeline, found in the registry
     assert budget.met(res.figures)
     # independent re-verification of the chosen config
-    figs = compare_ranges(run_case(case, res.config), golden_for(case, res.config))
+    figs = compare_ranges(
+        runner.run_case(pipe, case, res.config), pipe.golden(case, res.config).result
+    )
     assert figs["median_rel_range_diff"] <= 0.01 and figs["valid_agreement"] >= 0.99
-    c_opt = config_cost(res.config, case.image1.shape, case.mode).cost_bits
-    c_def = config_cost(start, case.image1.shape, case.mode).cost_bits
+    assert figs["median_rel_range_diff"] == res.figures["median_rel_range_diff"]
+    c_opt = pipe.cost(res.config, case.shape, case.mode).cost_bits
+    c_def = pipe.cost(start, case.shape, case.mode).cost_bits
     assert c_opt < c_def
     assert res.steps and res.evaluations > len(res.steps)
+    assert res.config.formats[start.signals()[0]] == start.formats[start.signals()[0]]
 
 
-def _tried(case, start, budget, **kw) -> tuple[set[str], P1Config]:
+def _tried(case, start, budget, **kw) -> tuple[set[str], WordLengthConfig]:
     """Signals whose format some candidate changed, and the result's config."""
     seen: set[str] = set()
 
@@ -333,19 +487,23 @@ def _tried(case, start, budget, **kw) -> tuple[set[str], P1Config]:
     return seen, res.config
 
 
-def test_optimiser_leaves_host_registers_alone_by_default():
+@pytest.mark.parametrize(("pipeline", "named"), [("p1", "k_t_reg"), ("p2", "p2_m_reg")])
+def test_optimiser_leaves_host_registers_alone_by_default(pipeline, named):
     """Host-written registers keep the start formats unless --tune-registers (or named)."""
     case = scene_case("lab", [32, 40])
-    start = P1Config.default()
+    start = PIPELINES[pipeline].default_config()
+    registers = set(start.HOST_REGISTERS)
+    assert named in registers and (pipeline != "p1" or registers == set(HOST_REGISTERS))
     budget = Budget(0.01, 0.99)
     tried, cfg = _tried(case, start, budget)
-    assert tried and not tried & set(HOST_REGISTERS)
-    assert all(cfg.formats[r] == start.formats[r] for r in HOST_REGISTERS)
+    assert tried and not tried & registers
+    assert start.signals()[0] not in tried  # the input pixel is the sensor's
+    assert all(cfg.formats[r] == start.formats[r] for r in registers)
     tried, cfg = _tried(case, start, budget, tune_registers=True)
-    assert set(HOST_REGISTERS) <= tried  # every register is a candidate; some may narrow
-    assert any(cfg.formats[r] != start.formats[r] for r in HOST_REGISTERS)
-    tried, _ = _tried(case, start, budget, signals=["k_t_reg"])  # named: tuned
-    assert tried == {"k_t_reg"}
+    assert registers <= tried  # every register is a candidate; some may narrow
+    assert any(cfg.formats[r] != start.formats[r] for r in registers)
+    tried, _ = _tried(case, start, budget, signals=[named])  # named: tuned
+    assert tried == {named}
 
 
 def test_optimiser_rejects_unsafe_start():
@@ -402,7 +560,7 @@ def test_multi_scene_rejects_a_config_that_fails_one_scene():
     budget = Budget(0.01, 0.99)
     start = P1Config.default()
     bad = _no_rotation(start)
-    goldens = [golden_for(lab, start), golden_for(runway, start)]
+    goldens = [P1.golden(lab, start).result, P1.golden(runway, start).result]
     # meets the budget on lab, misses it on runway
     on_lab, on_runway = evaluate_scenes([lab, runway], bad, goldens, budget)
     assert budget.met(on_lab) and not budget.met(on_runway)
@@ -416,9 +574,9 @@ def test_multi_scene_rejects_a_config_that_fails_one_scene():
     only_lab = optimise(lab, start, budget, signals=["k_m_reg"], progress=False)
     both = optimise([lab, runway], start, budget, signals=["k_m_reg"], progress=False)
     assert only_lab.config.formats["k_m_reg"].word < both.config.formats["k_m_reg"].word
-    assert not budget.met(compare_ranges(run_case(runway, only_lab.config), goldens[1]))
+    assert not budget.met(compare_ranges(runner.run_case(P1, runway, only_lab.config), goldens[1]))
     for case, golden, figs in zip((lab, runway), goldens, both.scene_figures, strict=True):
-        check = compare_ranges(run_case(case, both.config), golden)
+        check = compare_ranges(runner.run_case(P1, case, both.config), golden)
         assert budget.met(check)
         assert check["median_rel_range_diff"] == figs["median_rel_range_diff"]
     assert both.figures == worst_case(both.scene_figures)
@@ -448,7 +606,7 @@ def test_motorcycle_is_a_p1_stereo_case():
     assert case.mode == "stereo" and case.image1.shape == (26, 39)
     assert case.image1.dtype.kind == "i" and 0 <= case.image1.min() <= case.image1.max() <= 255
     cfg = P1Config.default()
-    figs = compare_ranges(run_case(case, cfg), golden_for(case, cfg))
+    figs = compare_ranges(runner.run_case(P1, case, cfg), P1.golden(case, cfg).result)
     # the default config agrees with golden there (in mm the baseline would saturate
     # k_t_reg and every range would be off by 1 - 128/193 = 0.34)
     assert figs["median_rel_range_diff"] < 1e-3 and figs["valid_agreement"] > 0.99
@@ -465,7 +623,7 @@ def test_plane_is_a_held_out_p1_stereo_case():
     # 30 deg field of view kept at any size (f = 955 px, disparity 0.96 px at 512 wide)
     assert case.camera.f_px == pytest.approx(20 / math.tan(math.radians(15)))
     cfg = P1Config.default()
-    figs = compare_ranges(run_case(case, cfg), golden_for(case, cfg))
+    figs = compare_ranges(runner.run_case(P1, case, cfg), P1.golden(case, cfg).result)
     assert figs["median_rel_range_diff"] < 1e-2 and figs["n_valid_both"] > 0
     with pytest.raises(UserError, match="unknown held-out scene 'hill'"):
         held_out_case("hill")
@@ -549,9 +707,11 @@ def test_margin_tightens_acceptance():
     assert plain.tuning_budget is budget and guarded.tuning_budget == tight
     # without the margin runway ends above the tightened median: the margin bites
     assert not tight.met(plain.figures)
-    goldens = [golden_for(lab, start), golden_for(runway, start)]
+    goldens = [P1.golden(lab, start).result, P1.golden(runway, start).result]
     for case, golden, figs in zip((lab, runway), goldens, guarded.scene_figures, strict=True):
-        check = compare_ranges(run_case(case, guarded.config), golden)  # independent re-run
+        check = compare_ranges(
+            runner.run_case(P1, case, guarded.config), golden
+        )  # independent re-run
         assert check["median_rel_range_diff"] <= 0.005 and check["valid_agreement"] >= 0.995
         assert check["median_rel_range_diff"] == figs["median_rel_range_diff"]
     shape = lab.image1.shape
@@ -684,24 +844,125 @@ def test_example_definition_has_200_configs():
     assert load_results(Path("/nonexistent/results.jsonl")) == {}
 
 
-def test_buildup_hooks_are_validated_and_optional(tmp_path):
-    with pytest.raises(UserError, match="unknown buildup_hooks"):
-        parse_sweep(SMALL.replace('name = "t"', 'name = "t"\nbuildup_hooks = ["kalman"]'))
-    from rangefx.tools.report import wlplots
-    from rangefx.tools.studies.sweep import buildup_for
-
-    def broken(case, config):
-        raise ValueError("model in progress")
-
+def test_p1_buildup_along_rows_and_columns():
     case = scene_case("lab", [32, 40])
-    old = dict(wlplots.BUILDUP_HOOKS)
-    try:
-        wlplots.BUILDUP_HOOKS["broken"] = broken
-        profiles, notes = buildup_for(case, P1Config.default(), ["broken"])
-    finally:
-        wlplots.BUILDUP_HOOKS.clear()
-        wlplots.BUILDUP_HOOKS.update(old)
+    profiles = buildup_for(P1, case, P1Config.default())
     assert set(profiles) == {"row", "col"}
-    assert notes == ["broken: ValueError: model in progress"]
+    assert profiles["row"]["index"].tolist() == list(range(40))  # one value per column
+    assert profiles["col"]["index"].tolist() == list(range(32))  # one value per row
     # the row filter's error at column 0 is zero (init = first copies the exact input)
     assert profiles["row"]["e2.row_state"][0] == 0
+    assert profiles["row"]["e2.row_state"][1:].max() > 0
+
+
+def test_p2_buildup_along_the_backward_sweep():
+    case = scene_case("lab", [32, 40])
+    cfg = P2.default_config()
+    profiles = buildup_for(P2, case, cfg)
+    assert set(profiles) == {"riccati"}
+    prof = profiles["riccati"]
+    assert prof["index"].tolist() == list(range(39))  # columns n - 2 .. 0
+    assert set(prof) == {"index", "range.rel", "e", "e.lsb_rms"}
+    # e_0 = 0 in the model and in G5: the last position (column 0) has no error
+    assert prof["e"][-1] == 0 and prof["e"][:-1].max() > 0
+    assert prof["e.lsb_rms"][0] == 2.0 ** -cfg.formats["p2_e"].frac / math.sqrt(12)
+    rel = prof["range.rel"][np.isfinite(prof["range.rel"])]
+    assert rel.size > 0 and rel.max() < 0.1
+    # e with one fraction bit (LSB 0.5, from 13): its error rises above the default's
+    coarse = cfg.with_formats(p2_e=FixedFormat(True, 22 - 12, 13 - 12, *_modes(cfg, "p2_e")))
+    coarse_e = buildup_for(P2, case, coarse)["riccati"]["e"]
+    assert np.mean(coarse_e[:-1]) > 1.5 * np.mean(prof["e"][:-1])
+
+
+def _modes(cfg, name):
+    f = cfg.formats[name]
+    return f.quant, f.overflow
+
+
+def test_golden_cache_keys_on_what_the_golden_reads():
+    """P2's G5 reads no config field, P1's golden its estimator settings: the sweep's
+    golden cache shares P2's golden across dividers and keeps P1's poles apart."""
+    case = scene_case("lab", [32, 40])
+    key = ("lab", (32, 40), 0)
+    a, b = P2.default_config(), P2.default_config(divider="restoring")
+    assert P2.golden_key(a) == P2.golden_key(b) == ()
+    assert cached_golden(P2, case, a, key, False) is cached_golden(P2, case, b, key, False)
+    g_a, g_b = P2.golden(case, a).result, P2.golden(case, b).result
+    assert np.array_equal(g_a.range, g_b.range) and np.array_equal(g_a.valid, g_b.valid)
+    c, d = P1.default_config(), P1.default_config(pole=0.375)
+    assert P1.golden_key(c) != P1.golden_key(d)
+    assert P1.golden_key(c) == P1.golden_key(c.with_(divider="restoring"))
+    assert cached_golden(P1, case, c, key, False) is not cached_golden(P1, case, d, key, False)
+    assert not np.array_equal(P1.golden(case, c).result.range, P1.golden(case, d).result.range)
+
+
+def test_example_p2_definition():
+    from rangefx.tools.cli.sweep import example_path
+    from rangefx.tools.studies.sweep import load_sweep
+
+    defn = load_sweep(example_path().with_name("p2_lab.toml"))
+    assert defn.pipeline == "p2" and defn.base == P2.default_config() and defn.size is None
+    points = expand(defn)
+    assert len({p.key for p in points if p.config is not None}) >= 150
+    assert all(set(a.signals) <= set(P2.default_config().signals()) for a in defn.axes)
+
+
+# ----------------------------------------------------------------------- P2 command line
+def test_cli_optimise_p2_json(capsys):
+    rc = cli.main(
+        ["optimise", "--pipeline", "p2", "--scene", "lab", "--size", "32", "40",
+         "--verify", "motorcycle", "--json"]
+    )  # fmt: skip
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["pipeline"] == "p2" and out["golden"] == "g5_riccati" and "variant" not in out
+    assert out["cost_bits"] < out["default_cost_bits"]
+    assert out["default_cost_bits"] == P2.cost(P2.default_config(), (32, 40)).cost_bits
+    cfg = P2.config_from_toml(out["config_toml"])  # loads back as a P2 config
+    assert out["cost_bits"] == P2.cost(cfg, (32, 40)).cost_bits
+    assert all(cfg.formats[r] == P2.default_config().formats[r] for r in cfg.HOST_REGISTERS)
+    lab = out["scenes"]["lab"]  # tuned with the default guard band: half the budget
+    assert lab["median_rel_range_diff"] <= 0.005 and lab["valid_agreement"] >= 0.995
+    assert lab["saturated_registers"] == []
+    v = out["verify"]
+    assert v["scene"] == "motorcycle" and v["mode"] == "stereo" and v["size"] == [26, 39]
+    assert v["meets_budget"] == (
+        v["median_rel_range_diff"] <= 0.01 and v["valid_agreement"] >= 0.99
+    )
+    for key in ("p95_rel_range_diff", "cost_bits", "default_cost_bits", "saturated_registers",
+                "default_median_rel_range_diff", "default_saturated_registers"):  # fmt: skip
+        assert key in v
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["--variant", "paper"], "--variant does not apply to pipeline p2"),
+        (["--pole", "0.5"], "--pole does not apply to pipeline p2"),
+        (["--scene", "runway"], "--scene runway: P2 models stereo mode only"),
+        (["--verify", "runway"], "--verify runway: P2 models stereo mode only"),
+        (["--signals", "row_state"], "--signals: unknown P2 signal 'row_state'"),
+        (["--signals", "p2_stt"], "(did you mean 'p2_st'?)"),
+    ],
+)
+def test_cli_optimise_p2_option_errors(capsys, argv, match):
+    assert cli.main(["optimise", "--pipeline", "p2", "--size", "32", "40", *argv, "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    err = captured.err.strip()
+    assert err.startswith("rangefx: error:") and match in err and len(err.splitlines()) == 1
+
+
+def test_cli_sweep_p2_end_to_end(tmp_path, capsys):
+    d = tmp_path / "p2.toml"
+    d.write_text(SMALL_P2.replace("range = [4, 7]", "range = [6, 7]"))
+    out = tmp_path / "out"
+    assert cli.main(["sweep", str(d), "--out", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["complete"] and summary["pipeline"] == "p2" and summary["n_points"] == 5
+    assert summary["n_ok"] == 5 and "variant" not in summary
+    assert (out / "buildup_base_riccati.csv").stat().st_size > 0
+    assert json.loads((out / "summary.json").read_text())["buildup"]
+    # re-running the command resumes: nothing left to compute
+    assert cli.main(["sweep", str(d), "--out", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["computed_this_run"] == 0

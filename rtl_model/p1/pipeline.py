@@ -46,6 +46,7 @@ class P1Pipeline(Pipeline):
         "paper": {"variant": "paper"},
         "consistent": {"variant": "consistent"},
     }
+    golden_fields: ClassVar[tuple[str, ...] | None] = ("variant", "pole", "bias", "init")
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:

@@ -30,6 +30,17 @@ class P2Pipeline(Pipeline):
     modes: ClassVar[tuple[str, ...]] = ("stereo",)
     options: ClassVar[tuple[str, ...]] = ("divider",)
     variants: ClassVar[dict[str, dict[str, Any]]] = {"": {}}
+    golden_fields: ClassVar[tuple[str, ...] | None] = ()  # G5 reads only the case
+
+    @property
+    def signal_groups(self) -> dict[str, tuple[str, ...]]:
+        """The base groups plus ``backward_loop`` (the sweep engine's signals) and
+        ``forward_loop`` (the forward pass's), from the stage of each tap."""
+        groups = super().signal_groups
+        for stage in ("backward_loop", "forward_loop"):
+            used = {taps.TAP_SIGNALS[t] for t, s in taps.TAP_STAGE.items() if s == stage}
+            groups[stage] = tuple(s for s in P2Config.signals() if s in used)
+        return groups
 
     def run(
         self,

@@ -1,19 +1,25 @@
-"""``rangefx sweep`` and ``rangefx optimise``: word-length studies of P1 (SPEC §6, §8).
+"""``rangefx sweep`` and ``rangefx optimise``: word-length studies of every pipeline of
+the registry (SPEC §6, §8, §10).
 
 ``rangefx sweep DEF.toml --out DIR [--scheduler ADDR] [--workers N] [--json]`` runs a
-sweep definition (:mod:`rangefx.tools.studies.sweep`; example ``tools/sweeps/p1_lab.toml``,
-``rangefx sweep --example`` prints its path) and writes to ``DIR``: ``results.jsonl``
+sweep definition (:mod:`rangefx.tools.studies.sweep`; its ``[sweep] pipeline`` names the
+pipeline, default ``p1``; examples ``tools/studies/sweeps/p1_lab.toml`` and
+``p2_lab.toml``, ``rangefx sweep --example`` prints the first's path) and writes to
+``DIR``: ``results.jsonl``
 (one line per finished point, appended as it finishes: re-running the same command
 after an interruption computes only the missing points), then ``points.csv``,
-``pareto_<scene>.png/.csv``, ``sensitivity.png/.csv``, ``buildup_base.png`` + CSV and
+``pareto_<scene>.png/.csv``, ``sensitivity.png/.csv``, ``buildup_base.png`` + CSV (the
+pipeline's own error build-up: P1's row and column filters, P2's backward sweep) and
 ``summary.json`` (``complete: true``) once every point is in.
 
-``rangefx optimise --scene lab [runway motorcycle ...] --budget 0.01 [--agreement 0.99]
-[--margin M] [--verify SCENE] [--config PATH] [--variant V] [--size H W] [--workers N]
-[--out DIR] [--json]`` finds the cheapest config meeting the budget on every tuning scene
-(:mod:`rangefx.tools.studies.optimiser`; with ``--margin M`` the budget tightened by the guard band
-M while tuning, JSON ``tuning_budget``) and prints it (TOML), ``cost_bits`` and
-``default_cost_bits`` on the first tuning scene's shape and mode (the cost minimised),
+``rangefx optimise [--pipeline p1|p2] --scene lab [runway motorcycle ...] --budget 0.01
+[--agreement 0.99] [--margin M] [--verify SCENE] [--config PATH] [--variant V]
+[--divider D] [--pole C] [--bias B] [--size H W] [--workers N] [--out DIR] [--json]``
+finds the cheapest config of the pipeline meeting the budget on every tuning scene
+(:mod:`rangefx.tools.studies.optimiser`; with ``--margin M`` the budget tightened by the
+guard band M while tuning, JSON ``tuning_budget``) and prints it (TOML), ``cost_bits`` and
+``default_cost_bits`` (the shipped default formats under the start's design fields) on
+the first tuning scene's shape and mode (the cost minimised),
 the accuracy and cost on each tuning scene (JSON ``scenes``; the top-level
 ``median_rel_range_diff``, ``p95_rel_range_diff`` and ``valid_agreement`` are the worst
 case over them, reported against the user's budget) and on the verification scene
@@ -22,6 +28,10 @@ synthetic preset (rendered at ``--size``) or ``motorcycle``, the real Middlebury
 (:func:`rangefx.tools.studies.runner.real_pair_case`, its own 26x39 size); ``--verify`` also
 takes ``plane``, a synthetic scene held out of tuning (``--scene plane`` is a one-line
 error; :func:`rangefx.tools.studies.runner.held_out_case`, rendered at ``--size``).
+Every scene must be of a mode the pipeline models (P2 is stereo only: ``runway`` is a
+one-line error), and a design option the pipeline has no field for (``--variant``,
+``--pole``, ``--bias`` with P2) is a one-line error
+(:func:`rangefx.tools.cli.options.design_from_args`).
 """
 
 from __future__ import annotations
@@ -34,14 +44,15 @@ from pathlib import Path
 from typing import Any
 
 from rangefx.golden.scenes import SCENE_NAMES
-from rangefx.rtl_model.p1.config import HOST_REGISTERS, P1_SIGNALS, P1Config
-from rangefx.rtl_model.p1.cost import config_cost
+from rangefx.rtl_model.config import WordLengthConfig
+from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
 
 from ..errors import UserError
 from ..report import atomic_write_text, json_safe
 from ..studies.cases import HELD_OUT_SCENES, REAL_PAIRS, held_out_case, real_pair_case
 from ..studies.runner import load_config
+from .options import add_design_args, add_pipeline_arg, design_from_args, pipeline_from_args
 
 __all__ = [
     "DEFAULT_MARGIN",
@@ -107,20 +118,38 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
-def _case(name: str, size: list[int] | None):
+def _case(pipe: Pipeline, name: str, size: list[int] | None, flag: str) -> Case:
     """A synthetic scene preset or held-out scene (rendered at ``size``) or a real pair
-    (its own size)."""
+    (its own size); a scene of a mode ``pipe`` does not model is a :class:`UserError`
+    naming ``flag``."""
     from ..studies.cases import scene_case
 
     if name in REAL_PAIRS:
-        return real_pair_case(name)
-    if name in HELD_OUT_SCENES:
-        return held_out_case(name, tuple(size) if size else None)
-    return scene_case(name, size)
+        case = real_pair_case(name)
+    elif name in HELD_OUT_SCENES:
+        case = held_out_case(name, tuple(size) if size else None)
+    else:
+        case = scene_case(name, size)
+    try:
+        pipe.check_mode(case)
+    except ValueError as exc:
+        raise UserError(f"{flag} {name}: {exc}") from None
+    return case
+
+
+def _default_for(pipe: Pipeline, start: WordLengthConfig) -> WordLengthConfig:
+    """The shipped default formats under ``start``'s design fields (so that the cost
+    difference is the word lengths alone); the shipped default itself if those design
+    fields do not validate with its formats."""
+    try:
+        return pipe.default_config(**start.design())
+    except ValueError:
+        return pipe.default_config()
 
 
 def _figures(figs: dict[str, Any]) -> dict[str, Any]:
-    return {k: figs[k] for k in ("median_rel_range_diff", "p95_rel_range_diff", "valid_agreement")}
+    keys = ("median_rel_range_diff", "p95_rel_range_diff", "valid_agreement", "saturated_registers")
+    return {k: figs[k] for k in keys}
 
 
 def cmd_optimise(args: argparse.Namespace) -> int:
@@ -131,10 +160,15 @@ def cmd_optimise(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UserError(f"--budget/--agreement: {exc}") from None
     tuning = budget.tightened(args.margin)  # a one-line UserError for a bad --margin
+    pipe = pipeline_from_args(args)
+    start = load_config(pipe, args.config, **design_from_args(pipe, args))
     if args.signals:
-        bad = [s for s in args.signals if s not in P1_SIGNALS]
-        if bad:
-            raise UserError(f"--signals: unknown signals {bad}")
+        from ..studies.sweep import check_signals
+
+        try:
+            check_signals(args.signals, start)
+        except ValueError as exc:
+            raise UserError(f"--signals: {exc}") from None
     scenes: list[str] = list(args.scene)
     held = [s for s in scenes if s in HELD_OUT_SCENES]
     if held:
@@ -149,37 +183,40 @@ def cmd_optimise(args: argparse.Namespace) -> int:
             f"--verify {args.verify}: it is a tuning scene; verify on one the optimiser did "
             f"not see ({', '.join(s for s in VERIFY_SCENES if s not in scenes)})"
         )
-    start = load_config(PIPELINES["p1"], args.config, variant=args.variant)
-    default = P1Config.default(variant=start.variant)
-    cases = [_case(name, args.size) for name in scenes]
+    default = _default_for(pipe, start)
+    cases = [_case(pipe, name, args.size, "--scene") for name in scenes]
+    vcase = _case(pipe, args.verify, args.size, "--verify") if args.verify else None
     res = optimise(
-        cases, start, budget, margin=args.margin, signals=args.signals,
+        cases, start, budget, pipeline=pipe, margin=args.margin, signals=args.signals,
         tune_registers=args.tune_registers, workers=args.workers, progress=not args.json,
     )  # fmt: skip
     case = cases[0]
-    shape, mode = case.image1.shape, case.mode
-    cost = config_cost(res.config, shape, mode)
-    dcost = config_cost(default, shape, mode)
+    shape, mode = case.shape, case.mode
+    cost = pipe.cost(res.config, shape, mode)
+    dcost = pipe.cost(default, shape, mode)
     per_scene: dict[str, Any] = {}
     for name, c, figs, sfigs, runs in zip(
         scenes, cases, res.scene_figures, res.start_scene_figures, res.scene_runs, strict=True
     ):
         per_scene[name] = {
             "mode": c.mode,
-            "size": list(c.image1.shape),
+            "size": list(c.shape),
             **_figures(figs),
             "start_median_rel_range_diff": sfigs["median_rel_range_diff"],
             "start_valid_agreement": sfigs["valid_agreement"],
-            "cost_bits": config_cost(res.config, c.image1.shape, c.mode).cost_bits,
-            "default_cost_bits": config_cost(default, c.image1.shape, c.mode).cost_bits,
+            "cost_bits": pipe.cost(res.config, c.shape, c.mode).cost_bits,
+            "default_cost_bits": pipe.cost(default, c.shape, c.mode).cost_bits,
             "runs": runs,
         }
     figures: dict[str, Any] = {
+        "pipeline": pipe.name,
+        "golden": pipe.golden_label(start),
         "scene": scenes[0],
         "tuning_scenes": scenes,
         "mode": mode,
         "size": list(shape),
-        "variant": start.variant,
+        **({"variant": start.variant} if "variant" in start.design_fields() else {}),
+        "design": start.design(),
         "budget": {"median_rel_range_diff": budget.median, "valid_agreement": budget.agreement},
         "margin": args.margin,
         "tuning_budget": {
@@ -204,34 +241,34 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         "seconds": res.seconds,
         "steps": res.steps,
     }
-    if args.verify:
-        vcase = _case(args.verify, args.size)
-        golden = PIPELINES["p1"].golden(vcase, res.config).result
-        fig_opt = evaluate(vcase, res.config, golden)
-        fig_def = evaluate(vcase, default, golden)
+    if vcase is not None:
+        golden = pipe.golden(vcase, res.config).result
+        fig_opt = evaluate(vcase, res.config, golden, pipeline=pipe)
+        fig_def = evaluate(vcase, default, golden, pipeline=pipe)
         if fig_opt is None:
             raise UserError(f"the optimised config cannot run on {args.verify!r}")
         figures["verify"] = {
             "scene": args.verify,
             "mode": vcase.mode,
-            "size": list(vcase.image1.shape),
+            "size": list(vcase.shape),
             **_figures(fig_opt),
             "meets_budget": budget.met(fig_opt),
             "default_median_rel_range_diff": fig_def["median_rel_range_diff"] if fig_def else None,
             "default_valid_agreement": fig_def["valid_agreement"] if fig_def else None,
-            "cost_bits": config_cost(res.config, vcase.image1.shape, vcase.mode).cost_bits,
-            "default_cost_bits": config_cost(default, vcase.image1.shape, vcase.mode).cost_bits,
+            "default_saturated_registers": fig_def["saturated_registers"] if fig_def else None,
+            "cost_bits": pipe.cost(res.config, vcase.shape, vcase.mode).cost_bits,
+            "default_cost_bits": pipe.cost(default, vcase.shape, vcase.mode).cost_bits,
         }
     if args.out:
-        _write_optimise_out(Path(args.out), res, figures, case)
+        _write_optimise_out(Path(args.out), pipe, res, figures, case)
     if args.json:
         print(json.dumps(json_safe(figures)))
         return 0
     sys.stdout.write(res.config.to_toml())
     print(
-        f"# cost_bits on {scenes[0]} {cost.cost_bits} (default {dcost.cost_bits}, saved "
-        f"{figures['bits_saved']}); DSP {cost.dsp} (default {dcost.dsp}); BRAM18 {cost.bram18} "
-        f"(default {dcost.bram18}); {res.evaluations} runs, {res.seconds:.1f} s"
+        f"# {pipe.name} cost_bits on {scenes[0]} {cost.cost_bits} (default {dcost.cost_bits}, "
+        f"saved {figures['bits_saved']}); DSP {cost.dsp} (default {dcost.dsp}); BRAM18 "
+        f"{cost.bram18} (default {dcost.bram18}); {res.evaluations} runs, {res.seconds:.1f} s"
     )
     if args.margin:
         print(
@@ -255,9 +292,13 @@ def cmd_optimise(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_optimise_out(out: Path, res, figures: dict[str, Any], case) -> None:
+def _write_optimise_out(
+    out: Path, pipe: Pipeline, res: Any, figures: dict[str, Any], case: Case
+) -> None:
+    """optimised.toml, the build-up plots of the result and of the start on the first
+    tuning scene (:func:`rangefx.tools.studies.buildup.buildup_for`), summary.json."""
     from ..report.wlplots import save_buildup
-    from ..studies.sweep import buildup_for
+    from ..studies.buildup import PROFILE_AXES, buildup_for
 
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -265,9 +306,8 @@ def _write_optimise_out(out: Path, res, figures: dict[str, Any], case) -> None:
         raise UserError(f"cannot create output directory {str(out)!r}: {exc.strerror}") from None
     atomic_write_text(out / "optimised.toml", res.config.to_toml())
     for stem, cfg in (("buildup_optimised", res.config), ("buildup_start", res.start)):
-        profiles, notes = buildup_for(case, cfg)
-        save_buildup(out, stem, profiles, stem.replace("_", " ").replace("buildup", "build-up,"))
-        figures[f"{stem}_notes"] = notes
+        title = f"{pipe.name} " + stem.replace("_", " ").replace("buildup", "build-up,")
+        save_buildup(out, stem, buildup_for(pipe, case, cfg), title, xlabels=PROFILE_AXES)
     atomic_write_text(out / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
 
 
@@ -282,7 +322,7 @@ def _positive_int(text: str) -> int:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("sweep", help="word-length sweep of P1 (resumable, local or dask)")
+    p = sub.add_parser("sweep", help="word-length sweep of any pipeline (resumable, local or dask)")
     p.add_argument("definition", nargs="?", help="sweep definition TOML")
     p.add_argument("--out", help="output directory (re-run the same command to resume)")
     p.add_argument("--scheduler", help="address of a dask.distributed scheduler")
@@ -290,7 +330,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--example", action="store_true", help="print the example definition's path")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.set_defaults(func=cmd_sweep)
-    p = sub.add_parser("optimise", help="cheapest P1 word lengths meeting an accuracy budget")
+    p = sub.add_parser("optimise", help="cheapest word lengths meeting an accuracy budget")
+    add_pipeline_arg(p)
     p.add_argument("--scene", choices=VERIFY_SCENES, nargs="+", default=["lab"],
                    help="tuning scene(s): a config must meet the budget on every one; the "
                    "cost minimised is the first's (default lab; motorcycle: the real "
@@ -310,16 +351,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="scene to verify the result on (not a tuning scene; motorcycle: the "
                    "real Middlebury pair, stereo; plane: a synthetic textured plane no "
                    "tuning run may use)")  # fmt: skip
-    p.add_argument("--config", help="starting (safe) config TOML (default: the shipped one)")
-    p.add_argument("--variant", choices=("paper", "consistent"))
+    add_design_args(p)  # --config: the starting (safe) config; design options per pipeline
     p.add_argument("--size", type=_positive_int, nargs=2, metavar=("H", "W"),
                    help="render synthetic scenes at this size (not motorcycle)")  # fmt: skip
     p.add_argument("--signals", nargs="+",
-                   help="only these signals, host registers included if named (default: all "
-                   "but pix_in and the host-written registers, see --tune-registers)")  # fmt: skip
+                   help="only these signals, host registers included if named (default: "
+                   "all but the input pixel and the host-written registers, see "
+                   "--tune-registers)")  # fmt: skip
+    registers = "; ".join(
+        f"{name}: {', '.join(pipe.config_type.HOST_REGISTERS)}" for name, pipe in PIPELINES.items()
+    )
     p.add_argument("--tune-registers", action="store_true",
-                   help=f"also narrow the host-written registers ({', '.join(HOST_REGISTERS)}); "
-                   "off by default: their formats must cover every camera and geometry the "
+                   help=f"also narrow the host-written registers ({registers}); off by default: "
+                   "their formats must cover every camera and geometry the "
                    "host may load (focal length, baseline, thresholds), which tuning scenes "
                    "do not sample, so they keep the starting config's formats")  # fmt: skip
     p.add_argument("--workers", type=_positive_int, default=2, help="concurrent runs (default 2)")

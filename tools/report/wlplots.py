@@ -2,15 +2,12 @@
 
 * :func:`save_pareto` — accuracy vs cost, every point and the Pareto front marked;
 * :func:`save_sensitivity` — error vs the bits of one signal, the others at the base;
-* :func:`buildup_profiles` / :func:`save_buildup` — error build-up along the scan: RMS
-  fixed-vs-golden error of the row-filter taps against the column index (averaged over
-  rows) and of the column-filter taps against the row index (averaged over columns),
-  beside ``LSB / sqrt(12)`` of the tap's format (one rounding's RMS error), since a
-  recursive filter accumulates quantisation error where a per-signal min/max cannot show
-  it. :data:`BUILDUP_HOOKS` takes more profiles (the Riccati sweep of P2 when its model
-  exists).
+* :func:`save_buildup` — error build-up profiles along a pipeline's scan (computed by
+  :mod:`rangefx.tools.studies.buildup`: P1's row and column filters, P2's backward
+  Riccati sweep), one panel per profile, each curve beside its dotted ``LSB / sqrt(12)``.
 
-Every PNG is written atomically, and every plot has its data beside it as CSV.
+Plots only: every input is data a study computed. Every PNG is written atomically, and
+every plot has its data beside it as CSV.
 """
 
 from __future__ import annotations
@@ -18,8 +15,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,57 +25,11 @@ from .outdir import atomic_write_text
 from .plots import new_figure, save_png
 
 __all__ = [
-    "BUILDUP_HOOKS",
-    "COL_TAPS",
-    "ROW_TAPS",
-    "buildup_profiles",
     "save_buildup",
     "save_pareto",
     "save_sensitivity",
     "write_csv",
 ]
-
-#: Row-filter taps (error against the column index) and column-filter taps (against the
-#: row index), of stream E2.
-ROW_TAPS: tuple[str, ...] = ("e2.row_state", "e2.row_r1", "e2.row_r2")
-COL_TAPS: tuple[str, ...] = ("e2.col_state", "e2.col_s1", "e2.col_s2")
-
-#: Extra build-up profiles: name -> callable(case, config) returning a dict
-#: ``{"axis": "position", "index": array, "<curve>": array, ...}`` or None when the
-#: model it needs does not exist. The P2 Riccati sweep registers itself here.
-BUILDUP_HOOKS: dict[str, Callable[[Any, Any], Mapping[str, np.ndarray] | None]] = {}
-
-
-def p2_riccati_profile(case: Any, config: Any) -> dict[str, np.ndarray] | None:
-    """P2 (``rtl_model/p2/model.py``) against golden G5 along the backward Riccati sweep.
-
-    Index = position in the sweep (0: the first step, at column ``n - 2``); curves: RMS
-    relative range error over the rows (pixels valid in both) and RMS error of
-    ``e = G - G_hat`` (tap ``e`` vs G5's ``e``). ``config`` (P1's) is not used: P2 runs
-    its own default config. ``None`` when P2 is absent or the case is not stereo.
-    """
-    from rangefx.rtl_model.registry import PIPELINES
-
-    if getattr(case, "mode", "") != "stereo":
-        return None
-    p2 = PIPELINES["p2"]
-    p2cfg = p2.default_config()
-    res = p2.run(case, p2cfg, taps=True)
-    gold = p2.golden(case, p2cfg).result
-    n = case.image1.shape[1]
-    both = res.valid & gold.valid
-    with np.errstate(divide="ignore", invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns: no valid pixel
-        rel = np.where(both, np.abs(res.range - gold.range) / gold.range, np.nan)
-        e_fx = np.ldexp(res.taps["e"].astype(float), -p2cfg.formats["p2_e"].frac)
-        e_err = e_fx - gold.terms["e"]
-        cols = np.arange(n - 2, -1, -1)  # backward sweep order
-        z_rms = np.sqrt(np.nanmean(rel[:, cols] ** 2, axis=0))
-        e_rms = np.sqrt(np.nanmean(e_err[:, cols] ** 2, axis=0))
-    return {"index": np.arange(cols.size), "p2.range_rel": z_rms, "p2.e": e_rms}
-
-
-BUILDUP_HOOKS["riccati"] = p2_riccati_profile
 
 
 def write_csv(path: Path, rows: Sequence[Mapping[str, Any]], fields: Sequence[str]) -> None:
@@ -152,42 +102,24 @@ def save_sensitivity(
     save_png(fig, path)
 
 
-def buildup_profiles(
-    fixed: Mapping[str, np.ndarray],
-    golden: Mapping[str, np.ndarray],
-    lsb: Mapping[str, float],
-) -> dict[str, dict[str, np.ndarray]]:
-    """RMS |fixed - golden| per column (row taps) and per row (column taps).
-
-    ``fixed`` and ``golden`` map tap names to float arrays (m, n); ``lsb`` the LSB of
-    each tap's format. Returns ``{"row": {"index": cols, tap: rms, tap + ".lsb_rms":
-    ...}, "col": {...}}``.
-    """
-    out: dict[str, dict[str, np.ndarray]] = {}
-    for kind, taps, axis in (("row", ROW_TAPS, 0), ("col", COL_TAPS, 1)):
-        prof: dict[str, np.ndarray] = {}
-        for tap in taps:
-            if tap not in fixed or tap not in golden:
-                continue
-            err = np.asarray(fixed[tap], dtype=float) - np.asarray(golden[tap], dtype=float)
-            prof[tap] = np.sqrt(np.mean(err * err, axis=axis))
-            prof[f"{tap}.lsb_rms"] = np.full(prof[tap].shape, lsb[tap] / math.sqrt(12.0))
-        if prof:
-            length = next(iter(prof.values())).shape[0]
-            out[kind] = {"index": np.arange(length), **prof}
-    return out
-
-
 def save_buildup(
-    out_dir: Path, stem: str, profiles: Mapping[str, Mapping[str, np.ndarray]], title: str
+    out_dir: Path,
+    stem: str,
+    profiles: Mapping[str, Mapping[str, np.ndarray]],
+    title: str,
+    *,
+    xlabels: Mapping[str, str] | None = None,
 ) -> list[Path]:
-    """``<stem>.png`` (one panel per profile) and ``<stem>_<profile>.csv``."""
+    """``<stem>.png`` (one panel per profile) and ``<stem>_<profile>.csv``.
+
+    ``profiles``: name -> ``{"index": positions, curve: values, curve + ".lsb_rms":
+    reference}``; ``xlabels``: name -> what its index counts (default: the name)."""
     written: list[Path] = []
     names = [k for k in profiles if profiles[k]]
     if not names:
         return written
     fig = new_figure((7.0, 3.2 * len(names)))
-    xlabels = {"row": "column index (along the line)", "col": "row index (down the columns)"}
+    xlabels = xlabels or {}
     for k, name in enumerate(names):
         prof = profiles[name]
         ax = fig.add_subplot(len(names), 1, k + 1)
@@ -199,7 +131,7 @@ def save_buildup(
             ref = prof.get(f"{tap}.lsb_rms")
             if ref is not None and j < 6:
                 ax.plot(idx, ref, lw=0.8, ls=":", color=line.get_color())
-        ax.set_xlabel(xlabels.get(name, "position in the backward Riccati sweep (P2)"))
+        ax.set_xlabel(xlabels.get(name, name))
         ax.set_ylabel("RMS fixed - golden")
         if any(np.nanmax(v, initial=0) > 0 for t, v in prof.items() if t != "index"):
             ax.set_yscale("log")

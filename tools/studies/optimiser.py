@@ -1,8 +1,13 @@
-"""Word-length optimiser: the cheapest P1 config meeting an accuracy budget (SPEC §6).
+"""Word-length optimiser: the cheapest config of any registered pipeline meeting an
+accuracy budget (SPEC §6, §10).
+
+The pipeline is the one of the start config (``WordLengthConfig.PIPELINE``, looked up in
+the registry) unless given; it runs only through its interface (:meth:`Pipeline.run`,
+:meth:`Pipeline.golden`, :meth:`Pipeline.cost_weights`), so P1 and P2 are optimised alike.
 
 Coordinate descent from a safe configuration (the default, which meets the budget by a
 wide margin). Signals are visited in decreasing order of their cost weight (bits of
-``cost_bits`` per bit of word: line-buffer signals first, :func:`cost_weights`). For
+``cost_bits`` per bit of word: line-buffer signals first, :meth:`Pipeline.cost_weights`). For
 each signal, first its fraction bits are lowered (integer bits kept, so the word
 shrinks), then its integer bits (fraction kept), each to the smallest value for which
 the *whole* config still meets the budget, found by a k-ary search (``workers``
@@ -11,24 +16,30 @@ steer the search, never to accept: every accepted config was run and met the bud
 Hence the result meets the budget on the tuning scenes by construction; it is then run
 on a verification scene it was not tuned on.
 
-Host-written registers (:data:`~rangefx.rtl_model.config.HOST_REGISTERS`: bias, filter
-pole, focal length, translation and rotation terms, T_g^2) keep the start config's
-formats unless ``tune_registers`` (or they are named in ``signals``): their values are
-host constants whose range is set by the cameras and geometries to serve, not by image
-content, so narrowing them to fit a few tuning scenes fails on others (a 5 mm baseline
-in ``k_t_reg`` s13.9 is 3 LSB).
+Host-written registers (the config type's ``HOST_REGISTERS``; P1: bias, filter pole,
+focal length, translation and rotation terms, T_g^2; P2: ``KA = 1 / (f dx)`` and
+``M = alpha / beta``) keep the start config's formats unless ``tune_registers`` (or they
+are named in ``signals``): their values are host constants whose range is set by the
+cameras and geometries to serve, not by image content, so narrowing them to fit a few
+tuning scenes fails on others (a 5 mm baseline in P1's ``k_t_reg`` s13.9 is 3 LSB). The
+input pixel (the first signal of the table) is fixed by the sensor and never tuned.
 
 Several tuning scenes (one pipeline that must serve all of them, e.g. the stereo ``lab``
-and the motion ``runway`` with rotation): a candidate is accepted only if it meets the
-budget on *every* scene (worst case). Scenes are run in the given order and a candidate
-stops at its first failing scene, so put the scene that fails most often first. The
+and the motion ``runway`` with rotation for P1; P2 is stereo only): a candidate is
+accepted only if it meets the budget on *every* scene (worst case). Scenes are run in the
+given order and a candidate stops at its first failing scene, so put the scene that fails
+most often first. The
 cost minimised is ``cost_bits`` on the *first* scene's shape and mode (the signals are
 visited in the order of their weights there); signals that cost nothing there but
 something on another tuning scene are still narrowed, after the others. Narrowing a
 word never raises any scene's cost, so every scene's cost falls or stays.
 
 The budget (:class:`Budget`): median relative range difference vs the float golden on
-pixels valid in both ``<= median`` and validity agreement ``>= agreement``.
+pixels valid in both ``<= median`` and validity agreement ``>= agreement``. A candidate
+that saturates a host register the start config does not saturate on that scene is
+rejected whatever its figures: the register then holds another value than the host
+wrote, a silent scale error no overflow counter sees (e.g. P2's ``RMAX`` register, held
+in a ``p2_z`` word, once ``p2_z``'s integer bits are cut below the case's ``range_max``).
 
 Guard band (``margin`` M, ``0 <= M < 1``): during tuning a candidate must meet the
 tightened budget :meth:`Budget.tightened` — median ``<= median·(1 − M)`` and
@@ -44,30 +55,29 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 from tqdm import tqdm
 
 from rangefx.golden.ranging import RangeResult
+from rangefx.rtl_model.config import WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat
-from rangefx.rtl_model.p1 import run_p1
-from rangefx.rtl_model.p1.config import HOST_REGISTERS, P1_SIGNALS, P1Config
-from rangefx.rtl_model.p1.cost import REGISTER_INSTANCES, config_cost
-from rangefx.rtl_model.pipeline import Case
-from rangefx.rtl_model.registry import PIPELINES
+from rangefx.rtl_model.pipeline import Case, Pipeline
+from rangefx.rtl_model.registry import get_pipeline
 
 from ..errors import UserError
 from .runner import compare_ranges
+from .sweep import check_signals
 
 __all__ = [
     "Budget",
     "OptimiseResult",
     "check_margin",
-    "cost_weights",
     "evaluate",
     "evaluate_scenes",
     "optimise",
+    "pipeline_of",
     "worst_case",
 ]
 
@@ -117,14 +127,14 @@ class OptimiseResult:
     ``figures`` / ``start_figures`` are the worst case over the tuning scenes
     (:func:`worst_case`); ``scene_figures`` / ``start_scene_figures`` hold each tuning
     scene's own figures, in the order of the scenes given to :func:`optimise`.
-    ``evaluations`` counts candidate configs, ``scene_runs`` the P1 runs on each scene
+    ``evaluations`` counts candidate configs, ``scene_runs`` the pipeline's runs on each scene
     (a candidate stops at its first failing scene, so later scenes run less often).
     ``tuning_budget`` is the budget candidates had to meet (``Budget.tightened`` by the
     margin; the user's budget when the margin is 0).
     """
 
-    config: P1Config
-    start: P1Config
+    config: WordLengthConfig
+    start: WordLengthConfig
     figures: dict[str, Any]
     start_figures: dict[str, Any]
     evaluations: int
@@ -158,32 +168,29 @@ def worst_case(scene_figures: Sequence[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def cost_weights(config: P1Config, shape: tuple[int, int], mode: str) -> dict[str, int]:
-    """``cost_bits`` added by one more bit of each signal's word (0: signal unused)."""
-    base = config_cost(config, shape, mode).cost_bits
-    out = {}
-    for name in P1_SIGNALS:
-        f = config.formats[name]
-        try:
-            wider = config.with_formats(**{name: replace(f, word=f.word + 1)})
-        except ValueError:
-            out[name] = sum(REGISTER_INSTANCES[name])
-            continue
-        out[name] = config_cost(wider, shape, mode).cost_bits - base
-    return out
+def pipeline_of(config: WordLengthConfig) -> Pipeline:
+    """The registered pipeline whose config type ``config`` is."""
+    return get_pipeline(config.PIPELINE)
 
 
-def evaluate(case: Case, config: P1Config, golden: RangeResult, threads: int = 2):
-    """Fixed vs golden figures of ``config`` (``None`` if the config cannot run)."""
+def evaluate(
+    case: Case,
+    config: WordLengthConfig,
+    golden: RangeResult,
+    threads: int = 2,
+    *,
+    pipeline: Pipeline | None = None,
+) -> dict[str, Any] | None:
+    """Fixed vs golden figures of ``config`` (``None`` if the config cannot run), with the
+    run's overflow total and the host registers it saturated (a silent scale error)."""
+    pipe = pipeline or pipeline_of(config)
     try:
-        result = run_p1(
-            case.image1, case.image2, case.camera, case.motion, config, case.ranging,
-            mode=case.mode, taps=False, threads=threads,
-        )  # fmt: skip
+        result = pipe.run(case, config, taps=False, threads=threads)
     except ValueError:
         return None
-    figs = compare_ranges(result, golden)
+    figs: dict[str, Any] = compare_ranges(result, golden)
     figs["overflow_total"] = result.overflow_total
+    figs["saturated_registers"] = list(result.saturated_registers)
     return figs
 
 
@@ -192,7 +199,7 @@ def _candidates(lo: int, hi: int, k: int) -> list[int]:
     return sorted({lo + ((hi - lo) * i) // (k + 1) for i in range(1, k + 1)})
 
 
-def _with(config: P1Config, name: str, word: int, frac: int) -> P1Config | None:
+def _with(config: WordLengthConfig, name: str, word: int, frac: int) -> WordLengthConfig | None:
     if word < 1 or word > 62:
         return None
     f = config.formats[name]
@@ -210,17 +217,20 @@ def _label(case: Case, index: int) -> str:
 
 def evaluate_scenes(
     cases: Sequence[Case],
-    config: P1Config,
+    config: WordLengthConfig,
     goldens: Sequence[RangeResult],
     budget: Budget,
     threads: int = 2,
+    *,
+    pipeline: Pipeline | None = None,
 ) -> list[dict[str, Any] | None]:
     """:func:`evaluate` on each case in order, stopping after the first that misses
     ``budget`` (a rejected candidate need not pay for the other scenes). The list is as
     long as the scenes run; its last entry is ``None`` if the config cannot run there."""
+    pipe = pipeline or pipeline_of(config)
     out: list[dict[str, Any] | None] = []
     for case, golden in zip(cases, goldens, strict=True):
-        figs = evaluate(case, config, golden, threads=threads)
+        figs = evaluate(case, config, golden, threads=threads, pipeline=pipe)
         out.append(figs)
         if figs is None or not budget.met(figs):
             break
@@ -229,26 +239,29 @@ def evaluate_scenes(
 
 def optimise(
     cases: Case | Sequence[Case],
-    start: P1Config,
+    start: WordLengthConfig,
     budget: Budget,
     *,
+    pipeline: Pipeline | None = None,
     margin: float = 0.0,
     signals: Sequence[str] | None = None,
     tune_registers: bool = False,
     workers: int = 2,
     max_frac_drop: int = 40,
     progress: bool = True,
-    on_eval: Callable[[P1Config, list[dict | None]], None] | None = None,
+    on_eval: Callable[[WordLengthConfig, list[dict | None]], None] | None = None,
 ) -> OptimiseResult:
     """Cheapest config reachable from ``start`` meeting ``budget`` on every case.
 
+    ``pipeline``: the pipeline to tune (default: ``start``'s, :func:`pipeline_of`); a
+    case it does not model (P2 on a motion case) is a :class:`UserError`.
     ``cases``: one tuning case or several (worst case, module docstring); the cost
     minimised is ``cost_bits`` on the first case's shape and mode. ``margin``: guard band,
     candidates must meet ``budget.tightened(margin)`` (module docstring). ``signals``: only
-    these (default: all but ``pix_in`` and, unless ``tune_registers``, the host-written
-    :data:`~rangefx.rtl_model.config.HOST_REGISTERS`; a register named in ``signals`` is
-    tuned). ``on_eval`` sees each candidate with the figures of the scenes it was run on (it
-    stops at the first miss).
+    these (default: all but the input pixel and, unless ``tune_registers``, the config
+    type's ``HOST_REGISTERS``; a register named in ``signals`` is tuned). ``on_eval`` sees
+    each candidate with the figures of the scenes it was run on (it stops at the first
+    miss).
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise UserError(f"--workers must be a positive integer, not {workers!r}")
@@ -256,21 +269,41 @@ def optimise(
     cases = [cases] if isinstance(cases, Case) else list(cases)
     if not cases:
         raise ValueError("optimise needs at least one tuning case")
+    pipe = pipeline or pipeline_of(start)
+    try:
+        pipe.check_config(start)
+        for case in cases:
+            pipe.check_mode(case)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    all_signals = start.signals()
+    if signals:
+        try:
+            check_signals(signals, start)
+        except ValueError as exc:
+            raise UserError(f"--signals: {exc}") from None
     t0 = time.perf_counter()
-    goldens = [PIPELINES["p1"].golden(case, start).result for case in cases]
+    goldens = [pipe.golden(case, start).result for case in cases]
     threads = 2 if workers == 1 else 1
     n_evals = 0
     scene_runs = [0] * len(cases)
 
-    def run(cfgs: list[P1Config]) -> list[list[dict | None]]:
+    def run(cfgs: list[WordLengthConfig]) -> list[list[dict | None]]:
         nonlocal n_evals
         n_evals += len(cfgs)
         if len(cfgs) == 1 or workers == 1:
-            figs = [evaluate_scenes(cases, c, goldens, tuning, threads=2) for c in cfgs]
+            figs = [
+                evaluate_scenes(cases, c, goldens, tuning, threads=2, pipeline=pipe) for c in cfgs
+            ]
         else:
             with ThreadPoolExecutor(min(workers, len(cfgs))) as pool:
                 figs = list(
-                    pool.map(lambda c: evaluate_scenes(cases, c, goldens, tuning, threads), cfgs)
+                    pool.map(
+                        lambda c: evaluate_scenes(
+                            cases, c, goldens, tuning, threads, pipeline=pipe
+                        ),
+                        cfgs,
+                    )
                 )
         for f in figs:
             for k in range(len(f)):
@@ -280,10 +313,20 @@ def optimise(
                 on_eval(c, f)
         return figs
 
+    start_saturated: list[set[str]] | None = None  # known once the start has run
+
     def met(scene_figs: list[dict | None]) -> bool:
-        return len(scene_figs) == len(cases) and all(
-            f is not None and tuning.met(f) for f in scene_figs
-        )
+        if len(scene_figs) != len(cases):
+            return False
+        for k, f in enumerate(scene_figs):
+            if f is None or not tuning.met(f):
+                return False
+            if (
+                start_saturated is not None
+                and not set(f["saturated_registers"]) <= (start_saturated[k])
+            ):
+                return False
+        return True
 
     start_figs = run([start])[0]
     if not met(start_figs):
@@ -293,17 +336,19 @@ def optimise(
             f"the starting config {start.name!r} misses the budget{band} on "
             f"{_label(cases[k], k)!r} (figures {start_figs[k]}); start from a wider config"
         )
+    start_saturated = [set(f["saturated_registers"]) for f in start_figs if f is not None]
     # Weights on every tuning scene; the first scene's cost is the one minimised.
-    all_weights = [cost_weights(start, case.image1.shape, case.mode) for case in cases]
+    all_weights = [pipe.cost_weights(start, case.shape, case.mode) for case in cases]
     weights = all_weights[0]
-    others = {s: sum(w.get(s, 0) for w in all_weights[1:]) for s in P1_SIGNALS}
+    others = {s: sum(w.get(s, 0) for w in all_weights[1:]) for s in all_signals}
+    pixel = all_signals[0]  # the sensor's input: never tuned
     if signals:
         pool = list(signals)
     else:
-        skip = ("pix_in",) if tune_registers else ("pix_in", *HOST_REGISTERS)
-        pool = [s for s in P1_SIGNALS if s not in skip]
-    names = [s for s in pool if s != "pix_in" and (weights.get(s, 0) > 0 or others[s] > 0)]
-    names.sort(key=lambda s: (-weights[s], -others[s], P1_SIGNALS.index(s)))
+        skip = (pixel,) if tune_registers else (pixel, *start.HOST_REGISTERS)
+        pool = [s for s in all_signals if s not in skip]
+    names = [s for s in pool if s != pixel and (weights.get(s, 0) > 0 or others[s] > 0)]
+    names.sort(key=lambda s: (-weights[s], -others[s], all_signals.index(s)))
     current, cur_figs = start, start_figs
     steps: list[dict[str, Any]] = []
     bar = tqdm(
@@ -318,12 +363,12 @@ def optimise(
                 if dim == "frac":
                     lo, hi = max(f.frac - max_frac_drop, f.frac - f.word + 1), f.frac
 
-                    def make(v: int, c=current, n=name, i=integer) -> P1Config | None:
+                    def make(v: int, c=current, n=name, i=integer) -> WordLengthConfig | None:
                         return _with(c, n, i + v, v)
                 else:
                     lo, hi = max(integer - 62, 1 - f.frac), integer
 
-                    def make(v: int, c=current, n=name, fr=f.frac) -> P1Config | None:
+                    def make(v: int, c=current, n=name, fr=f.frac) -> WordLengthConfig | None:
                         return _with(c, n, v + fr, fr)
 
                 best, best_figs = hi, cur_figs

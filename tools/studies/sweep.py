@@ -1,16 +1,21 @@
-"""Word-length sweeps of P1: definition, metrics, resumable parallel execution (SPEC §6).
+"""Word-length sweeps of any registered pipeline: definition, metrics, resumable parallel
+execution (SPEC §6, §10).
 
-A sweep definition (TOML, :func:`load_sweep`) names a base config, the scenes, the
-metric groups and one or more *axes*; each axis moves one field (``frac``, ``word``,
-``int``, their ``*_delta`` group moves, ``quant`` or ``overflow``) of one signal or of a
-group of signals over a list or range of values. The axes combine as a cartesian
-``grid`` or ``one_at_a_time`` (each axis alone, the others at the base: a sensitivity
-study). Example (``tools/sweeps/p1_lab.toml``)::
+A sweep definition (TOML, :func:`load_sweep`) names a pipeline of the registry
+(:data:`rangefx.rtl_model.registry.PIPELINES`, default ``p1``), a base config of that
+pipeline, the scenes, the metric groups and one or more *axes*; each axis moves one
+field (``frac``, ``word``, ``int``, their ``*_delta`` group moves, ``quant`` or
+``overflow``) of one signal or of a group of signals (the pipeline's
+:attr:`~rangefx.rtl_model.pipeline.Pipeline.signal_groups`) over a list or range of
+values. The axes combine as a cartesian ``grid`` or ``one_at_a_time`` (each axis alone,
+the others at the base: a sensitivity study). Example (``tools/studies/sweeps/p1_lab.toml``;
+a P2 one is ``p2_lab.toml``)::
 
     [sweep]
     name = "p1_lab"
-    base = "default"              # or a word-length TOML, relative to this file
-    variant = "paper"             # optional override of the base's variant
+    pipeline = "p1"               # a registry name (default p1)
+    base = "default"              # or a word-length TOML of that pipeline, relative to this file
+    variant = "paper"             # optional override of the base's variant (P1 only)
     scenes = ["lab"]
     metrics = ["golden", "truth", "sqnr", "overflows"]
     combine = "one_at_a_time"     # or "grid"
@@ -23,23 +28,29 @@ study). Example (``tools/sweeps/p1_lab.toml``)::
 ``frac`` keeps the integer bits ``W - F`` (the word follows) unless ``keep = "word"``;
 ``int`` sets the integer bits keeping ``F``; ``*_delta`` add to every listed signal.
 
-Every point is one (config, scene) pair keyed by a hash of the config TOML, the scene
-and the metric groups (:func:`point_key`). Points run on local threads (numba kernels
-release the GIL) or on a dask.distributed cluster, and each finished point is appended
-as one JSON line to ``results.jsonl`` and flushed, so that an interrupted sweep resumes
-where it stopped: finished points are never recomputed nor lost.
+Every point is one (config, scene) pair keyed by a hash of the pipeline, the config
+TOML, the scene and the metric groups (:func:`point_key`). Points run on local threads
+(numba kernels release the GIL) or on a dask.distributed cluster, and each finished
+point is appended as one JSON line to ``results.jsonl`` and flushed, so that an
+interrupted sweep resumes where it stopped: finished points are never recomputed nor
+lost.
 
-Metrics per point (:func:`evaluate_point`):
+Metrics per point (:func:`evaluate_point`), through the pipeline's interface only:
 
-* ``golden``: :func:`rangefx.tools.studies.runner.compare_ranges` against the float golden
-  ``g4_<variant>`` (median / p95 relative range difference on pixels valid in both,
-  validity agreement);
+* ``golden``: :func:`rangefx.tools.studies.runner.compare_ranges` against
+  :meth:`Pipeline.golden` (P1: ``g4_<variant>``, P2: G5; median / p95 relative range
+  difference on pixels valid in both, validity agreement);
 * ``truth``: :func:`rangefx.tools.report.overall_metrics` against the scene depth
   (prefixed ``truth_``);
-* ``sqnr``: per tap, SQNR (dB) and max |fixed - golden| against the float counterpart of
-  the tap (:func:`golden_taps`); ``None`` SQNR means no error at all;
+* ``sqnr``: per tap, SQNR (dB) and max |fixed - golden| against the float value of the
+  tap (:func:`rangefx.tools.studies.taps.tap_errors`, formats from
+  :meth:`Pipeline.tap_table`); ``None`` SQNR means no error at all;
 * ``overflows``: total and per signal;
-* cost proxies (:mod:`rangefx.rtl_model.p1.cost`) always.
+* cost proxies (:meth:`Pipeline.cost`) always.
+
+The golden of a scene is computed once per process and shared by every point whose
+config has the same :meth:`Pipeline.golden_key` (P1: variant, pole, bias, init; P2's G5
+reads no config field).
 """
 
 from __future__ import annotations
@@ -59,32 +70,30 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from tqdm import tqdm
 
-from rangefx.golden.ranging import RangeResult
 from rangefx.golden.scenes import SCENE_NAMES
+from rangefx.rtl_model.config import WordLengthConfig, near_hint
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
-from rangefx.rtl_model.p1 import run_p1
-from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
-from rangefx.rtl_model.p1.cost import config_cost
-from rangefx.rtl_model.p1.taps import TAP_SIGNALS
-from rangefx.rtl_model.pipeline import Case, PipelineResult
-from rangefx.rtl_model.registry import PIPELINES
+from rangefx.rtl_model.pipeline import Case, GoldenReference, Pipeline
+from rangefx.rtl_model.registry import get_pipeline
 
 from .. import report
 from ..errors import UserError
+from .buildup import PROFILE_AXES, buildup_for
 from .cases import scene_case
 from .runner import compare_ranges
+from .taps import signal_of_taps, tap_errors
 
 __all__ = [
     "METRIC_GROUPS",
-    "SIGNAL_GROUPS",
-    "TAP_SIGNAL",
+    "PARETO_METRICS",
     "Axis",
     "Point",
     "SweepDef",
     "SweepOutcome",
+    "cached_golden",
+    "check_signals",
     "evaluate_point",
     "expand",
     "load_results",
@@ -95,6 +104,7 @@ __all__ = [
     "run_sweep",
     "scene_case",
     "tap_errors",
+    "write_outputs",
 ]
 
 RESULTS_NAME = "results.jsonl"
@@ -110,34 +120,7 @@ PARAMS: tuple[str, ...] = (
     "overflow",
 )
 COMBINES = ("grid", "one_at_a_time")
-_REGISTERS = ("bias_reg", "pole_coef", "f_reg", "k_t_reg", "k_m_reg", "tg2_reg")
-_FRONTEND = (
-    "bias_in",
-    "row_state",
-    "row_r1",
-    "row_r2",
-    "col_state",
-    "col_s1",
-    "col_s2",
-    "col2_state",
-    "col2_out",
-    "div_quot",
-)
-#: Named groups of signals an axis may move together. ``datapath`` is every cast signal
-#: but the input pixel (the sensor fixes it); ``registers`` the host-written constants.
-SIGNAL_GROUPS: dict[str, tuple[str, ...]] = {
-    "all": P1_SIGNALS,
-    "datapath": tuple(s for s in P1_SIGNALS if s not in _REGISTERS and s != "pix_in"),
-    "frontend": _FRONTEND,
-    "range_stage": tuple(
-        s for s in P1_SIGNALS if s not in _REGISTERS and s not in _FRONTEND and s != "pix_in"
-    ),
-    "registers": _REGISTERS,
-}
-#: Fixed-point tap -> the signal whose format holds it (``e1.``/``e2.`` prefixes dropped;
-#: ``ex`` is ``div_quot`` or ``col2_out`` by variant and is resolved by the caller): the
-#: one mapping of :mod:`rangefx.rtl_model.p1.taps`, restricted to plain P1 signals.
-TAP_SIGNAL: dict[str, str] = {tap: sig for tap, sig in TAP_SIGNALS.items() if sig in P1_SIGNALS}
+PARETO_METRICS = ("median_rel_range_diff", "p95_rel_range_diff", "truth_median_rel_error")
 _MAX_POINTS = 100_000
 
 
@@ -145,10 +128,18 @@ def _err(where: str, msg: str) -> UserError:
     return UserError(f"{where}: {msg}")
 
 
+def check_signals(signals: Iterable[str], config: WordLengthConfig) -> None:
+    """``ValueError`` naming the first of ``signals`` that ``config``'s pipeline does not
+    have, with the nearest name it has (:meth:`WordLengthConfig.fmt`'s message)."""
+    for s in signals:
+        config.fmt(s)
+
+
 # ------------------------------------------------------------------------ definition
 @dataclass(frozen=True)
 class Axis:
-    """One swept field of one signal or group (see the module docstring)."""
+    """One swept field of one signal or group (see the module docstring). Its signals
+    are checked against the sweep's pipeline by :class:`SweepDef`."""
 
     signals: tuple[str, ...]
     param: str
@@ -159,9 +150,6 @@ class Axis:
     def __post_init__(self) -> None:
         if not self.signals:
             raise ValueError("axis: 'signals' is empty")
-        bad = [s for s in self.signals if s not in P1_SIGNALS]
-        if bad:
-            raise ValueError(f"axis: unknown signals {bad}; P1 signals: {', '.join(P1_SIGNALS)}")
         if self.param not in PARAMS:
             raise ValueError(f"axis: unknown param {self.param!r}; choose from {', '.join(PARAMS)}")
         if self.keep not in ("integer", "word"):
@@ -181,7 +169,7 @@ class Axis:
         if len(set(self.values)) != len(self.values):
             raise ValueError(f"axis {self.label!r}: repeated values")
 
-    def apply(self, config: P1Config, value: Any) -> P1Config:
+    def apply(self, config: WordLengthConfig, value: Any) -> WordLengthConfig:
         """``config`` with this axis at ``value`` (raises ValueError if invalid)."""
         changes = {s: _move(config.formats[s], self.param, value, self.keep) for s in self.signals}
         return config.with_formats(**changes)
@@ -207,10 +195,11 @@ def _move(fmt: FixedFormat, param: str, value: Any, keep: str) -> FixedFormat:
 
 @dataclass(frozen=True)
 class SweepDef:
-    """A parsed sweep definition."""
+    """A parsed sweep definition: ``pipeline`` is a registry name, ``base`` a config of
+    that pipeline."""
 
     name: str
-    base: P1Config
+    base: WordLengthConfig
     scenes: tuple[str, ...]
     axes: tuple[Axis, ...]
     metrics: tuple[str, ...] = METRIC_GROUPS
@@ -218,9 +207,13 @@ class SweepDef:
     size: tuple[int, int] | None = None
     seed: int = 0
     pareto_metric: str = "median_rel_range_diff"
-    buildup_hooks: tuple[str, ...] = ()
+    pipeline: str = "p1"
 
     def __post_init__(self) -> None:
+        pipe = get_pipeline(self.pipeline)
+        pipe.check_config(self.base)
+        for axis in self.axes:
+            check_signals(axis.signals, self.base)
         if not self.scenes:
             raise ValueError("sweep: 'scenes' is empty")
         bad = [s for s in self.scenes if s not in SCENE_NAMES]
@@ -235,23 +228,17 @@ class SweepDef:
             raise ValueError("sweep: no [[axis]] tables")
         if self.size is not None and (len(self.size) != 2 or min(self.size) < 8):
             raise ValueError(f"sweep: size must be [height, width] >= 8, not {self.size!r}")
-        if self.pareto_metric not in (
-            "median_rel_range_diff",
-            "p95_rel_range_diff",
-            "truth_median_rel_error",
-        ):
+        if self.pareto_metric not in PARETO_METRICS:
             raise ValueError(f"sweep: unsupported pareto_metric {self.pareto_metric!r}")
-        from ..report.wlplots import BUILDUP_HOOKS
-
-        bad = [h for h in self.buildup_hooks if h not in BUILDUP_HOOKS]
-        if bad:
-            raise ValueError(
-                f"sweep: unknown buildup_hooks {bad}; choose from {', '.join(BUILDUP_HOOKS)}"
-            )
         if self.pareto_metric.startswith("truth") and "truth" not in self.metrics:
             raise ValueError("sweep: pareto_metric needs the 'truth' metrics")
         if not self.pareto_metric.startswith("truth") and "golden" not in self.metrics:
             raise ValueError("sweep: pareto_metric needs the 'golden' metrics")
+
+    @property
+    def pipe(self) -> Pipeline:
+        """The registered pipeline this sweep runs."""
+        return get_pipeline(self.pipeline)
 
 
 def _int_list(raw: Any, where: str) -> tuple[int, ...]:
@@ -260,7 +247,7 @@ def _int_list(raw: Any, where: str) -> tuple[int, ...]:
     return tuple(raw)
 
 
-def _parse_axis(raw: Any, k: int, source: str) -> Axis:
+def _parse_axis(raw: Any, k: int, source: str, pipe: Pipeline, base: WordLengthConfig) -> Axis:
     where = f"{source}: axis {k + 1}"
     if not isinstance(raw, Mapping):
         raise _err(where, "must be a table")
@@ -271,19 +258,26 @@ def _parse_axis(raw: Any, k: int, source: str) -> Axis:
         if key not in raw:
             raise _err(where, f"missing {key!r}")
     sig = raw["signals"]
+    groups = pipe.signal_groups
     if isinstance(sig, str):
-        if sig in SIGNAL_GROUPS:
-            signals, label = SIGNAL_GROUPS[sig], sig
-        elif sig in P1_SIGNALS:
+        if sig in groups:
+            signals, label = groups[sig], sig
+        elif sig in base.signals():
             signals, label = (sig,), sig
         else:
             raise _err(
                 where,
-                f"unknown signal or group {sig!r}; groups: {', '.join(SIGNAL_GROUPS)}",
+                f"unknown signal or group {sig!r} of {pipe.name}"
+                f"{near_hint(sig, (*groups, *base.signals()))}; groups: {', '.join(groups)}; "
+                f"signals: {', '.join(base.signals())}",
             )
     else:
         signals = _int_list(sig, f"{where} signals")
         label = "+".join(str(s) for s in signals)
+        try:
+            check_signals((str(s) for s in signals), base)
+        except ValueError as exc:
+            raise _err(where, str(exc)) from None
     if ("values" in raw) == ("range" in raw):
         raise _err(where, "give exactly one of 'values' or 'range'")
     if "values" in raw:
@@ -321,8 +315,14 @@ def parse_sweep(text: str, where: str = "sweep definition", root: Path | None = 
     head = data.get("sweep")
     if not isinstance(head, Mapping):
         raise _err(where, "missing the [sweep] table")
-    keys = {"name", "base", "variant", "scenes", "metrics", "combine", "size", "seed",
-            "pareto_metric", "buildup_hooks"}  # fmt: skip
+    keys = {"name", "pipeline", "base", "variant", "scenes", "metrics", "combine", "size",
+            "seed", "pareto_metric"}  # fmt: skip
+    if "buildup_hooks" in head:
+        raise _err(
+            where,
+            "[sweep] buildup_hooks is no longer a key: every sweep writes its pipeline's own "
+            "build-up (the Riccati sweep's is P2's: a sweep with pipeline = \"p2\"); remove it",
+        )
     unknown = set(head) - keys
     if unknown:
         raise _err(where, f"[sweep]: unknown keys {sorted(unknown)}")
@@ -330,19 +330,28 @@ def parse_sweep(text: str, where: str = "sweep definition", root: Path | None = 
     if not isinstance(axes_raw, list) or not axes_raw:
         raise _err(where, "no [[axis]] tables: nothing to sweep")
     try:
+        pipe = get_pipeline(head.get("pipeline", "p1"))
+    except ValueError as exc:
+        raise _err(where, f"[sweep] pipeline: {exc}") from None
+    try:
         base_name = str(head.get("base", "default"))
         if base_name == "default":
-            base = P1Config.default()
+            base = pipe.default_config()
         else:
             path = Path(base_name)
             if root is not None and not path.is_absolute():
                 path = root / path
-            base = P1Config.load(path)
+            base = pipe.load_config(str(path))
         if "variant" in head:
+            if "variant" not in base.design_fields():
+                raise ValueError(
+                    f"variant does not apply to pipeline {pipe.name} (its design fields: "
+                    f"{', '.join(base.design_fields())})"
+                )
             base = base.with_(variant=head["variant"])
     except ValueError as exc:
         raise _err(where, f"[sweep] base: {exc}") from None
-    axes = tuple(_parse_axis(a, k, where) for k, a in enumerate(axes_raw))
+    axes = tuple(_parse_axis(a, k, where, pipe, base) for k, a in enumerate(axes_raw))
     size = head.get("size")
     try:
         return SweepDef(
@@ -355,7 +364,7 @@ def parse_sweep(text: str, where: str = "sweep definition", root: Path | None = 
             size=tuple(size) if size is not None else None,
             seed=int(head.get("seed", 0)),
             pareto_metric=str(head.get("pareto_metric", "median_rel_range_diff")),
-            buildup_hooks=tuple(head.get("buildup_hooks", ())),
+            pipeline=pipe.name,
         )
     except (ValueError, TypeError) as exc:
         raise _err(where, str(exc)) from None
@@ -377,7 +386,7 @@ class Point:
 
     key: str
     scene: str
-    config: P1Config | None  # None: the axis values give an invalid config
+    config: WordLengthConfig | None  # None: the axis values give an invalid config
     labels: tuple[tuple[str, Any], ...]
     error: str = ""
 
@@ -385,6 +394,7 @@ class Point:
         """Picklable description a worker evaluates (:func:`evaluate_point`)."""
         return {
             "key": self.key,
+            "pipeline": defn.pipeline,
             "scene": self.scene,
             "size": list(defn.size) if defn.size else None,
             "seed": defn.seed,
@@ -396,18 +406,26 @@ class Point:
 
 
 def point_key(
-    config_toml: str | None, scene: str, size, seed: int, metrics: Iterable[str], extra: str = ""
+    pipeline: str,
+    config_toml: str | None,
+    scene: str,
+    size: Sequence[int] | None,
+    seed: int,
+    metrics: Iterable[str],
+    extra: str = "",
 ) -> str:
-    """Hash of everything that determines a point's result (16 hex digits)."""
+    """Hash of everything that determines a point's result (16 hex digits): the
+    pipeline, its config, the scene, size, seed and metric groups."""
     blob = json.dumps(
         {
+            "pipeline": pipeline,
             "config": config_toml,
             "scene": scene,
             "size": list(size) if size else None,
             "seed": seed,
             "metrics": sorted(metrics),
             "extra": extra,
-            "v": 1,
+            "v": 2,
         },
         sort_keys=True,
     )
@@ -437,7 +455,7 @@ def expand(defn: SweepDef) -> list[Point]:
     by_label = {a.label: a for a in defn.axes}
     points: list[Point] = []
     for labels in combos:
-        config: P1Config | None = defn.base
+        config: WordLengthConfig | None = defn.base
         error = ""
         try:
             for label, value in labels:
@@ -447,62 +465,29 @@ def expand(defn: SweepDef) -> list[Point]:
         for scene in defn.scenes:
             toml = config.to_toml() if config is not None else None
             extra = "" if config is not None else json.dumps(labels)
-            key = point_key(toml, scene, defn.size, defn.seed, defn.metrics, extra)
+            key = point_key(defn.pipeline, toml, scene, defn.size, defn.seed, defn.metrics, extra)
             points.append(Point(key, scene, config, labels, error))
     return points
 
 
 # ------------------------------------------------------------------------ evaluation
 _CACHE_LOCK = threading.Lock()
-_GOLDEN: dict[tuple, tuple[RangeResult, dict[str, np.ndarray]]] = {}
+_GOLDEN: dict[tuple, GoldenReference] = {}
 
 
-def _golden(case: Case, config: P1Config, key: tuple, taps: bool):
-    gkey = (*key, config.variant, config.pole, config.bias, config.init, taps)
+def cached_golden(
+    pipe: Pipeline, case: Case, config: WordLengthConfig, case_key: tuple, taps: bool
+) -> GoldenReference:
+    """:meth:`Pipeline.golden` of ``case`` (identified by ``case_key``), computed once per
+    process for every config with the same :meth:`Pipeline.golden_key`."""
+    key = (pipe.name, *case_key, pipe.golden_key(config), taps)
     with _CACHE_LOCK:
-        hit = _GOLDEN.get(gkey)
+        hit = _GOLDEN.get(key)
     if hit is None:
-        ref = PIPELINES["p1"].golden(case, config, taps=taps)
-        hit = (ref.result, dict(ref.taps))
+        hit = pipe.golden(case, config, taps=taps)
         with _CACHE_LOCK:
-            _GOLDEN[gkey] = hit
+            _GOLDEN[key] = hit
     return hit
-
-
-def tap_float(result: PipelineResult, tap: str) -> np.ndarray:
-    """A fixed-point tap as float values (raw times 2^-F of the tap's signal)."""
-    name = tap.split(".", 1)[-1]
-    config = result.config
-    if name == "ex":
-        signal = "col2_out" if config.variant == "consistent" else "div_quot"
-    else:
-        signal = TAP_SIGNAL[name]
-    return np.ldexp(result.taps[tap].astype(np.float64), -config.formats[signal].frac)
-
-
-def tap_errors(
-    result: PipelineResult, gtaps: Mapping[str, np.ndarray], valid_both: np.ndarray
-) -> dict[str, dict[str, float | None]]:
-    """Per tap: SQNR in dB (``None``: exact) and max |fixed - golden|.
-
-    ``range_q`` is scored on pixels valid in both (elsewhere the golden quotient may be
-    unbounded); every other tap on all pixels.
-    """
-    out: dict[str, dict[str, float | None]] = {}
-    for tap, g in gtaps.items():
-        if tap not in result.taps:
-            continue
-        fx = tap_float(result, tap)
-        if tap == "range_q":
-            fx, g = fx[valid_both], np.asarray(g)[valid_both]
-        err = fx - g
-        if err.size == 0:
-            continue
-        noise = float(np.sum(err * err))
-        power = float(np.sum(np.square(g)))
-        sqnr = None if noise == 0 else (10 * math.log10(power / noise) if power > 0 else -math.inf)
-        out[tap] = {"sqnr_db": sqnr, "max_abs_err": float(np.max(np.abs(err)))}
-    return out
 
 
 def _finite(x: Any) -> Any:
@@ -518,27 +503,25 @@ def evaluate_point(spec: Mapping[str, Any]) -> dict[str, Any]:
 
     Runs in any worker: it renders (and caches) the scene and its golden itself.
     """
-    rec: dict[str, Any] = {"key": spec["key"], "scene": spec["scene"]}
+    pipe = get_pipeline(spec["pipeline"])
+    rec: dict[str, Any] = {"key": spec["key"], "pipeline": pipe.name, "scene": spec["scene"]}
     if spec["config"] is None:
         return {**rec, "status": "invalid", "error": spec["error"]}
     t0 = time.perf_counter()
-    config = P1Config.from_toml(spec["config"])
+    config = pipe.config_from_toml(spec["config"])
     case = scene_case(spec["scene"], spec["size"], spec["seed"])
     metrics = set(spec["metrics"])
     want_taps = "sqnr" in metrics
     ckey = (spec["scene"], tuple(spec["size"]) if spec["size"] else None, spec["seed"])
-    golden, gtaps = _golden(case, config, ckey, want_taps)
+    golden = cached_golden(pipe, case, config, ckey, want_taps)
     try:
-        result = run_p1(
-            case.image1, case.image2, case.camera, case.motion, config, case.ranging,
-            mode=case.mode, taps=want_taps, threads=int(spec.get("threads", 1)),
-        )  # fmt: skip
+        result = pipe.run(case, config, taps=want_taps, threads=int(spec.get("threads", 1)))
     except ValueError as exc:
         return {**rec, "status": "invalid", "error": str(exc)}
     rec["status"] = "ok"
-    rec.update(config_cost(config, case.image1.shape, case.mode).as_dict())
+    rec.update(pipe.cost(config, case.shape, case.mode).as_dict())
     if "golden" in metrics:
-        rec.update(compare_ranges(result, golden))
+        rec.update(compare_ranges(result, golden.result))
     if "truth" in metrics and case.scene is not None:
         truth = report.overall_metrics(result.range, result.valid, case.scene.depth1)
         rec.update({f"truth_{k}": v for k, v in truth.items()})
@@ -547,7 +530,7 @@ def evaluate_point(spec: Mapping[str, Any]) -> dict[str, Any]:
         rec["overflow_total"] = result.overflow_total
         rec["overflows"] = {k: v for k, v in result.overflows.items() if v}
     if want_taps:
-        rec["taps"] = tap_errors(result, gtaps, result.valid & golden.valid)
+        rec["taps"] = tap_errors(result, golden, pipe.tap_table(config, case.mode))
     rec["seconds"] = time.perf_counter() - t0
     return _finite(rec)
 
@@ -672,6 +655,12 @@ def run_sweep(
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise UserError(f"--workers must be a positive integer, not {workers!r}")
+    pipe = defn.pipe
+    for scene in defn.scenes:  # renders each scene once (cached for the local workers)
+        try:
+            pipe.check_mode(scene_case(scene, defn.size, defn.seed))
+        except ValueError as exc:
+            raise UserError(f"sweep {defn.name!r}: {exc}") from None
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -745,6 +734,7 @@ def pareto_front(costs: Sequence[float], errors: Sequence[float]) -> list[int]:
 # ------------------------------------------------------------------------ outputs
 _POINT_FIELDS = (
     "key",
+    "pipeline",
     "scene",
     "labels",
     "status",
@@ -782,46 +772,12 @@ def _min_sqnr(rec: Mapping[str, Any]) -> float | None:
     return min(vals) if vals else None
 
 
-def buildup_for(
-    case: Case, config: P1Config, hooks: Iterable[str] = ()
-) -> tuple[dict[str, dict[str, np.ndarray]], list[str]]:
-    """Error build-up profiles of ``config`` on ``case`` plus those of the named
-    :data:`BUILDUP_HOOKS`, and notes on hooks that produced nothing (an optional model
-    absent or failing: it never stops a study)."""
-    from ..report.wlplots import BUILDUP_HOOKS, COL_TAPS, ROW_TAPS, buildup_profiles
-
-    result = run_p1(
-        case.image1, case.image2, case.camera, case.motion, config, case.ranging,
-        mode=case.mode, taps=True,
-    )  # fmt: skip
-    gt = PIPELINES["p1"].golden(case, config, taps=True).taps
-    taps = [*ROW_TAPS, *COL_TAPS]
-    fixed = {t: tap_float(result, t) for t in taps}
-    lsb = {t: 2.0 ** -config.formats[TAP_SIGNAL[t.split(".", 1)[1]]].frac for t in taps}
-    profiles = buildup_profiles(fixed, {t: gt[t] for t in taps}, lsb)
-    notes = []
-    for name in hooks:
-        hook = BUILDUP_HOOKS.get(name)
-        if hook is None:
-            notes.append(f"{name}: no such build-up hook (known: {', '.join(BUILDUP_HOOKS)})")
-            continue
-        try:
-            prof = hook(case, config)
-        except Exception as exc:  # an optional model (P2, in progress) must not stop a study
-            notes.append(f"{name}: {type(exc).__name__}: {exc}")
-            continue
-        if prof:
-            profiles[name] = dict(prof)
-        else:
-            notes.append(f"{name}: not available for this case")
-    return profiles, notes
-
-
 def write_outputs(defn: SweepDef, outcome: SweepOutcome, out_dir: str | Path) -> dict[str, Any]:
     """points.csv, Pareto / sensitivity / build-up PNG + CSV and summary.json."""
     from ..report.wlplots import save_buildup, save_pareto, save_sensitivity, write_csv
 
     out = Path(out_dir)
+    pipe = defn.pipe
     rows = []
     for p in outcome.points:
         rec = outcome.records[p.key]
@@ -844,12 +800,16 @@ def write_outputs(defn: SweepDef, outcome: SweepOutcome, out_dir: str | Path) ->
             marks["base config"] = (float(base["cost_bits"]), _metric(base, metric))
         save_pareto(
             out / f"pareto_{scene}.png", costs, errs, front, ylabel=metric.replace("_", " "),
-            title=f"{defn.name}: {scene} ({defn.base.variant})", marks=marks,
+            title=f"{defn.name}: {scene} ({pipe.name}, golden {pipe.golden_label(defn.base)})",
+            marks=marks,
         )  # fmt: skip
         summary["pareto"][scene] = [
             {k: pts[i][k] for k in ("key", "labels", "cost_bits", metric)} for i in front
         ]
-    # sensitivity: single-signal bit axes, each point differing from the base in that axis
+    # sensitivity: single-signal bit axes, each point differing from the base in that axis;
+    # a tap belongs to the signal whose format it carries (the base's tap table)
+    first = scene_case(defn.scenes[0], defn.size, defn.seed)
+    signal_of = signal_of_taps(pipe.tap_table(defn.base, first.mode))
     sens_rows = []
     curves: dict[str, list[tuple[float, float]]] = {}
     for p, r in zip(outcome.points, rows, strict=True):
@@ -863,8 +823,7 @@ def write_outputs(defn: SweepDef, outcome: SweepOutcome, out_dir: str | Path) ->
         own = [
             t["sqnr_db"]
             for name, t in outcome.records[p.key].get("taps", {}).items()
-            if TAP_SIGNAL.get(name.split(".", 1)[-1]) == sig
-            or (name.endswith(".ex") and sig in ("div_quot", "col2_out"))
+            if signal_of.get(name) == sig
         ]
         own_vals = [v for v in own if v is not None]
         sens_rows.append(
@@ -883,13 +842,12 @@ def write_outputs(defn: SweepDef, outcome: SweepOutcome, out_dir: str | Path) ->
             ylabel=metric.replace("_", " ") + f" ({defn.scenes[0]})",
         )  # fmt: skip
         summary["sensitivity"] = sorted(curves)
-    case = scene_case(defn.scenes[0], defn.size, defn.seed)
-    profiles, notes = buildup_for(case, defn.base, defn.buildup_hooks)
+    profiles = buildup_for(pipe, first, defn.base)
     written = save_buildup(
-        out, "buildup_base", profiles, f"error build-up, base config ({defn.scenes[0]})"
-    )
+        out, "buildup_base", profiles,
+        f"{pipe.name} error build-up, base config ({defn.scenes[0]})", xlabels=PROFILE_AXES,
+    )  # fmt: skip
     summary["buildup"] = [p.name for p in written]
-    summary["buildup_notes"] = notes
     n_ok = sum(1 for r in unique.values() if r["status"] == "ok")
     summary.update(
         {
@@ -900,7 +858,10 @@ def write_outputs(defn: SweepDef, outcome: SweepOutcome, out_dir: str | Path) ->
             "n_invalid": len(unique) - n_ok,
             "computed_this_run": len(outcome.computed),
             "wall_seconds_this_run": outcome.seconds,
-            "variant": defn.base.variant,
+            "pipeline": pipe.name,
+            "design": defn.base.design(),
+            **({"variant": defn.base.variant} if "variant" in defn.base.design_fields() else {}),
+            "golden": pipe.golden_label(defn.base),
             "scenes": list(defn.scenes),
             "pareto_metric": metric,
         }
