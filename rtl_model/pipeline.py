@@ -231,7 +231,6 @@ class Pipeline(abc.ABC):
         }
 
     # -- the model ----------------------------------------------------------------------
-    @abc.abstractmethod
     def run(
         self,
         case: Case,
@@ -241,19 +240,31 @@ class Pipeline(abc.ABC):
         taps: bool = True,
         threads: int = 2,
     ) -> PipelineResult:
-        """Run the bit-accurate model on ``case``; ``ValueError`` for bad inputs."""
+        """Run the bit-accurate model on ``case`` (default config if ``config`` is None);
+        ``ValueError`` for bad inputs: a config of another pipeline, a mode the pipeline
+        does not model, bad images or timing."""
+        config = self.check_config(self.default_config() if config is None else config)
+        self.check_mode(case)
+        return self.simulate(case, config, timing or TimingConfig(), taps, threads)
 
     @abc.abstractmethod
+    def simulate(
+        self, case: Case, config: WordLengthConfig, timing: TimingConfig, taps: bool, threads: int
+    ) -> PipelineResult:
+        """The model itself, on checked arguments (:meth:`run` is the public entry)."""
+
     def golden(
         self, case: Case, config: WordLengthConfig | None = None, *, taps: bool = False
     ) -> GoldenReference:
-        """The float64 reference of this pipeline with ``config``'s design settings."""
+        """The float64 reference of this pipeline with ``config``'s design settings, and
+        (``taps``) the float value of every tap that has one."""
+        config = self.check_config(self.default_config() if config is None else config)
+        self.check_mode(case)
+        return self.reference(case, config, taps)
 
-    def golden_key(self, config: WordLengthConfig) -> tuple[tuple[str, Any], ...]:
-        """(field, value) of every design field of ``config`` that :meth:`golden` reads:
-        two configs with the same key have the same golden on a case."""
-        names = config.design_fields() if self.golden_fields is None else self.golden_fields
-        return tuple((name, getattr(config, name)) for name in names)
+    @abc.abstractmethod
+    def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
+        """The golden itself, on checked arguments (:meth:`golden` is the public entry)."""
 
     @abc.abstractmethod
     def golden_label(self, config: WordLengthConfig) -> str:

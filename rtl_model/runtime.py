@@ -34,12 +34,14 @@ __all__ = [
     "cast_row_site",
     "cast_site",
     "check_image_pair",
+    "check_threads",
     "divide_into",
     "divide_row",
     "divide_scalar",
     "divider_code",
     "divider_latency",
     "divider_roms",
+    "divider_setup",
     "floor_div",
     "format_table",
     "ldexp2",
@@ -233,6 +235,18 @@ def reciprocal_lut(lut_bits: int, r_bits: int) -> np.ndarray:
     num = np.int64(1) << (r_bits + lut_bits + 1)
     den = (np.int64(1) << (lut_bits + 1)) + 2 * idx + 1
     return (2 * num + den) // (2 * den)
+
+
+def divider_setup(config: WordLengthConfig) -> tuple[int, np.ndarray]:
+    """What the kernels need of a config's divider: its kernel code and the reciprocal
+    seed ROM (built for either model, read only by the reciprocal one)."""
+    return divider_code(config.divider), reciprocal_lut(config.recip_lut_bits, config.recip_bits)
+
+
+def check_threads(threads: object) -> None:
+    """The models run on 1 or 2 threads (the two streams, or two row bands)."""
+    if threads not in (1, 2):
+        raise ValueError(f"threads must be 1 or 2, not {threads!r}")
 
 
 def divider_roms(config: WordLengthConfig) -> dict[str, np.ndarray]:

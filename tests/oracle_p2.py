@@ -18,6 +18,7 @@ from fractions import Fraction
 import numpy as np
 from apytypes import APyFixed
 from oracle_p1 import (
+    OracleResult,
     _apy,
     _div_zero,
     _exact,
@@ -33,18 +34,11 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.riccati import RiccatiConfig
 from rangefx.rtl_model.p2.config import P2_SIGNALS, P2Config
 
-__all__ = ["TAPS", "OracleP2", "oracle_p2"]
+__all__ = ["TAPS", "oracle_p2"]
 
 TAPS = (
     "d", "g_hat", "a", "c", "den", "r", "s", "h", "q", "w", "lam", "z", "e", "valid", "range",
 )  # fmt: skip
-
-
-@dataclass
-class OracleP2:
-    taps: dict[str, np.ndarray]
-    overflows: dict[str, int]
-    minmax: dict[str, tuple[float, float]]
 
 
 @dataclass
@@ -103,7 +97,7 @@ def oracle_p2(
     motion: MotionIncrement,
     config: P2Config,
     riccati: RiccatiConfig,
-) -> OracleP2:
+) -> OracleResult:
     """Run the P2 datapath of ``docs/p2_datapath.md`` on a small stereo pair."""
     ctx = _Ctx(config)
     fmt = config.fmt
@@ -172,4 +166,4 @@ def oracle_p2(
         for i in range(n):
             taps["d"][j, i], taps["g_hat"][j, i] = d[i].raw, g[i].raw
     minmax = {k: (float(ctx.lo[k]), float(ctx.hi[k])) for k in P2_SIGNALS if k in ctx.lo}
-    return OracleP2(taps=taps, overflows=dict(ctx.overflows), minmax=minmax)
+    return OracleResult(taps=taps, overflows=dict(ctx.overflows), minmax=minmax)

@@ -32,10 +32,10 @@ from ..runtime import (
     RegisterFile,
     SignalStats,
     check_image_pair,
-    divider_code,
+    check_threads,
     divider_latency,
+    divider_setup,
     format_table,
-    reciprocal_lut,
 )
 from ..runtime import at_frac as _at
 from ..runtime import cast_row_site as _cast_row
@@ -469,8 +469,7 @@ def run_p1(
     """
     if mode not in ("stereo", "motion"):
         raise ValueError(f"unknown P1 mode {mode!r}; choose 'stereo' or 'motion'")
-    if threads not in (1, 2):
-        raise ValueError(f"threads must be 1 or 2, not {threads!r}")
+    check_threads(threads)
     config = config or P1Config.default()
     if not isinstance(config, P1Config):
         raise ValueError(f"P1 needs a P1Config, not {type(config).__name__}")
@@ -486,8 +485,7 @@ def run_p1(
         )
     regs = frame_registers(camera, motion, ranging, config)
     fm = format_table(config)
-    kind = divider_code(config.divider)
-    lut = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
+    kind, lut = divider_setup(config)
     consistent = config.variant == "consistent"
     init_first = config.init == "first"
     n_ft = len(FRONTEND_TAPS)

@@ -59,37 +59,25 @@ class P1Pipeline(Pipeline):
         )
         return groups
 
-    def run(
-        self,
-        case: Case,
-        config: WordLengthConfig | None = None,
-        timing: TimingConfig | None = None,
-        *,
-        taps: bool = True,
-        threads: int = 2,
+    def simulate(
+        self, case: Case, config: WordLengthConfig, timing: TimingConfig, taps: bool, threads: int
     ) -> PipelineResult:
-        config = self.check_config(config or P1Config.default())
         return model.run_p1(
             case.image1, case.image2, case.camera, case.motion, config, case.ranging,
             timing=timing, mode=case.mode, taps=taps, threads=threads,
         )  # fmt: skip
 
-    def golden(
-        self, case: Case, config: WordLengthConfig | None = None, *, taps: bool = False
-    ) -> GoldenReference:
-        config = self.check_config(config or P1Config.default())
-        est = EstimatorConfig(pole=config.pole, bias=config.bias, init=config.init)
+    def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
+        est = EstimatorConfig(
+            pole=config.pole, variant=config.variant, bias=config.bias, init=config.init
+        )
         result = run_method(
             f"g4_{config.variant}", case.image1, case.image2, case.camera, case.motion,
             estimator=est, ranging=case.ranging,
         )  # fmt: skip
         values = {}
         if taps:
-            values = p1_golden_taps(
-                case.image1, case.image2, case.camera, case.motion,
-                EstimatorConfig(pole=config.pole, variant=config.variant, bias=config.bias,
-                                init=config.init),
-            )  # fmt: skip
+            values = p1_golden_taps(case.image1, case.image2, case.camera, case.motion, est)
         return GoldenReference(result, values)
 
     def golden_label(self, config: WordLengthConfig) -> str:

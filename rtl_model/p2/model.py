@@ -31,10 +31,10 @@ from ..runtime import (
     RegisterFile,
     SignalStats,
     check_image_pair,
-    divider_code,
+    check_threads,
     divider_latency,
+    divider_setup,
     format_table,
-    reciprocal_lut,
 )
 from ..runtime import cast_site as _cast
 from ..runtime import divide_into as _divide_into
@@ -313,8 +313,7 @@ def run_p2(
     displaced ``b`` to the right), integer grey levels; ``riccati`` gives the weights
     (α, β, γ, pixel pitch), ``threshold_e`` and ``range_max`` of golden G5 (its ``form``
     must be ``"lq"`` and ``a_sampling`` ``"edge"``, the discretisation P2 implements)."""
-    if threads not in (1, 2):
-        raise ValueError(f"threads must be 1 or 2, not {threads!r}")
+    check_threads(threads)
     config = config or P2Config.default()
     riccati = riccati or RiccatiConfig()
     if riccati.form != "lq" or riccati.a_sampling != "edge":
@@ -330,8 +329,7 @@ def run_p2(
     in_cycles = stream.pixel_cycles()[-1]
     out_cycles, sched, _ = p2_schedule(in_cycles, config, timing.hblank)
     fm = format_table(config)
-    kind = divider_code(config.divider)
-    lut = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
+    kind, lut = divider_setup(config)
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
     tp = np.zeros((len(P2_TAPS), m, n) if taps else (len(P2_TAPS), 0, 0), dtype=np.int64)

@@ -42,26 +42,15 @@ class P2Pipeline(Pipeline):
             groups[stage] = tuple(s for s in P2Config.signals() if s in used)
         return groups
 
-    def run(
-        self,
-        case: Case,
-        config: WordLengthConfig | None = None,
-        timing: TimingConfig | None = None,
-        *,
-        taps: bool = True,
-        threads: int = 2,
+    def simulate(
+        self, case: Case, config: WordLengthConfig, timing: TimingConfig, taps: bool, threads: int
     ) -> PipelineResult:
-        config = self.check_config(config or P2Config.default())
-        self.check_mode(case)
         return model.run_p2(
             case.image1, case.image2, case.camera, case.motion, config, case.riccati,
             timing=timing, taps=taps, threads=threads,
         )  # fmt: skip
 
-    def golden(
-        self, case: Case, config: WordLengthConfig | None = None, *, taps: bool = False
-    ) -> GoldenReference:
-        self.check_mode(case)
+    def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         result = range_g5(case.image1, case.image2, case.camera, case.motion, case.riccati)
         return GoldenReference(result, p2_golden_taps(result) if taps else {})
 
