@@ -203,7 +203,8 @@ def warp_rows(image: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     t = src - base
     base = base.astype(np.intp)
     rows = np.arange(m)[:, None]
-    out = np.zeros_like(u)
+    image = np.asarray(image, dtype=np.float64)
+    out = np.zeros(u.shape)
     for off, w in zip((-1, 0, 1, 2), _keys(t), strict=True):
         out += w * image[rows, np.clip(base + off, 0, n - 1)]
     inside = (src >= 0) & (src <= n - 1)
