@@ -66,6 +66,7 @@ __all__ = [
     "MultiscaleConfig",
     "claimed_max_disparity",
     "disparity_g6",
+    "pyramid_levels",
     "range_g6",
     "streaming_schedule",
 ]
@@ -104,6 +105,11 @@ class MultiscaleConfig:
         Largest disparity, px at full scale (= the width of the E2 line buffer that
         the warp reads); ``None``: the claim. Estimates are clipped to
         ``[0, max_disparity]`` at every step.
+    coarse_lag
+        Lines (of the finer level) by which the up-sampled coarse estimate reaches each
+        finer level late: fine line ``y`` starts from the coarse estimate of line
+        ``y - coarse_lag`` (top lines replicate). Each lag line saves one line of delay
+        buffer per image at that level (:func:`streaming_schedule`); 0 = none.
     """
 
     levels: int = 4
@@ -114,9 +120,15 @@ class MultiscaleConfig:
     threshold_r: float = 25.0
     coarse_px: float = 1.0
     max_disparity: float | None = None
+    coarse_lag: int = 0
 
     def __post_init__(self) -> None:
-        for name, lo, hi in (("levels", 1, 6), ("warps", 1, 5), ("radius", 1, 16)):
+        for name, lo, hi in (
+            ("levels", 1, 6),
+            ("warps", 1, 5),
+            ("radius", 1, 16),
+            ("coarse_lag", 0, 1024),
+        ):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
                 raise ValueError(f"{name} must be an integer in {lo}..{hi}, not {v!r}")
@@ -145,6 +157,18 @@ class MultiscaleConfig:
         k = np.arange(-self.radius, self.radius + 1, dtype=np.float64)
         w = np.exp(-0.5 * (k / self.sigma) ** 2)
         return w / w.sum()
+
+
+def pyramid_levels(config: MultiscaleConfig, shape: tuple[int, int]) -> int:
+    """Levels actually built for an image of ``shape``: the pyramid stops before a level
+    whose parent is smaller than the window (``2 radius + 2`` rows or columns), where a
+    coarser level adds nothing."""
+    m, n = shape
+    built = 1
+    while built < config.levels and min(m, n) >= 2 * config.radius + 2:
+        m, n = (m + 1) // 2, (n + 1) // 2
+        built += 1
+    return built
 
 
 def claimed_max_disparity(config: MultiscaleConfig) -> float:
@@ -227,10 +251,8 @@ def disparity_g6(
         raise ValueError(f"image pair shapes differ: {e1.shape} vs {e2.shape}")
     w = config.window()
     pyr = [(e1, e2)]
-    for _ in range(config.levels - 1):
+    for _ in range(pyramid_levels(config, e1.shape) - 1):
         a, b = pyr[-1]
-        if min(a.shape) < 2 * config.radius + 2:
-            break  # a level smaller than the window adds nothing; stop the pyramid here
         pyr.append((_reduce(a), _reduce(b)))
     limit = config.disparity_limit
     u = np.zeros(pyr[-1][0].shape)
@@ -238,6 +260,9 @@ def disparity_g6(
         a, b = pyr[level]
         if u.shape != a.shape:
             u = _expand(u, a.shape)
+            lag = min(config.coarse_lag, u.shape[0])
+            if lag:  # the coarse estimate arrives late: line y gets that of y - lag
+                u = np.concatenate([np.repeat(u[:1], lag, axis=0), u[: u.shape[0] - lag]])
         cap = limit / 2**level
         ax = _filt(a, _CENTRAL, 1)
         for _ in range(config.warps):
@@ -319,7 +344,7 @@ def range_g6(
     return RangeResult(range=rng, valid=valid, terms=terms)
 
 
-def streaming_schedule(config: MultiscaleConfig, width: int) -> dict:
+def streaming_schedule(config: MultiscaleConfig, width: int, height: int | None = None) -> dict:
     """Latency (lines) and line buffers (words) of G6 streamed one pixel per clock.
 
     Per level ``l`` (width ``n_l = ceil(width / 2^l)``), in the order the data flows:
@@ -337,21 +362,27 @@ def streaming_schedule(config: MultiscaleConfig, width: int) -> dict:
       line ``y`` arrives (2 for the reduce, 2 for one coarse line of interpolation,
       ``λ_{l+1}`` the coarse level's latency in its own lines), so E1 and E2 of level
       ``l`` wait that long in **delay lines** — the only buffers that grow with the
-      depth of the pyramid, and still lines, not a frame.
+      depth of the pyramid, and still lines, not a frame; ``coarse_lag`` lines of
+      staleness accepted in the coarse estimate save as many delay lines.
 
     Returns per level ``width``, ``latency_lines`` (from the level's input line to its
     output line, in its own lines), ``delay_lines`` and ``buffer_words`` by buffer, and
-    the totals ``latency_lines`` (full-scale lines) and ``buffer_words``.
+    the totals ``latency_lines`` (full-scale lines) and ``buffer_words``. With
+    ``height``, only the levels :func:`pyramid_levels` builds for that image count.
     """
-    if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
-        raise ValueError(f"width must be a positive integer, not {width!r}")
+    for name, v in (("width", width), ("height", height)):
+        if v is None and name == "height":
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ValueError(f"{name} must be a positive integer, not {v!r}")
     r, k = config.radius, config.warps
+    built = config.levels if height is None else pyramid_levels(config, (height, width))
     levels = []
     lam_coarse = None
-    for level in range(config.levels - 1, -1, -1):
+    for level in range(built - 1, -1, -1):
         n_l = -(-width // 2**level)
         cap = config.disparity_limit / 2**level
-        delay = 0 if lam_coarse is None else 4 + 2 * lam_coarse
+        delay = 0 if lam_coarse is None else max(0, 4 + 2 * lam_coarse - config.coarse_lag)
         lam = delay + k * r
         words = {
             "reduce": 0 if level == 0 else 2 * 4 * -(-width // 2 ** (level - 1)),

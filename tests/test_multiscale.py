@@ -247,3 +247,13 @@ def test_eval_peers_need_the_middlebury_protocol(capsys):
     assert len(err) == 1 and "--peers applies to --protocol middlebury" in err[0]
     assert main(["eval", "--protocol", "kitti"]) == 2
     assert "unknown protocol 'kitti'" in capsys.readouterr().err
+
+
+def test_coarse_lag_trades_delay_lines_for_a_stale_coarse_estimate():
+    lagged = streaming_schedule(MultiscaleConfig(coarse_lag=8), 512, 512)
+    assert [lv["delay_lines"] for lv in lagged["levels"]] == [84, 36, 12, 0]
+    assert lagged["latency_lines"] == 92
+    e1 = np.tile(np.arange(40.0), (40, 1)) ** 2 % 97
+    a = disparity_g6(e1, e1, MultiscaleConfig(levels=2))
+    b = disparity_g6(e1, e1, MultiscaleConfig(levels=2, coarse_lag=3))
+    assert a["disparity"].shape == b["disparity"].shape
