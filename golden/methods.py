@@ -4,7 +4,9 @@ Method names are ``<algorithm>_<estimator variant>``: ``g3_paper``, ``g3_consist
 (SPIE degree-1 polynomial, translation only) and ``g4_paper``, ``g4_consistent``
 (obstacle paper eq 28, translation and rotation); ``g2_central`` (ch. 3: eq 15 with the
 central differences of eqs 18-19, no estimator) and ``g5_riccati`` (ch. 5: derivative-free
-Riccati sweep, stereo pairs only). ``g3d<n>_<variant>`` (n = 2..4) is the SPIE ranging
+Riccati sweep, stereo pairs only); ``g6_multiscale`` (beyond the report, SPEC §12: the
+degree-1 normal equations over a window, coarse to fine with warping, stereo pairs only,
+:mod:`rangefx.golden.multiscale`). ``g3d<n>_<variant>`` (n = 2..4) is the SPIE ranging
 polynomial of degree n (eq 10, :func:`rangefx.golden.polynomial.range_g3_poly`).
 """
 
@@ -17,6 +19,7 @@ import numpy as np
 from .central import CentralConfig, range_g2
 from .estimator import EstimatorConfig, estimate_derivatives
 from .geometry import MotionIncrement, PinholeCamera
+from .multiscale import MultiscaleConfig, range_g6
 from .polynomial import PolynomialConfig, range_g3_poly
 from .ranging import RangeResult, RangingConfig, range_g3, range_g4
 from .riccati import RiccatiConfig, range_g5
@@ -44,6 +47,10 @@ METHODS += G3_POLY_METHODS
 G2_G5_METHODS: tuple[str, ...] = ("g2_central", "g5_riccati")
 METHODS += G2_G5_METHODS
 
+#: Beyond the report (SPEC §12): the multi-scale windowed degree-1 method.
+G6_METHODS: tuple[str, ...] = ("g6_multiscale",)
+METHODS += G6_METHODS
+
 
 def method_spec(name: str) -> MethodSpec:
     """Parse a method name; unknown names raise ``ValueError`` listing the valid ones."""
@@ -64,13 +71,15 @@ def run_method(
     ranging: RangingConfig | None = None,
     central: CentralConfig | None = None,
     riccati: RiccatiConfig | None = None,
+    multiscale: MultiscaleConfig | None = None,
 ) -> RangeResult:
     """Run a named method on an image pair (E1 = ``image1``, E2 = ``image2``).
 
     ``estimator`` settings other than the variant are kept; the variant comes from the
     method name. ``g2_central`` and ``g5_riccati`` ignore ``estimator``; without their
     own ``central`` / ``riccati`` config they take ``threshold_e`` (and ``threshold_g``
-    for G2) and ``range_max`` from ``ranging``.
+    for G2) and ``range_max`` from ``ranging``. ``g6_multiscale`` takes its settings
+    from ``multiscale`` and only ``range_max`` from ``ranging``.
     """
     spec = method_spec(name)
     image1 = np.asarray(image1)
@@ -85,6 +94,8 @@ def run_method(
                 range_max=ranging.range_max,
             )
         return range_g2(image1, image2, camera, motion, central)
+    if spec.name == "g6_multiscale":
+        return range_g6(image1, image2, camera, motion, multiscale, ranging)
     if spec.name == "g5_riccati":
         if riccati is None and ranging is not None:
             riccati = RiccatiConfig(threshold_e=ranging.threshold_e, range_max=ranging.range_max)

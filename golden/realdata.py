@@ -41,11 +41,15 @@ import numpy as np
 from .geometry import MotionIncrement, PinholeCamera
 
 __all__ = [
+    "MIDDLEBURY_THRESHOLDS",
     "MOTORCYCLE_CALIBRATION",
     "StereoData",
     "choose_factor",
+    "disparity_from_range",
     "evaluate",
     "load_motorcycle",
+    "middlebury_metrics",
+    "search_range",
 ]
 
 #: Calibration of the pair shipped by scikit-image (its docstring), pixels and mm.
@@ -70,7 +74,8 @@ class StereoData:
     docstring), ``+inf`` where unknown; ``metric_depth`` the calibrated metric depth;
     ``disparity`` the block-mean disparity in pixels at this scale (``+inf`` unknown).
     ``range_max`` is a maximum scene depth for the ranging stage (twice the largest
-    known depth).
+    known depth). ``doffs_px`` is the principal-point offset left in the pair at this
+    scale: ``metric_depth = f B / (disparity + doffs_px)``.
     """
 
     name: str
@@ -85,6 +90,7 @@ class StereoData:
     disparity: np.ndarray
     range_max: float
     registered: bool
+    doffs_px: float = 0.0  # principal-point offset left in the pair, px at this scale
 
     @property
     def median_disparity(self) -> float:
@@ -180,6 +186,7 @@ def load_motorcycle(factor: int = 19, *, register: bool = False) -> StereoData:
         disparity=np.where(known, disp, np.inf),
         range_max=float(2.0 * depth[known].max()),
         registered=register,
+        doffs_px=(cal["doffs"] - shift) / factor,
     )
 
 
@@ -230,3 +237,93 @@ def evaluate(range_map: np.ndarray, valid: np.ndarray, truth: np.ndarray) -> dic
         "within_5pct": float(np.mean(rel <= 0.05)) if n else nan,
         "within_10pct": float(np.mean(rel <= 0.10)) if n else nan,
     }
+
+
+#: Bad-pixel thresholds of the Middlebury tables (px): ``bad_0_5``, ``bad_1``, ``bad_2``.
+MIDDLEBURY_THRESHOLDS: dict[str, float] = {"bad_0_5": 0.5, "bad_1": 1.0, "bad_2": 2.0}
+
+
+def disparity_from_range(range_map: np.ndarray, data: StereoData) -> np.ndarray:
+    """The disparity ``f B / z`` of a range map on ``data``'s registered pair (px).
+
+    The inverse of the ranging methods' depth (module docstring); non-positive or
+    non-finite ranges give ``+inf`` (no disparity).
+    """
+    r = np.asarray(range_map, dtype=np.float64)
+    fb = data.camera.f_px * abs(float(data.motion.camera_displacement[1]))
+    ok = np.isfinite(r) & (r > 0)
+    return np.where(ok, fb / np.where(ok, r, 1.0), np.inf)
+
+
+def search_range(data: StereoData) -> int:
+    """The disparity search range of ``data`` (px), as Middlebury's ``ndisp``: the
+    largest known disparity rounded up, plus one."""
+    known = np.isfinite(data.disparity)
+    return math.ceil(float(data.disparity[known].max())) + 1
+
+
+def middlebury_metrics(
+    disparity: np.ndarray,
+    valid: np.ndarray,
+    truth: np.ndarray,
+    metric_truth: np.ndarray,
+    doffs_px: float,
+    f_px: float,
+    baseline: float,
+) -> dict[str, float | int]:
+    """The Middlebury 2014 figures of a disparity map (its sparse protocol).
+
+    Parameters
+    ----------
+    disparity
+        Estimated disparity (px, left x matches right ``x - d``); read where ``valid``.
+    valid
+        Boolean map of the pixels that carry an estimate.
+    truth
+        True disparity of the registered pair (px); ``+inf`` / NaN unknown.
+    metric_truth
+        True metric depth ``f B / (d + doffs)``; ``+inf`` / NaN unknown.
+    doffs_px, f_px, baseline
+        Principal-point offset (px at this scale), focal length (px) and baseline: the
+        estimate's metric depth is ``f B / (d + doffs)``.
+
+    Returns
+    -------
+    dict
+        ``density``: valid pixels / **all** pixels (Middlebury's density);
+        ``n_scored``: valid pixels with known truth, the population of the rest;
+        ``mae_px``: mean ``|d - d_true|`` (Middlebury's avgerr);
+        ``bad_0_5``, ``bad_1``, ``bad_2``: percent of scored pixels with
+        ``|d - d_true|`` above 0.5, 1 and 2 px;
+        ``rel_depth_error``: median ``|Z - Z_true| / Z_true`` of the metric depths
+        (with ``doffs``). Error figures are NaN when nothing is scored.
+    """
+    d = np.asarray(disparity, dtype=np.float64)
+    v = np.asarray(valid)
+    t = np.asarray(truth, dtype=np.float64)
+    zt = np.asarray(metric_truth, dtype=np.float64)
+    if not (d.shape == v.shape == t.shape == zt.shape):
+        raise ValueError(
+            f"disparity {d.shape}, valid {v.shape}, truth {t.shape} and metric_truth "
+            f"{zt.shape} must have one shape"
+        )
+    if v.dtype != np.bool_:
+        raise ValueError(f"valid must be a boolean array, not dtype {v.dtype}")
+    scored = v & np.isfinite(t) & np.isfinite(zt)
+    if np.any(~np.isfinite(d[scored])):
+        raise ValueError("disparity is not finite at a valid pixel with known truth")
+    err = np.abs(d[scored] - t[scored])
+    n = int(err.size)
+    nan = math.nan
+    out: dict[str, float | int] = {
+        "density": float(np.count_nonzero(v)) / v.size if v.size else nan,
+        "n_scored": n,
+        "mae_px": float(err.mean()) if n else nan,
+    }
+    for key, thr in MIDDLEBURY_THRESHOLDS.items():
+        out[key] = 100.0 * float(np.count_nonzero(err > thr)) / n if n else nan
+    with np.errstate(divide="ignore"):
+        z = f_px * baseline / (d[scored] + doffs_px)
+    rel = np.abs(z - zt[scored]) / zt[scored]
+    out["rel_depth_error"] = float(np.median(rel)) if n else nan
+    return out

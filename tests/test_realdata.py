@@ -148,7 +148,7 @@ def test_evaluate_rejects_bad_input(args, message):
 
 
 def test_eval_command_json(capsys):
-    assert main(["eval", "--dataset", "motorcycle", "--json"]) == 0
+    assert main(["eval", "--dataset", "motorcycle", "--protocol", "report", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["factor"] == 19 and out["unit"] == "mm"
     assert set(out["methods"]) == {"g2_central", "g3_consistent", "g3_paper", "g5_riccati"}

@@ -12,6 +12,22 @@ Settings are not tuned on this pair: G2 and G3 use the lab thresholds (T_E = T_g
 grey levels); G5 uses Bryson's rule (eqs 14-16) with the error scales implied by the
 paper's weights and ``z_max`` = half the maximum scene depth; ``range_max`` is twice the
 largest known depth.
+
+Two protocols (``--protocol``):
+
+``middlebury`` (default)
+    The Middlebury 2014 figures (:func:`rangefx.golden.realdata.middlebury_metrics`):
+    density over all pixels, disparity MAE (avgerr), bad-0.5 / bad-1 / bad-2 (percent of
+    the scored pixels) and the median relative metric-depth error with ``doffs``, at the
+    factors 4, 8, 16 and the default one (or the one ``--factor``), for every method of
+    :data:`MIDDLEBURY_METHODS` (G6 included). ``--peers`` adds OpenCV's StereoSGBM and
+    StereoBM under the same protocol in the same run (extra ``rangefx[peers]``; without
+    OpenCV a one-line note, and they are skipped). Every method, G6 and the peers alike,
+    is given the dataset's disparity search range
+    (:func:`~rangefx.golden.realdata.search_range`, as Middlebury's ``ndisp``).
+``report``
+    The figures this command printed before: density among the pixels with known truth
+    and the relative error of ``f B / d`` (no ``doffs``), one factor.
 """
 
 from __future__ import annotations
@@ -19,14 +35,23 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from collections.abc import Sequence
 
 import numpy as np
 
 from rangefx.golden.central import CentralConfig
 from rangefx.golden.methods import run_method
+from rangefx.golden.multiscale import MultiscaleConfig
 from rangefx.golden.ranging import RangingConfig
-from rangefx.golden.realdata import StereoData, evaluate, load_motorcycle
+from rangefx.golden.realdata import (
+    StereoData,
+    disparity_from_range,
+    evaluate,
+    load_motorcycle,
+    middlebury_metrics,
+    search_range,
+)
 from rangefx.golden.riccati import bryson_config
 from rangefx.rtl_model.registry import PIPELINES
 
@@ -36,15 +61,44 @@ from ..studies.cases import real_pair_case
 from ..studies.runner import golden_case, load_config, run_case
 from .options import add_pipelines_arg
 
-__all__ = ["EVAL_METHODS", "add_parser", "cmd_eval", "evaluate_dataset", "evaluate_fixed_point"]
+__all__ = [
+    "EVAL_METHODS",
+    "MIDDLEBURY_FACTORS",
+    "MIDDLEBURY_KEYS",
+    "MIDDLEBURY_METHODS",
+    "PEERS",
+    "add_parser",
+    "cmd_eval",
+    "evaluate_dataset",
+    "evaluate_fixed_point",
+    "evaluate_middlebury",
+    "run_peers",
+]
 
 EVAL_METHODS: tuple[str, ...] = ("g2_central", "g3_consistent", "g3_paper", "g5_riccati")
+#: Methods scored under the Middlebury protocol: the report's and G6.
+MIDDLEBURY_METHODS: tuple[str, ...] = (*EVAL_METHODS, "g6_multiscale")
+#: Factors of the Middlebury tables (the default factor is added).
+MIDDLEBURY_FACTORS: tuple[int, ...] = (4, 8, 16)
+#: The figures of every method under the Middlebury protocol (``--json``).
+MIDDLEBURY_KEYS: tuple[str, ...] = (
+    "density",
+    "mae_px",
+    "bad_0_5",
+    "bad_1",
+    "bad_2",
+    "rel_depth_error",
+    "n_scored",
+)
+#: OpenCV peers (``--peers``).
+PEERS: tuple[str, ...] = ("opencv_sgbm", "opencv_bm")
+PROTOCOLS: tuple[str, ...] = ("middlebury", "report")
 DATASETS: tuple[str, ...] = ("motorcycle",)
 _THRESHOLD = 2.0  # grey levels (T_E, T_g), the lab setting
 
 
-def evaluate_dataset(data: StereoData) -> dict[str, dict[str, float | int]]:
-    """Run :data:`EVAL_METHODS` on ``data`` and score each against ``data.depth``."""
+def _method_results(data: StereoData, methods: tuple[str, ...]) -> dict:
+    """Range results of ``methods`` on ``data`` with the settings of the module docstring."""
     ranging = RangingConfig(
         threshold_e=_THRESHOLD, threshold_g=_THRESHOLD, range_max=data.range_max
     )
@@ -57,9 +111,10 @@ def evaluate_dataset(data: StereoData) -> dict[str, dict[str, float | int]]:
         threshold_e=_THRESHOLD,
         range_max=data.range_max,
     )
+    multiscale = MultiscaleConfig(max_disparity=float(search_range(data)))
     out = {}
-    for m in EVAL_METHODS:
-        r = run_method(
+    for m in methods:
+        out[m] = run_method(
             m,
             data.image1,
             data.image2,
@@ -68,9 +123,88 @@ def evaluate_dataset(data: StereoData) -> dict[str, dict[str, float | int]]:
             ranging=ranging,
             central=central,
             riccati=riccati,
+            multiscale=multiscale,
         )
-        out[m] = evaluate(r.range, r.valid, data.depth)
     return out
+
+
+def evaluate_dataset(data: StereoData) -> dict[str, dict[str, float | int]]:
+    """Run :data:`EVAL_METHODS` on ``data`` and score each against ``data.depth``
+    (the ``report`` protocol)."""
+    return {
+        m: evaluate(r.range, r.valid, data.depth)
+        for m, r in _method_results(data, EVAL_METHODS).items()
+    }
+
+
+def _middlebury(data: StereoData, disparity: np.ndarray, valid: np.ndarray) -> dict:
+    return middlebury_metrics(
+        disparity,
+        valid,
+        data.disparity,
+        data.metric_depth,
+        data.doffs_px,
+        data.camera.f_px,
+        abs(float(data.motion.camera_displacement[1])),
+    )
+
+
+def run_peers(data: StereoData) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], str | None]:
+    """OpenCV StereoSGBM and StereoBM on ``data`` (8-bit grey), with the dataset's search
+    range rounded up to a multiple of 16: ``({name: (disparity, valid)}, None)``, or
+    ``({}, note)`` when OpenCV is not installed.
+
+    Settings are OpenCV's usual ones, not tuned on this pair: SGBM block 5,
+    ``P1 = 8·5²``, ``P2 = 32·5²``, uniqueness 10, speckle window 100 / range 2,
+    left-right check 1 px (``disp12MaxDiff``); BM block 9 (its prefilter and texture
+    check at their defaults), uniqueness 10, speckle window 100 / range 2. Pixels with a
+    negative (invalid) output are invalid.
+    """
+    try:
+        import cv2
+    except ImportError:
+        return {}, "OpenCV is not installed (pip install 'rangefx[peers]'): peers skipped"
+    ndisp = 16 * math.ceil(search_range(data) / 16)
+    left = np.clip(np.rint(data.image1), 0, 255).astype(np.uint8)
+    right = np.clip(np.rint(data.image2), 0, 255).astype(np.uint8)
+    block = 5
+    sgbm = cv2.StereoSGBM_create(
+        minDisparity=0,
+        numDisparities=ndisp,
+        blockSize=block,
+        P1=8 * block * block,
+        P2=32 * block * block,
+        disp12MaxDiff=1,
+        uniquenessRatio=10,
+        speckleWindowSize=100,
+        speckleRange=2,
+    )
+    bm = cv2.StereoBM_create(numDisparities=ndisp, blockSize=9)
+    bm.setUniquenessRatio(10)
+    bm.setSpeckleWindowSize(100)
+    bm.setSpeckleRange(2)
+    out = {}
+    for name, matcher in (("opencv_sgbm", sgbm), ("opencv_bm", bm)):
+        raw = matcher.compute(left, right)  # int16, 4 fraction bits; < 0 invalid
+        out[name] = (raw.astype(np.float64) / 16.0, raw >= 0)
+    return out, None
+
+
+def evaluate_middlebury(
+    data: StereoData, *, peers: bool = False
+) -> tuple[dict[str, dict[str, float | int]], str | None]:
+    """Every method of :data:`MIDDLEBURY_METHODS` (and the OpenCV peers if ``peers``) on
+    ``data``, scored with :func:`~rangefx.golden.realdata.middlebury_metrics`; the
+    second item is the note of skipped peers (or None)."""
+    out = {}
+    for m, r in _method_results(data, MIDDLEBURY_METHODS).items():
+        out[m] = _middlebury(data, disparity_from_range(r.range, data), r.valid)
+    note = None
+    if peers:
+        found, note = run_peers(data)
+        for name, (disparity, valid) in found.items():
+            out[name] = _middlebury(data, disparity, valid)
+    return out, note
 
 
 def evaluate_fixed_point(
@@ -139,7 +273,29 @@ def _num(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def _print_fixed(fixed: dict[str, dict]) -> None:
+    print("fixed point (shipped default configs) beside its golden on the same integer pair:")
+    for k, f in fixed.items():
+        sat = (
+            f", saturated registers {', '.join(f['saturated_registers'])}"
+            if f["saturated_registers"]
+            else ""
+        )
+        print(
+            f"{k:<14} overflows {f['overflows']}, median |fixed-golden|/golden "
+            f"{f['median_rel_range_diff']:.2e}, valid agreement {f['valid_agreement']:.4f}, "
+            f"median rel err vs truth {f['fixed_vs_truth']['median_rel_error']:.3f} "
+            f"(golden {f['golden']} {f['golden_vs_truth']['median_rel_error']:.3f}){sat}"
+        )
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
+    if args.protocol not in PROTOCOLS:
+        raise UserError(f"unknown protocol {args.protocol!r}; choose from {', '.join(PROTOCOLS)}")
+    if args.protocol == "middlebury":
+        return _cmd_middlebury(args)
+    if args.peers:
+        raise UserError("--peers applies to --protocol middlebury only")
     data = _load(args.dataset, args.factor)
     figures = evaluate_dataset(data)
     fixed = evaluate_fixed_point(data, args.dataset, _factor(args.factor), args.pipeline)
@@ -174,29 +330,89 @@ def cmd_eval(args: argparse.Namespace) -> int:
             f"{m:<14} {f['density']:>8.3f} {f['median_rel_error']:>15.3f} "
             f"{f['within_5pct']:>10.3f} {f['within_10pct']:>11.3f}"
         )
-    print("fixed point (shipped default configs) beside its golden on the same integer pair:")
-    for k, f in fixed.items():
-        sat = (
-            f", saturated registers {', '.join(f['saturated_registers'])}"
-            if f["saturated_registers"]
-            else ""
+    _print_fixed(fixed)
+    return 0
+
+
+def _cmd_middlebury(args: argparse.Namespace) -> int:
+    default = _load(args.dataset, args.factor)
+    if args.factor is not None:
+        datasets = [default]
+    else:
+        factors = sorted({*MIDDLEBURY_FACTORS, default.factor})
+        datasets = [default if f == default.factor else load_motorcycle(f) for f in factors]
+    tables, note = {}, None
+    for data in datasets:
+        figures, note = evaluate_middlebury(data, peers=args.peers)
+        tables[data.factor] = (data, figures)
+    fixed = evaluate_fixed_point(default, args.dataset, _factor(args.factor), args.pipeline)
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "dataset": default.name,
+                    "protocol": "middlebury",
+                    "factor": default.factor,
+                    "unit": default.unit,
+                    "peers": {"requested": bool(args.peers), "note": note},
+                    "factors": {
+                        str(f): {
+                            "size": list(data.image1.shape),
+                            "median_disparity_px": data.median_disparity,
+                            "search_range_px": search_range(data),
+                            "doffs_px": data.doffs_px,
+                            "methods": json_safe(figures),
+                        }
+                        for f, (data, figures) in tables.items()
+                    },
+                    "fixed_point": json_safe(fixed),
+                }
+            )
+        )
+        return 0
+    if note:
+        print(f"rangefx: note: {note}", file=sys.stderr)
+    for f, (data, figures) in tables.items():
+        h, w = data.image1.shape
+        known = data.disparity[np.isfinite(data.disparity)]
+        print(
+            f"{data.name} 1/{f} ({h}x{w} px): disparity {known.min():.1f}-{known.max():.1f} px "
+            f"(median {data.median_disparity:.2f}), Middlebury figures over all pixels"
         )
         print(
-            f"{k:<14} overflows {f['overflows']}, median |fixed-golden|/golden "
-            f"{f['median_rel_range_diff']:.2e}, valid agreement {f['valid_agreement']:.4f}, "
-            f"median rel err vs truth {f['fixed_vs_truth']['median_rel_error']:.3f} "
-            f"(golden {f['golden']} {f['golden_vs_truth']['median_rel_error']:.3f}){sat}"
+            f"{'method':<14} {'density':>8} {'MAE px':>7} {'bad0.5%':>8} {'bad1%':>6} "
+            f"{'bad2%':>6} {'rel Z err':>9}"
         )
+        for m, v in figures.items():
+            print(
+                f"{m:<14} {v['density']:>8.3f} {v['mae_px']:>7.3f} {v['bad_0_5']:>8.1f} "
+                f"{v['bad_1']:>6.1f} {v['bad_2']:>6.1f} {100 * v['rel_depth_error']:>8.1f}%"
+            )
+    _print_fixed(fixed)
     return 0
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``eval`` subcommand on the CLI's subparsers."""
-    p = sub.add_parser("eval", help="score G2, G3 and G5 on real stereo data with ground truth")
+    p = sub.add_parser(
+        "eval", help="score G2, G3, G5, G6 (and OpenCV peers) on real stereo data with ground truth"
+    )
     p.add_argument("--dataset", default="motorcycle", help="dataset: motorcycle")
     p.add_argument(
         "--factor",
-        help="area-mean down-sampling factor (default: median disparity about 2 px)",
+        help="area-mean down-sampling factor (default: median disparity about 2 px; "
+        "middlebury: 4, 8, 16 and that one)",
+    )
+    p.add_argument(
+        "--protocol",
+        default="middlebury",
+        help="middlebury (default: MAE, bad-x, density over all pixels, metric depth with "
+        "doffs) or report (density among known truth, relative error of f B / d)",
+    )
+    p.add_argument(
+        "--peers",
+        action="store_true",
+        help="also run OpenCV StereoSGBM and StereoBM (extra rangefx[peers])",
     )
     add_pipelines_arg(p)
     p.add_argument("--json", action="store_true", help="print one JSON object with the figures")

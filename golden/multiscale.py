@@ -1,0 +1,412 @@
+"""G6: streaming multi-scale ranging, beyond the report (float64 golden model, SPEC §12).
+
+Derivation from the report
+--------------------------
+The SPIE paper (ch. 4) expands the second image about the first (eq 6) and keeps the
+first-order term: with the inverse depth ``δ`` and the disparity per unit inverse depth
+``v = [xp Δz0 - f Δx0, yp Δz0 - f Δy0]`` (eq 9), the degree-1 ranging polynomial
+(eq 10) is
+
+    c1 = E1 - E2 = a1 δ,        a1 = ½ (g1 + g2) · v                      (eq 10, n = 1)
+
+and G3 solves it per pixel, ``δ = c1 / a1`` (then the depth ``1/δ + Δz0``, eq 12).
+For a stereo pair (``Δz0 = Δy0 = 0``, baseline ``B = Δx0``) ``v = (-f B, 0)``: the
+disparity ``u = f B δ`` is along the row and ``E1(x) = E2(x - u)``.
+
+G6 changes three things, and only these:
+
+1. **Normal equations over a window.** Instead of dividing per pixel it solves eq 10
+   in the least-squares sense over a small window ``w`` (a Gaussian of ``σ`` px,
+   separable): minimise ``Σ w (c1 - a1 δ)²`` ⇒ ``δ = Σ w a1 c1 / Σ w a1²``; with
+   ``g = ½ (E1x + E2x)`` (the eq 6 mean gradient along the row) this is a 1-D
+   Lucas–Kanade step along the disparity direction, ``Δu = -Σ w g e / Σ w g²``, with
+   ``e = E1 - E2``. The per-pixel division of G3 is the limit ``w → δ_0``.
+2. **Warping.** Eq 6 is a Taylor expansion, right only while ``u`` is a small fraction
+   of the texture's scale (measured for G3: ≤ 0.06 px error up to 1 px, 1.8 px at
+   4 px). G6 expands about the current estimate instead of about 0: the second image
+   is resampled along its row, ``W(x) = E2(x - u(x))`` (Keys cubic interpolation, from
+   a line buffer of E2 at least the largest disparity wide), eq 10 is written for
+   ``E1`` and ``W`` (``e = E1 - W``, ``g = ½ (E1x + Wx)``) and its solution is added to
+   ``u``. Each warp is one more Gauss–Newton step; 1-3 per level.
+3. **Pyramid.** The warps converge only from within about a pixel. A pyramid by
+   line-buffered decimation (5-tap binomial, every second row and column) brings any
+   disparity below ``2^(L-1)`` px (``L`` levels) to about a pixel at the coarsest
+   level; each level starts from the coarser estimate, up-sampled (bilinear) and
+   doubled.
+
+Derivatives are the report's central differences (ch. 3, eqs 18-19) along the row;
+every filter is separable with replicated borders, so the whole method streams
+(:func:`streaming_schedule`). Validity: the windowed RMS gradient ``sqrt(Σ w g²)``
+at least ``T_g`` (the report's gradient threshold, now over the window), the windowed
+RMS residual of the last fit at most ``T_r`` (rejects occlusions and the pixels the
+linear model does not fit), the matching pixel ``x - u`` inside the second image, and
+``0 < u <= u_max``; invalid pixels carry ``range_max`` as in G3.
+
+The motion form (obstacle eq 28) is not built: there the disparity direction is radial
+from the focus of expansion and differs per pixel, so the warp is a 2-D resampling along
+each pixel's epipolar line — line buffers as tall as the largest vertical parallax,
+rotation compensation before the pyramid, and ``k0..k5`` per pyramid level; that is a
+design of its own, not a small step. G6 accepts stereo pairs (lateral baseline, no
+rotation) and says so otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.ndimage import correlate1d
+
+from .estimator import validate_image
+from .geometry import MotionIncrement, PinholeCamera
+from .ranging import RangeResult, RangingConfig
+
+__all__ = [
+    "MultiscaleConfig",
+    "claimed_max_disparity",
+    "disparity_g6",
+    "pyramid_levels",
+    "range_g6",
+    "streaming_schedule",
+]
+
+#: 5-tap binomial low-pass of the pyramid's decimation (Burt & Adelson's a = 3/8).
+_BINOMIAL5 = np.array([1.0, 4.0, 6.0, 4.0, 1.0]) / 16.0
+#: Central difference along the row (ch. 3, eqs 18-19), per pixel.
+_CENTRAL = np.array([-0.5, 0.0, 0.5])
+#: Keys' cubic convolution parameter (a = -1/2: exact for quadratics).
+_KEYS_A = -0.5
+
+
+@dataclass(frozen=True)
+class MultiscaleConfig:
+    """Settings of G6; the defaults are the measured ones of docs/multiscale.md
+    ("Config and its measured defaults": the motorcycle pair at 1/4, 1/8, 1/16 and
+    ``lab``, one setting changed at a time).
+
+    Attributes
+    ----------
+    levels
+        Pyramid levels ``L`` (1 = no pyramid); the estimate is claimed up to
+        ``2^(L-1) * coarse_px`` px (:func:`claimed_max_disparity`).
+    warps
+        Gauss–Newton steps (warp + windowed eq 10) per level.
+    sigma
+        Standard deviation of the Gaussian window, px (at every level).
+    radius
+        Half-width of the window, px: taps ``-radius..radius``; also the latency of one
+        warp stage in lines.
+    threshold_g
+        ``T_g``: minimum windowed RMS gradient along the row, grey levels per px.
+    threshold_r
+        ``T_r``: maximum windowed RMS residual of the last fit, grey levels.
+    coarse_px
+        Disparity (px at the coarsest level) the warps converge from; sets the claim.
+    max_disparity
+        Largest disparity, px at full scale (= the width of the E2 line buffer that
+        the warp reads); ``None``: the claim. Estimates are clipped to
+        ``[0, max_disparity]`` at every step.
+    coarse_lag
+        Lines (of the finer level) by which the up-sampled coarse estimate reaches each
+        finer level late: fine line ``y`` starts from the coarse estimate of line
+        ``y - coarse_lag`` (top lines replicate). Each lag line saves one line of delay
+        buffer per image at that level (:func:`streaming_schedule`); 0 = none.
+    """
+
+    levels: int = 4
+    warps: int = 2
+    sigma: float = 2.0
+    radius: int = 4
+    threshold_g: float = 2.0
+    threshold_r: float = 25.0
+    coarse_px: float = 1.0
+    max_disparity: float | None = None
+    coarse_lag: int = 0
+
+    def __post_init__(self) -> None:
+        for name, lo, hi in (
+            ("levels", 1, 6),
+            ("warps", 1, 5),
+            ("radius", 1, 16),
+            ("coarse_lag", 0, 1024),
+        ):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+                raise ValueError(f"{name} must be an integer in {lo}..{hi}, not {v!r}")
+        for name in ("sigma", "coarse_px"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, not {v!r}")
+        for name in ("threshold_g", "threshold_r"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and not math.isnan(v) and v >= 0):
+                raise ValueError(f"{name} must be a number >= 0, not {v!r}")
+        md = self.max_disparity
+        if md is not None and not (isinstance(md, (int, float)) and math.isfinite(md) and md > 0):
+            raise ValueError(f"max_disparity must be a positive number of px or None, not {md!r}")
+
+    def with_(self, **changes) -> MultiscaleConfig:
+        return replace(self, **changes)
+
+    @property
+    def disparity_limit(self) -> float:
+        """The clip (and E2 line-buffer width) in full-scale px."""
+        return self.max_disparity if self.max_disparity is not None else claimed_max_disparity(self)
+
+    def window(self) -> np.ndarray:
+        """The normalised Gaussian window taps (sum 1), length ``2 radius + 1``."""
+        k = np.arange(-self.radius, self.radius + 1, dtype=np.float64)
+        w = np.exp(-0.5 * (k / self.sigma) ** 2)
+        return w / w.sum()
+
+
+def pyramid_levels(config: MultiscaleConfig, shape: tuple[int, int]) -> int:
+    """Levels actually built for an image of ``shape``: the pyramid stops before a level
+    whose parent is smaller than the window (``2 radius + 2`` rows or columns), where a
+    coarser level adds nothing."""
+    m, n = shape
+    built = 1
+    while built < config.levels and min(m, n) >= 2 * config.radius + 2:
+        m, n = (m + 1) // 2, (n + 1) // 2
+        built += 1
+    return built
+
+
+def claimed_max_disparity(config: MultiscaleConfig) -> float:
+    """The disparity (full-scale px) the pyramid claims: ``2^(L-1) * coarse_px``."""
+    return float(2 ** (config.levels - 1) * config.coarse_px)
+
+
+def _filt(a: np.ndarray, taps: np.ndarray, axis: int) -> np.ndarray:
+    # replicated borders: what a streaming filter does at a frame edge
+    return correlate1d(a, taps, axis=axis, mode="nearest")
+
+
+def _window(a: np.ndarray, w: np.ndarray) -> np.ndarray:
+    return _filt(_filt(a, w, 1), w, 0)
+
+
+def _reduce(a: np.ndarray) -> np.ndarray:
+    """One pyramid step: separable 5-tap binomial, keep even rows and columns."""
+    return _filt(_filt(a, _BINOMIAL5, 1), _BINOMIAL5, 0)[::2, ::2]
+
+
+def _expand(u: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Coarse disparity to the finer level: bilinear at (y/2, x/2), doubled (px scale)."""
+    m, n = shape
+    out = u
+    for axis, size in ((0, m), (1, n)):
+        pos = np.arange(size) / 2.0  # fine pixel k sits at coarse position k/2
+        lo = np.minimum(np.floor(pos).astype(np.intp), out.shape[axis] - 1)
+        hi = np.minimum(lo + 1, out.shape[axis] - 1)
+        t = pos - lo
+        a, b = np.take(out, lo, axis=axis), np.take(out, hi, axis=axis)
+        shape_t = [1, 1]
+        shape_t[axis] = size
+        t = t.reshape(shape_t)
+        out = (1 - t) * a + t * b
+    return 2.0 * out
+
+
+def _keys(t: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Keys cubic weights of the taps at offsets -1, 0, 1, 2 for fraction ``t``."""
+    a = _KEYS_A
+    t2, t3 = t * t, t * t * t
+    w0 = a * (t3 - 2 * t2 + t)
+    w1 = (a + 2) * t3 - (a + 3) * t2 + 1
+    w2 = -(a + 2) * t3 + (2 * a + 3) * t2 - a * t
+    w3 = -a * (t3 - t2)
+    return w0, w1, w2, w3
+
+
+def warp_rows(image: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``W(x) = image(x - u(x))`` along each row (Keys cubic, replicated borders) and the
+    mask of pixels whose source ``x - u`` lies inside the row."""
+    m, n = image.shape
+    src = np.arange(n, dtype=np.float64)[None, :] - u
+    base = np.floor(src)
+    t = src - base
+    base = base.astype(np.intp)
+    rows = np.arange(m)[:, None]
+    image = np.asarray(image, dtype=np.float64)
+    out = np.zeros(u.shape)
+    for off, w in zip((-1, 0, 1, 2), _keys(t), strict=True):
+        out += w * image[rows, np.clip(base + off, 0, n - 1)]
+    inside = (src >= 0) & (src <= n - 1)
+    return out, inside
+
+
+def disparity_g6(
+    image1: np.ndarray, image2: np.ndarray, config: MultiscaleConfig | None = None
+) -> dict[str, np.ndarray]:
+    """Disparity ``u`` with ``E1(x) = E2(x - u)`` along the rows, coarse to fine.
+
+    Returns a dict of full-scale arrays: ``disparity`` (px), ``valid``, ``grad_rms``
+    (windowed RMS of ``g``), ``residual_rms`` (windowed RMS residual of the last fit,
+    grey levels), ``inside`` (the matching pixel lies in the second image).
+    """
+    config = config or MultiscaleConfig()
+    e1 = validate_image(image1, "image1")
+    e2 = validate_image(image2, "image2")
+    if e1.shape != e2.shape:
+        raise ValueError(f"image pair shapes differ: {e1.shape} vs {e2.shape}")
+    w = config.window()
+    pyr = [(e1, e2)]
+    for _ in range(pyramid_levels(config, e1.shape) - 1):
+        a, b = pyr[-1]
+        pyr.append((_reduce(a), _reduce(b)))
+    limit = config.disparity_limit
+    u = np.zeros(pyr[-1][0].shape)
+    for level in range(len(pyr) - 1, -1, -1):
+        a, b = pyr[level]
+        if u.shape != a.shape:
+            u = _expand(u, a.shape)
+            lag = min(config.coarse_lag, u.shape[0])
+            if lag:  # the coarse estimate arrives late: line y gets that of y - lag
+                u = np.concatenate([np.repeat(u[:1], lag, axis=0), u[: u.shape[0] - lag]])
+        cap = limit / 2**level
+        ax = _filt(a, _CENTRAL, 1)
+        for _ in range(config.warps):
+            wimg, inside = warp_rows(b, u)
+            wx = _filt(wimg, _CENTRAL, 1)
+            g = 0.5 * (ax + wx)  # eq 6: the mean gradient of the two images
+            e = a - wimg  # c1 of eq 10, about the current estimate
+            sgg = _window(g * g, w)
+            sge = _window(g * e, w)
+            see = _window(e * e, w)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                du = np.where(sgg > 0, -sge / sgg, 0.0)  # normal equation of eq 10
+            u = np.clip(u + du, 0.0, cap)
+    with np.errstate(invalid="ignore"):
+        resid = np.sqrt(np.maximum(see - np.where(sgg > 0, sge * sge / sgg, 0.0), 0.0))
+    grad_rms = np.sqrt(sgg)
+    _, inside = warp_rows(pyr[0][1], u)
+    valid = (
+        (grad_rms >= config.threshold_g)
+        & (resid <= config.threshold_r)
+        & inside
+        & (u > 0)
+        & (u <= limit)
+    )
+    return {
+        "disparity": u,
+        "valid": valid,
+        "grad_rms": grad_rms,
+        "residual_rms": resid,
+        "inside": inside,
+    }
+
+
+def _stereo_baseline(motion: MotionIncrement) -> float:
+    fwd, right, down = motion.camera_displacement
+    if right == 0 or abs(fwd) > 1e-9 * abs(right) or abs(down) > 1e-9 * abs(right):
+        raise ValueError(
+            "g6_multiscale needs a stereo pair (a lateral baseline, no forward or vertical "
+            f"displacement; got {fwd:g}, {right:g}, {down:g}): the motion form (eq 28) is "
+            "not built (rangefx.golden.multiscale)"
+        )
+    if not np.allclose(motion.dT2, 0.0):
+        raise ValueError("g6_multiscale needs a stereo pair without rotation between the views")
+    return float(right)
+
+
+def range_g6(
+    image1: np.ndarray,
+    image2: np.ndarray,
+    camera: PinholeCamera,
+    motion: MotionIncrement,
+    config: MultiscaleConfig | None = None,
+    ranging: RangingConfig | None = None,
+) -> RangeResult:
+    """Depth ``z = f B / u`` of the G6 disparity (eq 10 with ``δ = u / (f B)``).
+
+    Only ``ranging.range_max`` is used (the thresholds of G6 are in ``config``). A
+    negative baseline (second camera on the left) is handled by mirroring both rows.
+    """
+    config = config or MultiscaleConfig()
+    ranging = ranging or RangingConfig()
+    baseline = _stereo_baseline(motion)
+    e1, e2 = np.asarray(image1), np.asarray(image2)
+    if e1.shape != (camera.height, camera.width):
+        raise ValueError(f"images are {e1.shape} but the camera is {camera.height}x{camera.width}")
+    if baseline < 0:  # E1(x) = E2(x + |u|): the same problem on mirrored rows
+        e1, e2 = e1[:, ::-1], e2[:, ::-1]
+    out = disparity_g6(e1, e2, config)
+    if baseline < 0:
+        out = {k: v[:, ::-1] for k, v in out.items()}
+    u = out["disparity"]
+    fb = camera.f_px * abs(baseline)
+    with np.errstate(divide="ignore"):
+        raw = np.where(u > 0, fb / np.where(u > 0, u, 1.0), np.inf)
+    valid = out["valid"] & np.isfinite(raw) & (raw <= ranging.range_max)
+    rng = np.where(valid, raw, ranging.range_max)
+    terms = {k: v for k, v in out.items() if k != "valid"}
+    terms["raw_range"] = raw
+    return RangeResult(range=rng, valid=valid, terms=terms)
+
+
+def streaming_schedule(config: MultiscaleConfig, width: int, height: int | None = None) -> dict:
+    """Latency (lines) and line buffers (words) of G6 streamed one pixel per clock.
+
+    Per level ``l`` (width ``n_l = ceil(width / 2^l)``), in the order the data flows:
+
+    * **reduce** (l ≥ 1): the 5-tap binomial down the columns of level ``l-1`` holds 4
+      lines of each image; a level-``l`` line is complete 2 level-``l-1`` lines after
+      its centre line.
+    * **warp stage** (``warps`` per level): E2's row is read by the cubic warp from a
+      row buffer of ``ceil(u_max,l) + 4`` words; the three windowed products (``g²``,
+      ``g e``, ``e²``) are summed along the row at once and down the columns through
+      ``2 r`` lines each; E1, E2 and ``u`` wait ``r`` lines for the window's centre.
+      Latency ``r`` lines.
+    * **expand** (l < L-1): one line of the coarse ``u`` for the bilinear rows; the
+      coarse estimate of fine line ``y`` is ready ``4 + 2 λ_{l+1}`` fine lines after
+      line ``y`` arrives (2 for the reduce, 2 for one coarse line of interpolation,
+      ``λ_{l+1}`` the coarse level's latency in its own lines), so E1 and E2 of level
+      ``l`` wait that long in **delay lines** — the only buffers that grow with the
+      depth of the pyramid, and still lines, not a frame; ``coarse_lag`` lines of
+      staleness accepted in the coarse estimate save as many delay lines.
+
+    Returns per level ``width``, ``latency_lines`` (from the level's input line to its
+    output line, in its own lines), ``delay_lines`` and ``buffer_words`` by buffer, and
+    the totals ``latency_lines`` (full-scale lines) and ``buffer_words``. With
+    ``height``, only the levels :func:`pyramid_levels` builds for that image count.
+    """
+    for name, v in (("width", width), ("height", height)):
+        if v is None and name == "height":
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ValueError(f"{name} must be a positive integer, not {v!r}")
+    r, k = config.radius, config.warps
+    built = config.levels if height is None else pyramid_levels(config, (height, width))
+    levels = []
+    lam_coarse = None
+    for level in range(built - 1, -1, -1):
+        n_l = -(-width // 2**level)
+        cap = config.disparity_limit / 2**level
+        delay = 0 if lam_coarse is None else max(0, 4 + 2 * lam_coarse - config.coarse_lag)
+        lam = delay + k * r
+        words = {
+            "reduce": 0 if level == 0 else 2 * 4 * -(-width // 2 ** (level - 1)),
+            "warp_row": k * (math.ceil(cap) + 4),
+            "window_products": k * 3 * 2 * r * n_l,
+            "window_align": k * 3 * r * n_l,
+            "expand": 0 if lam_coarse is None else -(-width // 2 ** (level + 1)),
+            "coarse_delay": 2 * delay * n_l,
+        }
+        levels.append(
+            {
+                "level": level,
+                "width": n_l,
+                "latency_lines": lam,
+                "delay_lines": delay,
+                "buffer_words": words,
+            }
+        )
+        lam_coarse = lam
+    levels.reverse()
+    return {
+        "levels": levels,
+        "latency_lines": levels[0]["latency_lines"],
+        "buffer_words": sum(sum(lv["buffer_words"].values()) for lv in levels),
+    }

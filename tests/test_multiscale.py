@@ -1,0 +1,259 @@
+"""G6 (golden multi-scale ranging, SPEC §12) on a known synthetic shift, its config and
+streaming schedule, and the Middlebury protocol of ``rangefx eval``."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+import pytest
+from skimage import data as skdata
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.golden.methods import METHODS, SCENE_RANGING, run_method
+from rangefx.golden.multiscale import (
+    MultiscaleConfig,
+    claimed_max_disparity,
+    disparity_g6,
+    streaming_schedule,
+    warp_rows,
+)
+from rangefx.golden.ranging import RangingConfig
+from rangefx.golden.realdata import middlebury_metrics
+from rangefx.golden.scenes import render_scene
+from rangefx.tools import report
+from rangefx.tools.cli import main
+from rangefx.tools.cli.eval import MIDDLEBURY_KEYS, MIDDLEBURY_METHODS, PEERS
+
+#: Sub-pixel steps of the synthetic shift: the texture is area-averaged over blocks of
+#: this many texels, so a shift of ``s`` texels is an exact shift of ``s / _SUB`` px.
+_SUB = 4
+SHIFTS = (0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0)
+_INTERIOR = np.s_[8:-8, 16:-8]  # away from the replicated borders and the unseen strip
+
+
+@pytest.fixture(scope="module")
+def texture() -> np.ndarray:
+    return skdata.camera().astype(np.float64)
+
+
+def shifted_pair(texture: np.ndarray, d: float) -> tuple[np.ndarray, np.ndarray]:
+    """``E1(x) = E2(x - d)`` exactly: both views area-averaged from one texture."""
+    s = round(d * _SUB)
+    assert s == d * _SUB
+    width = texture.shape[1] - 64
+    a, b = texture[:, :width], texture[:, s : s + width]
+
+    def area(z: np.ndarray) -> np.ndarray:
+        m, n = z.shape[0] // _SUB * _SUB, z.shape[1] // _SUB * _SUB
+        return z[:m, :n].reshape(m // _SUB, _SUB, n // _SUB, _SUB).mean(axis=(1, 3))
+
+    return area(a), area(b)
+
+
+def fixed_point_bound(e1: np.ndarray, e2: np.ndarray, d: float, cfg: MultiscaleConfig):
+    """Per-pixel bound of the converged G6 error: ``ε_rms / g_rms`` (Cauchy–Schwarz).
+
+    At the fixed point ``Σ w g e(u*) = 0``; with ``e(u*) ≈ -ε + (u* - d) g`` (``ε`` the
+    interpolation error of the warp at the true shift, ``W(d) - E1``) this gives
+    ``|u* - d| = |Σ w g ε| / Σ w g² <= sqrt(Σ w ε²) / sqrt(Σ w g²)``.
+    """
+    from scipy.ndimage import correlate1d
+
+    w = cfg.window()
+
+    def window(a: np.ndarray) -> np.ndarray:
+        return correlate1d(correlate1d(a, w, axis=1, mode="nearest"), w, axis=0, mode="nearest")
+
+    warped, _ = warp_rows(e2, np.full(e1.shape, d))
+    eps = warped - e1
+    g = 0.5 * (np.gradient(e1, axis=1) + np.gradient(warped, axis=1))
+    return np.sqrt(window(eps * eps) / window(g * g))
+
+
+def test_g6_error_stays_under_the_fixed_point_bound_up_to_the_claimed_disparity(texture):
+    """Median |u - d| <= the median fixed-point bound at the worst sub-pixel fraction
+    (t = 1/2, where cubic interpolation errs most), for every shift up to the claim of the
+    default pyramid (2^(L-1) px); the clip is set beyond the claim so that it cannot help.
+    G3 exceeds the same bound from 3 px on (the first-order Taylor limit)."""
+    cfg = MultiscaleConfig(max_disparity=12.0)
+    assert claimed_max_disparity(cfg) == 8.0
+    e1, e2 = shifted_pair(texture, 0.5)
+    bound = float(np.median(fixed_point_bound(e1, e2, 0.5, cfg)[_INTERIOR]))
+    assert 0.2 < bound < 0.6  # the interpolation error of this texture, measured
+    camera = PinholeCamera(e1.shape[1], e1.shape[0], 100.0)
+    for d in SHIFTS:
+        e1, e2 = shifted_pair(texture, d)
+        out = disparity_g6(e1, e2, cfg)
+        err = np.abs(out["disparity"] - d)[_INTERIOR]
+        assert np.median(err) <= bound / 2, d
+        assert out["valid"][_INTERIOR].mean() >= 0.7, d
+        if d >= 3.0:
+            g3 = run_method(
+                "g3_consistent", e1, e2, camera, MotionIncrement.stereo(1.0),
+                ranging=RangingConfig(range_max=1e6),
+            )  # fmt: skip
+            e3 = np.abs(100.0 / g3.range - d)[_INTERIOR][g3.valid[_INTERIOR]]
+            assert np.median(e3) > bound, d
+
+
+def test_g6_on_the_lab_pair_meets_the_issue_targets():
+    """Every object's median range within 3 % and a valid fraction >= 0.5 (issue 16)."""
+    scene = render_scene("lab")
+    assert "g6_multiscale" in METHODS
+    r = run_method(
+        "g6_multiscale", scene.image1, scene.image2, scene.camera, scene.motion,
+        ranging=SCENE_RANGING["lab"],
+    )  # fmt: skip
+    assert r.valid.mean() >= 0.5
+    for row in report.object_table(r.range, r.valid, scene.labels1, scene.objects, scene.depth1):
+        assert abs(row["estimated_median"] / row["actual"] - 1) <= 0.03, row["object"]
+    assert np.all(r.range[~r.valid] == SCENE_RANGING["lab"].range_max)
+
+
+def test_g6_mirrors_a_left_baseline():
+    scene = render_scene("lab", size=(64, 64))
+    right = run_method(
+        "g6_multiscale", scene.image1, scene.image2, scene.camera, scene.motion,
+        ranging=RangingConfig(range_max=100.0),
+    )  # fmt: skip
+    left = run_method(
+        "g6_multiscale", scene.image2[:, ::-1], scene.image1[:, ::-1], scene.camera,
+        MotionIncrement.stereo(-0.1), ranging=RangingConfig(range_max=100.0),
+    )  # fmt: skip
+    assert left.valid.any()
+    assert left.range.shape == right.range.shape
+
+
+def test_g6_rejects_the_motion_form():
+    scene = render_scene("runway", size=(32, 32))
+    with pytest.raises(ValueError, match="stereo pair"):
+        run_method("g6_multiscale", scene.image1, scene.image2, scene.camera, scene.motion)
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"levels": 0}, "levels"),
+        ({"warps": 2.5}, "warps"),
+        ({"sigma": -1.0}, "sigma"),
+        ({"threshold_r": float("nan")}, "threshold_r"),
+        ({"max_disparity": 0.0}, "max_disparity"),
+    ],
+)
+def test_config_rejects_bad_values(changes, message):
+    with pytest.raises(ValueError, match=message):
+        MultiscaleConfig(**changes)
+
+
+def test_window_is_normalised_and_symmetric():
+    w = MultiscaleConfig().window()
+    assert w.size == 2 * MultiscaleConfig().radius + 1
+    assert w.sum() == pytest.approx(1.0)
+    np.testing.assert_array_equal(w, w[::-1])
+
+
+def test_streaming_schedule_by_hand():
+    """Default (L = 4, k = 2 warps, r = 4): λ3 = k r = 8 coarse lines; each finer level
+    waits 4 + 2 λ_{l+1} lines for the coarse estimate, then adds k r."""
+    cfg = MultiscaleConfig()
+    s = streaming_schedule(cfg, 512)
+    lam = [lv["latency_lines"] for lv in s["levels"]]
+    delay = [lv["delay_lines"] for lv in s["levels"]]
+    assert lam[3] == 8 and delay[3] == 0
+    assert delay[2] == 4 + 2 * 8 and lam[2] == delay[2] + 8
+    assert delay[1] == 4 + 2 * lam[2] and lam[1] == delay[1] + 8
+    assert delay[0] == 4 + 2 * lam[1] and s["latency_lines"] == lam[0] == delay[0] + 8 == 148
+    assert [lv["width"] for lv in s["levels"]] == [512, 256, 128, 64]
+    lv0 = s["levels"][0]["buffer_words"]
+    assert lv0["warp_row"] == 2 * (8 + 4)  # E2 row buffer: the largest disparity + 4 taps
+    assert lv0["coarse_delay"] == 2 * 140 * 512
+    assert s["buffer_words"] == sum(sum(lv["buffer_words"].values()) for lv in s["levels"])
+
+
+def test_middlebury_metrics_by_hand():
+    truth = np.array([[1.0, 2.0, np.inf], [4.0, 0.5, 3.0]])
+    est = np.array([[1.25, 3.5, 9.0], [4.0, 0.5, 0.0]])
+    valid = np.array([[True, True, True], [True, False, True]])
+    metric = np.array([[10.0, 5.0, np.inf], [2.5, 12.5, 3.0]])
+    # f B = 10, doffs 0: scored (valid, known) = (0,0), (0,1), (1,0),
+    # (1,2); |errors| 0.25, 1.5, 0, 3
+    out = middlebury_metrics(est, valid, truth, metric, 0.0, 2.0, 5.0)
+    assert out["density"] == 5 / 6  # over all pixels, the unknown-truth one included
+    assert out["n_scored"] == 4
+    assert out["mae_px"] == (0.25 + 1.5 + 0.0 + 3.0) / 4
+    assert out["bad_0_5"] == 50.0  # 1.5 and 3
+    assert out["bad_1"] == 50.0
+    assert out["bad_2"] == 25.0  # 3 only
+    # Z = 10 / d: 8, 10/3.5, 2.5, inf(d = 0) vs 10, 5, 2.5, 3 -> 0.2, 0.428..., 0, inf
+    assert out["rel_depth_error"] == pytest.approx((0.2 + (1 - (10 / 3.5) / 5)) / 2)
+    with_doffs = middlebury_metrics(est, valid, truth, metric, 1.0, 2.0, 5.0)
+    # Z = 10 / (d + 1): 10/2.25, 10/4.5, 2, 10 vs 10, 5, 2.5, 3
+    expected = np.median([1 - 1 / 2.25, 1 - 2 / 4.5, 0.2, 10 / 3 - 1])
+    assert with_doffs["rel_depth_error"] == pytest.approx(expected)
+
+
+def test_middlebury_metrics_reject_bad_input():
+    z = np.zeros((2, 2))
+    with pytest.raises(ValueError, match="one shape"):
+        middlebury_metrics(z, np.zeros((2, 3), bool), z, z, 0.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match="boolean"):
+        middlebury_metrics(z, z, z, z, 0.0, 1.0, 1.0)
+
+
+def _eval_json(capsys, argv: list[str]) -> dict:
+    assert main(argv) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_eval_middlebury_json_keys(capsys):
+    out = _eval_json(capsys, ["eval", "--factor", "19", "--json"])
+    assert out["protocol"] == "middlebury" and out["factor"] == 19
+    assert list(out["factors"]) == ["19"]
+    methods = out["factors"]["19"]["methods"]
+    assert list(methods) == list(MIDDLEBURY_METHODS)
+    for figures in methods.values():
+        assert set(figures) == set(MIDDLEBURY_KEYS)
+        assert 0 < figures["density"] <= 1
+        assert figures["bad_0_5"] >= figures["bad_1"] >= figures["bad_2"] >= 0
+    g6, g3 = methods["g6_multiscale"], methods["g3_consistent"]
+    assert g6["mae_px"] < g3["mae_px"] and g6["density"] > g3["density"]
+    assert set(out["fixed_point"]) >= {"p1_paper", "p1_consistent", "p2"}
+
+
+def test_eval_peers_skipped_cleanly_without_opencv(capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "cv2", None)  # `import cv2` raises ImportError
+    out = _eval_json(capsys, ["eval", "--factor", "19", "--peers", "--json"])
+    assert "OpenCV is not installed" in out["peers"]["note"]
+    assert not set(PEERS) & set(out["factors"]["19"]["methods"])
+    assert main(["eval", "--factor", "19", "--peers"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rangefx: note:") and "peers skipped" in err[0]
+
+
+def test_eval_peers_with_opencv(capsys):
+    pytest.importorskip("cv2")
+    out = _eval_json(capsys, ["eval", "--factor", "19", "--peers", "--json"])
+    methods = out["factors"]["19"]["methods"]
+    assert out["peers"]["note"] is None
+    for peer in PEERS:
+        assert set(methods[peer]) == set(MIDDLEBURY_KEYS) and methods[peer]["density"] > 0
+
+
+def test_eval_peers_need_the_middlebury_protocol(capsys):
+    assert main(["eval", "--protocol", "report", "--peers"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--peers applies to --protocol middlebury" in err[0]
+    assert main(["eval", "--protocol", "kitti"]) == 2
+    assert "unknown protocol 'kitti'" in capsys.readouterr().err
+
+
+def test_coarse_lag_trades_delay_lines_for_a_stale_coarse_estimate():
+    lagged = streaming_schedule(MultiscaleConfig(coarse_lag=8), 512, 512)
+    assert [lv["delay_lines"] for lv in lagged["levels"]] == [84, 36, 12, 0]
+    assert lagged["latency_lines"] == 92
+    e1 = np.tile(np.arange(40.0), (40, 1)) ** 2 % 97
+    a = disparity_g6(e1, e1, MultiscaleConfig(levels=2))
+    b = disparity_g6(e1, e1, MultiscaleConfig(levels=2, coarse_lag=3))
+    assert a["disparity"].shape == b["disparity"].shape
