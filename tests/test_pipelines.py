@@ -240,6 +240,9 @@ def _error(capsys, argv) -> str:
         (["--hblank", "3"], "--hblank applies to the fixed-point pipelines only"),
         (["--divider", "restoring"], "--divider applies to the fixed-point pipelines only"),
         (["--config", "x.toml"], "--config applies to the fixed-point pipelines only"),
+        (["--method", "g6_multiscale", "--threshold-g", "2"], "does not apply to method g6"),
+        (["--method", "g5_riccati", "--threshold-g", "2"], "does not apply to method g5"),
+        (["--method", "g2_central", "--pole", "0.3"], "--pole does not apply to method g2"),
     ],
 )
 def test_an_option_a_pipeline_does_not_use_is_an_error(capsys, argv, message):

@@ -39,9 +39,33 @@ from .options import (
     timing_from_args,
 )
 
-__all__ = ["add_parser", "cmd_run", "estimator_from_args", "load_image", "run_pipeline"]
+__all__ = [
+    "METHOD_FLAGS",
+    "METHOD_OPTIONS",
+    "add_parser",
+    "cmd_run",
+    "estimator_from_args",
+    "load_image",
+    "run_pipeline",
+]
 
 DEFAULT_METHOD = "g3_consistent"
+#: Golden methods that read only some of the method options (G3 and G4 read all of
+#: :data:`METHOD_FLAGS`): G2, G5 and G6 have no causal estimator (no pole, no bias), G5
+#: no gradient threshold, G6 its own validity tests (docs/multiscale.md).
+METHOD_OPTIONS: dict[str, tuple[str, ...]] = {
+    "g2_central": ("threshold_e", "threshold_g", "range_max"),
+    "g5_riccati": ("threshold_e", "range_max"),
+    "g6_multiscale": ("range_max",),
+}
+#: The options a golden method may read: attribute -> flag.
+METHOD_FLAGS = {
+    "threshold_e": "--threshold-e",
+    "threshold_g": "--threshold-g",
+    "range_max": "--range-max",
+    "pole": "--pole",
+    "bias": "--bias",
+}
 
 
 def load_image(path: str) -> np.ndarray:
@@ -106,6 +130,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     reject_options(args, {"config": "--config", "variant": "--variant"}, why)
     reject_options(args, {"divider": "--divider", **TIMING_OPTIONS}, why)
     method = args.method or DEFAULT_METHOD
+    used = METHOD_OPTIONS.get(method, tuple(METHOD_FLAGS))
+    unused = {k: v for k, v in METHOD_FLAGS.items() if k not in used}
+    reject_options(args, unused, f"does not apply to method {method}")
     case = with_thresholds(
         case, threshold_e=args.threshold_e, threshold_g=args.threshold_g, range_max=args.range_max
     )
