@@ -184,15 +184,14 @@ def header_binary(tmp_path_factory) -> Path:
 
 
 def test_casts_match_the_ap_fixed_header(header_binary: Path):
-    requests: list[str] = []
-    expected_rows: list[tuple[int, int, int, int, int, int]] = []
-    k = 0
-    for t, (signed, word, frac, frac_in) in enumerate(TARGETS):
-        raws = _raws(frac_in, word, frac, seed=t)
-        for pair in range(len(MODE_PAIRS)):
-            requests += [f"{k} {int(r)}" for r in raws]
-            expected_rows += [(t, pair, int(r), 0, 0, 0) for r in raws]
-            k += 1
+    raws_of = [_raws(frac_in, word, frac, seed=t) for t, (_, word, frac, frac_in) in
+               enumerate(TARGETS)]  # fmt: skip
+    requests = [
+        f"{t * len(MODE_PAIRS) + pair} {int(r)}"
+        for t, raws in enumerate(raws_of)
+        for pair in range(len(MODE_PAIRS))
+        for r in raws
+    ]
     out = subprocess.run(
         [str(header_binary)], input="\n".join(requests) + "\n",
         capture_output=True, text=True, check=True,
@@ -202,8 +201,7 @@ def test_casts_match_the_ap_fixed_header(header_binary: Path):
     mismatches: dict[str, int] = {}
     checked = 0
     row = 0
-    for signed, word, frac, frac_in in TARGETS:
-        raws = _raws(frac_in, word, frac, seed=TARGETS.index((signed, word, frac, frac_in)))
+    for (signed, word, frac, frac_in), raws in zip(TARGETS, raws_of, strict=True):
         for quant, overflow in MODE_PAIRS:
             ref = header[row : row + raws.size]
             row += raws.size
