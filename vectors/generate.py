@@ -41,6 +41,7 @@ __all__ = [
     "case_from_manifest",
     "check_vectors",
     "diff_dump",
+    "dump_code",
     "load_manifest",
     "read_tap",
     "write_vectors",
@@ -455,6 +456,7 @@ class DiffReport:
                 f"first mismatch: sample {f['index']}, cycle {f['cycle']}, row {f['row']}, "
                 f"col {f['col']}, signal {self.tap}, expected {f['expected']} "
                 f"({f['expected_hex']}), got {f['got']} ({f['got_hex']}), format {self.format}"
+                + (f" (bits outside the {self.format} word)" if f.get("outside_format") else "")
             )
         return "\n".join(lines)
 
@@ -464,9 +466,10 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
 
     ``tap`` defaults to the dump's file name without its extension (``e1.row_r1.mem`` ->
     ``e1.row_r1``). Codes are compared as ``W``-bit two's complement words; ``x``/``z``
-    words always mismatch. A dump shorter or longer than expected counts every missing
-    or extra sample as a mismatch; the first mismatch is the first differing sample in
-    scan order (cycle = the model's cycle for that sample).
+    words and words with bits outside the format (:func:`dump_code`) always mismatch. A
+    dump shorter or longer than expected counts every missing or extra sample as a
+    mismatch; the first mismatch is the first differing sample in scan order (cycle = the
+    model's cycle for that sample).
 
     Raises
     ------
@@ -484,15 +487,14 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
     except OSError as exc:
         raise ValueError(f"cannot read dump {dump}: {exc.strerror}") from None
     word, signed = int(entry["word"]), bool(entry["signed"])
-    mask = (1 << word) - 1
     if dump.suffix == ".csv":
-        got: list[int | None] = [
-            None if v is None else v & mask for v in fmt_io.read_csv(data)["value"]
-        ]
+        read: list[int | None] = fmt_io.read_csv(data)["value"]
     elif dump.suffix == ".mem":
-        got = [None if v is None else v & mask for v in fmt_io.read_mem(data)]
+        read = fmt_io.read_mem(data)
     else:
         raise ValueError(f"dump {dump.name}: expected a .mem or .csv file")
+    # a word that is not this format's (bits outside it) is a mismatch, never masked
+    got = [dump_code(v, word, signed) for v in read]
     expected = fmt_io.to_unsigned(read_tap(d, tap, manifest), word)
     n_exp, n_got = expected.size, len(got)
     common = min(n_exp, n_got)
@@ -511,8 +513,9 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
             int(fmt_io.to_signed(expected[idx : idx + 1], word, signed)[0]) if idx < n_exp else None
         )
         got_code = got[idx] if idx < n_got else None
+        got_word = read[idx] if idx < n_got else None
         got_raw = (
-            None
+            got_word
             if got_code is None
             else int(fmt_io.to_signed(np.array([got_code], dtype=np.uint64), word, signed)[0])
         )
@@ -528,9 +531,37 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
         }
         if idx >= n_got:
             first["got_hex"] = "missing"
+        elif got_word is not None and got_code is None:
+            first["got_hex"] = f"{got_word:x}" if got_word >= 0 else str(got_word)
+            first["outside_format"] = True
     return DiffReport(
         tap, entry["signal"], entry["format"], entry["describe"], n_exp, n_got, mismatches, first
     )
+
+
+def dump_code(value: int | None, word: int, signed: bool) -> int | None:
+    """The ``word``-bit code of one RTL dump word, or ``None`` if it is not one.
+
+    Accepted: the code itself (``0 <= value < 2**word``; leading zero digits are fine),
+    for a signed format the signed raw value (``-2**(word-1) <= value < 0``, as the
+    ``.csv`` vectors write it) or a consistent sign extension of the code to a wider word
+    (every bit above ``word - 1`` equal to bit ``word - 1``: ``ffffffff`` is -1 of a 21-bit
+    tap). Anything else has bits outside the format (``ff000188`` for a 21-bit tap, a
+    negative value for an unsigned tap) and is ``None``: a mismatch, like an ``x`` word.
+    """
+    if value is None:
+        return None
+    if 0 <= value < (1 << word):
+        return value
+    if not signed:
+        return None
+    if -(1 << (word - 1)) <= value < 0:
+        return value + (1 << word)
+    if value > 0:  # a wider word: the bits from word-1 up must all be ones
+        high = value >> (word - 1)
+        if high & (high + 1) == 0:
+            return value & ((1 << word) - 1)
+    return None
 
 
 def _tap_cycles(d: Path, manifest: Mapping, tap: str, first: int) -> np.ndarray:
