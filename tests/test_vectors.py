@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -428,3 +429,52 @@ def test_diff_accepts_consistent_sign_extension(tmp_path, vec):
     assert dump_code(0xFF000188, 21, True) is None
     assert dump_code(-1, 21, False) is None
     assert dump_code(-1, 21, True) == (1 << 21) - 1
+
+
+def _malformed(tmp_path: Path, vec: Path, change) -> Path:
+    d = tmp_path / "bad"
+    shutil.copytree(vec, d)
+    man = json.loads((d / "manifest.json").read_text())
+    change(man)
+    (d / "manifest.json").write_text(json.dumps(man))
+    return d
+
+
+def _drop(key):
+    return lambda man: man.pop(key)
+
+
+def _set(key, value):
+    return lambda man: man.__setitem__(key, value)
+
+
+def _entry_drop(key):
+    return lambda man: man["files"][3].pop(key)
+
+
+@pytest.mark.parametrize(
+    ("change", "culprit"),
+    [
+        (_drop("files"), "'files'"),
+        (_set("files", {"a": 1}), "'files'"),
+        (_set("files", [1, 2]), "files[0]"),
+        (_entry_drop("sha256"), "files[3] lacks a valid 'sha256'"),
+        (_entry_drop("size"), "files[3] lacks a valid 'size'"),
+        (_set("shape", "16x24"), "'shape'"),
+        (lambda man: man["files"][0].__setitem__("path", "../../etc/passwd"), "plain file"),
+    ],
+)
+def test_malformed_manifest_is_one_line_error(tmp_path, vec, capsys, change, culprit):
+    """Issue 19 item 5: no KeyError/TypeError traceback from a malformed manifest."""
+    d = _malformed(tmp_path, vec, change)
+    for argv in (["check", str(d)], ["diff", str(d), str(vec / "e1.col_s2.mem")]):
+        assert main(["vectors", *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("rangefx: error: ") and err.count("\n") == 1
+        assert culprit in err and "manifest.json" in err
+
+
+def test_diff_of_a_missing_dump_names_the_file(tmp_path, vec, capsys):
+    assert main(["vectors", "diff", str(vec), str(tmp_path / "nope.mem")]) == 2
+    err = capsys.readouterr().err
+    assert "cannot read dump" in err and "nope.mem" in err and "no tap" not in err
