@@ -27,7 +27,7 @@ from rangefx.golden.scenes import SCENE_NAMES, Scene, render_scene
 
 from . import cmd_eval, cmd_guide, cmd_sweep, cmd_track, cmd_vectors, p2_pipeline, pipeline, report
 from .errors import UserError
-from .outdir import atomic_output_dir, atomic_write_text
+from .outdir import atomic_output_dir, atomic_write_text, check_output_dir
 from .report import json_safe
 
 DEMO_METHODS = ("g3_paper", "g3_consistent", "g2_central", "g5_riccati")
@@ -363,14 +363,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Commands whose ``--out`` is an output directory (:func:`atomic_output_dir`): checked
+#: for writability before the work starts.
+_DIR_OUTPUT_COMMANDS = {"demo", "run", "guide", "track", "degrees", "optimise", "vectors gen"}
+#: Exit status after Ctrl-C, as a shell reports SIGINT (128 + 2).
+EXIT_INTERRUPTED = 130
+
+
+def _command_name(args: argparse.Namespace) -> str:
+    sub = getattr(args, "vectors_command", None)
+    return f"{args.command} {sub}" if args.command == "vectors" and sub else args.command
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        if _command_name(args) in _DIR_OUTPUT_COMMANDS and getattr(args, "out", None):
+            check_output_dir(args.out)
         return args.func(args)
     except UserError as exc:
         print(f"rangefx: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        if args.command == "sweep":
+            msg = "interrupted; finished points are saved: re-run the same command to resume"
+        else:
+            msg = "interrupted; no output was written (an earlier output is left as it was)"
+        print(f"\nrangefx: {msg}", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -34,7 +34,7 @@ from rangefx.rtl_model.p1 import P1Result, run_p1
 
 from . import report
 from .errors import UserError
-from .outdir import atomic_output_dir, atomic_write_text
+from .outdir import atomic_output_dir, atomic_write_text, check_output_file
 
 __all__ = [
     "HELD_OUT_SCENES",
@@ -444,13 +444,25 @@ def cmd_bench(args: argparse.Namespace, clean) -> int:
 
 
 # -- word-length config ------------------------------------------------------------------
+#: First bytes of every config TOML rangefx writes: ``config --out`` replaces only such a file.
+CONFIG_HEADER = b"# rangefx "
+
+
+def _write_output_file(path: Path, text: str) -> None:
+    try:
+        atomic_write_text(path, text)
+    except OSError as exc:
+        raise UserError(f"cannot write --out {str(path)!r}: {exc.strerror}") from None
+
+
 def cmd_config(args: argparse.Namespace, clean) -> int:
     """``rangefx config show|propose``: the default TOML, or integer bits from ranges."""
     config = load_config(args.config, args.variant, None)
+    out = check_output_file(args.out, CONFIG_HEADER) if args.out else None
     if args.action == "show":
         text = config.to_toml()
-        if args.out:
-            atomic_write_text(Path(args.out), text)
+        if out is not None:
+            _write_output_file(out, text)
         else:
             sys.stdout.write(text)
         return 0
@@ -472,8 +484,8 @@ def cmd_config(args: argparse.Namespace, clean) -> int:
         if step == proposed and overflows == 0:
             break
         proposed = step
-    if args.out:
-        proposed.save(args.out)
+    if out is not None:
+        _write_output_file(out, proposed.to_toml())
     rows = {
         sig: {
             "min": minmax.get(sig, (None, None))[0],

@@ -728,6 +728,12 @@ def _run_dask(
     except (OSError, TimeoutError, ValueError) as exc:
         raise UserError(f"cannot connect to the dask scheduler {scheduler!r}: {exc}") from None
     try:
+        if not client.scheduler_info().get("workers"):
+            print(
+                f"rangefx: warning: the dask scheduler {scheduler} has no workers; the sweep "
+                "waits until one joins (Ctrl-C stops it; re-run the same command to resume)",
+                file=sys.stderr,
+            )
         futures = client.map(evaluate_point, specs, key=[f"rangefx-{s['key']}" for s in specs])
         try:
             for fut in as_completed(futures):
