@@ -326,3 +326,23 @@ def test_sweep_rerun_removes_stale_derived_files_first(tmp_path, monkeypatch):
     monkeypatch.setattr(sweep_mod, "run_sweep", spy)
     assert main(["sweep", str(a), "--out", str(out), "--json"]) == 0
     assert seen == [["results.jsonl", "sweep.json"]]
+
+
+# -- upper bounds ----------------------------------------------------------------------
+def test_huge_blanking_is_refused_up_front(tmp_path, capsys):
+    out = tmp_path / "vec"
+    assert (
+        main(["vectors", "gen", "--scene", "lab", "--hblank", "1000000000", "--out", str(out)]) == 2
+    )
+    err = capsys.readouterr().err
+    assert err.startswith("rangefx: error: --hblank 1000000000") and "GiB of memory" in err
+    assert err.count("\n") == 1 and list(tmp_path.iterdir()) == []
+
+
+def test_huge_sweep_size_is_refused_before_the_directory_is_made(tmp_path, capsys):
+    d = tmp_path / "big.toml"
+    d.write_text(SWEEP.format(name="big", values="[6]").replace("[24, 32]", "[100000, 100000]"))
+    assert main(["sweep", str(d), "--out", str(tmp_path / "sw")]) == 2
+    err = capsys.readouterr().err
+    assert "size [100000, 100000]" in err and "GiB of memory" in err and err.count("\n") == 1
+    assert not (tmp_path / "sw").exists()

@@ -40,7 +40,7 @@ from rangefx.golden.scenes import SCENE_NAMES
 from rangefx.rtl_model.config import HOST_REGISTERS, P1_SIGNALS, WordLengthConfig
 
 from .cost import config_cost
-from .errors import UserError
+from .errors import UserError, require_memory
 from .outdir import atomic_output_dir, atomic_write_text
 from .pipeline import (
     HELD_OUT_SCENES,
@@ -95,6 +95,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             f"output directory {str(out)!r} is not empty and holds no sweep results; "
             "choose a new directory"
         )
+    m, n = defn.size or (512, 512)  # the presets' default size
+    require_memory(
+        f"sweep {defn.name!r}: size [{m}, {n}] with --workers {args.workers}",
+        m * n * SWEEP_BYTES_PER_PIXEL * (1 if args.scheduler else args.workers),
+    )
     identity, keys = _sweep_identity(defn, args.definition)
     state = _claim_sweep_dir(out, identity, keys, restart=args.restart)
     # a resumed sweep is incomplete until it finishes: the derived files of the earlier
@@ -128,6 +133,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Peak bytes per pixel of one point in flight (scene, golden and fixed-point taps with the
+#: sqnr metrics; about 1.2 KiB measured on lab, doubled for headroom).
+SWEEP_BYTES_PER_PIXEL = 2048
 RESULTS_NAME = "results.jsonl"
 #: The sweep directory's own record: which definition it holds and which files rangefx
 #: derived from the results (so a resumed or restarted run removes only those).

@@ -16,9 +16,16 @@ import time
 from pathlib import Path
 
 from rangefx.golden.geometry import PinholeCamera
-from rangefx.vectors.generate import FORMATS, build_vectors, check_vectors, diff_dump, write_vectors
+from rangefx.vectors.generate import (
+    FORMATS,
+    build_vectors,
+    check_vectors,
+    diff_dump,
+    stream_memory_bytes,
+    write_vectors,
+)
 
-from .errors import UserError
+from .errors import UserError, require_memory
 from .outdir import atomic_output_dir
 from .pipeline import load_config, p1_case_from_scene, timing_from_args
 
@@ -62,6 +69,11 @@ def cmd_gen(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     case = p1_case_from_scene(args.scene, seed=args.seed)
     im1, im2, cam = crop_case(case.image1, case.image2, case.camera, args.crop)
+    require_memory(
+        f"--hblank {timing.hblank} --vblank {timing.vblank} on {im1.shape[0]}x{im1.shape[1]} "
+        "pixels (the input streams hold every cycle)",
+        stream_memory_bytes(im1.shape, timing, case.mode),
+    )
     t1 = time.perf_counter()
     description = {
         "source": "scene",
