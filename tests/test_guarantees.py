@@ -346,3 +346,42 @@ def test_huge_sweep_size_is_refused_before_the_directory_is_made(tmp_path, capsy
     err = capsys.readouterr().err
     assert "size [100000, 100000]" in err and "GiB of memory" in err and err.count("\n") == 1
     assert not (tmp_path / "sw").exists()
+
+
+# -- messages --------------------------------------------------------------------------
+def _one_line_error(capsys) -> str:
+    err = capsys.readouterr().err
+    assert err.startswith("rangefx: error: ") and err.count("\n") == 1, err
+    return err
+
+
+def test_bad_images_are_one_line(tmp_path, capsys):
+    (tmp_path / "empty.png").write_bytes(b"")
+    (tmp_path / "text.png").write_text("not an image\n")
+    for name, says in (("empty.png", "the file is empty"), ("text.png", "not a readable image")):
+        pair = ["--left", str(tmp_path / name), "--right", str(tmp_path / name)]
+        assert main(["run", *pair, "--f-px", "40", "--baseline", "0.1"]) == 2
+        err = _one_line_error(capsys)
+        assert name in err and says in err and "pip install" not in err
+
+
+def test_misspelt_signal_and_binary_toml_name_the_file(tmp_path, capsys):
+    assert main(["config", "show", "--out", str(tmp_path / "c.toml")]) == 0
+    text = (tmp_path / "c.toml").read_text().replace("\nrow_state =", "\nrow_stat =")
+    (tmp_path / "typo.toml").write_text(text)
+    assert main(["config", "show", "--config", str(tmp_path / "typo.toml")]) == 2
+    err = _one_line_error(capsys)
+    assert "unknown signal 'row_stat' (did you mean 'row_state'?)" in err and "typo.toml" in err
+    (tmp_path / "bin.toml").write_bytes(bytes(range(256)))
+    assert main(["config", "show", "--config", str(tmp_path / "bin.toml")]) == 2
+    assert "bin.toml" in _one_line_error(capsys)
+    (tmp_path / "bin_sweep.toml").write_bytes(bytes(range(256)))
+    assert main(["sweep", str(tmp_path / "bin_sweep.toml"), "--out", str(tmp_path / "s")]) == 2
+    assert "bin_sweep.toml" in _one_line_error(capsys)
+
+
+def test_no_pixel_valid_in_both_prints_no_nan(tmp_path, capsys):
+    argv = ["run", *_pair(tmp_path), "--pipeline", "p1", "--threshold-e", "1000"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "nan" not in out and "no pixel valid in both" in out

@@ -193,7 +193,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         for m, v in p1_summary.items():
             print(
                 f"{m} (fixed point, default config): overflows {v['overflows']['total']}, "
-                f"median |fixed - golden| / golden {v['median_rel_range_diff']:.2e}, "
+                f"median |fixed - golden| / golden {pipeline.median_text(v)}, "
                 f"valid agreement {v['valid_agreement']:.4f}"
             )
         print(
@@ -218,11 +218,19 @@ def _load_image(path: str) -> np.ndarray:
         if p.suffix == ".npy":
             arr = np.load(p, allow_pickle=False)
         else:
+            import warnings
+
             from skimage.io import imread
 
-            arr = imread(p)
+            with warnings.catch_warnings():  # imageio's plugin search warns about plugins
+                warnings.simplefilter("ignore")
+                arr = imread(p)
     except Exception as exc:  # any decoder failure is the user's file
-        raise UserError(f"cannot read image {path}: {exc}") from None
+        # one line: the decoder's own text can run to several lines of plugin hints
+        reason = "the file is empty" if p.stat().st_size == 0 else "not a readable image"
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        detail = "" if p.stat().st_size == 0 else f" ({first[:120]})"
+        raise UserError(f"cannot read image {path}: {reason}{detail}") from None
     try:
         return validate_image(arr, name=f"image {path}")
     except ValueError as exc:

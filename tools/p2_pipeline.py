@@ -30,7 +30,7 @@ from rangefx.rtl_model.p2_config import P2Config
 from . import report
 from .errors import UserError
 from .outdir import atomic_output_dir, atomic_write_text
-from .pipeline import P1Case, compare_ranges, timing_from_args
+from .pipeline import P1Case, compare_ranges, median_text, timing_from_args
 
 __all__ = ["bench_p2", "cmd_run_p2", "demo_p2", "p2_figures", "riccati_for", "run_p2_case"]
 
@@ -155,7 +155,7 @@ def cmd_run_p2(args: argparse.Namespace, case: P1Case, clean) -> int:
     print(
         f"P2 stereo ({config.divider} divider, {result.schedule['lanes']} lanes): overflows "
         f"{result.overflow_total}, median |fixed-golden|/golden "
-        f"{figures['median_rel_range_diff']:.2e}, valid agreement "
+        f"{median_text(figures)}, valid agreement "
         f"{figures['valid_agreement']:.4f}, latency {result.latency} cycles, "
         f"line buffers {result.line_buffer_bits} bits"
     )

@@ -9,6 +9,7 @@ that "fixed vs golden" isolates the word lengths.
 from __future__ import annotations
 
 import argparse
+import difflib
 import functools
 import json
 import os
@@ -16,6 +17,7 @@ import statistics
 import subprocess
 import sys
 import time
+import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -28,7 +30,13 @@ from rangefx.golden.methods import SCENE_RANGING, run_method
 from rangefx.golden.ranging import RangeResult, RangingConfig
 from rangefx.golden.realdata import load_motorcycle
 from rangefx.golden.scenes import Scene, render_plane, render_scene
-from rangefx.rtl_model.config import P1_SIGNALS, TimingConfig, WordLengthConfig, propose_config
+from rangefx.rtl_model.config import (
+    P1_SIGNALS,
+    SIGNAL_DOC,
+    TimingConfig,
+    WordLengthConfig,
+    propose_config,
+)
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
 from rangefx.rtl_model.p1 import P1Result, run_p1
 
@@ -200,13 +208,37 @@ def run_case(
         raise UserError(str(exc)) from None
 
 
+def _unknown_signal_hint(path: str) -> str | None:
+    """For a config that misspells signals: "unknown signal 'row_stat' (did you mean
+    'row_state'?)", or None when the file's ``[signals]`` names are all known."""
+    try:
+        table = tomllib.loads(Path(path).read_text(encoding="utf-8")).get("signals")
+    except (OSError, ValueError):
+        return None
+    if not isinstance(table, dict):
+        return None
+    hints = []
+    for name in (s for s in table if s not in SIGNAL_DOC):
+        near = difflib.get_close_matches(name, list(SIGNAL_DOC), n=1)
+        hints.append(f"{name!r}" + (f" (did you mean {near[0]!r}?)" if near else ""))
+    return f"unknown signal {', '.join(hints)}" if hints else None
+
+
 def load_config(path: str | None, variant: str | None, divider: str | None) -> WordLengthConfig:
     try:
         config = WordLengthConfig.load(path) if path else WordLengthConfig.default()
         changes = {k: v for k, v in (("variant", variant), ("divider", divider)) if v}
         return config.with_(**changes) if changes else config
+    except UnicodeDecodeError:
+        raise UserError(f"{path}: not a text (UTF-8) word-length config TOML") from None
     except ValueError as exc:
-        raise UserError(str(exc)) from None
+        message = str(exc)
+        hint = _unknown_signal_hint(path) if path else None
+        if hint is not None:
+            message = f"{path}: {hint}"
+        elif path and str(path) not in message:
+            message = f"{path}: {message}"
+        raise UserError(message) from None
 
 
 def _integer_image(image: np.ndarray, name: str) -> np.ndarray:
@@ -254,6 +286,14 @@ def p1_figures(result: P1Result, golden: RangeResult, scene: Scene | None) -> di
     return figures
 
 
+def median_text(figures: dict) -> str:
+    """The median relative range difference for a report line; with no pixel valid in
+    both results there is no median, and the line says so instead of printing nan."""
+    if not figures.get("n_valid_both"):
+        return "n/a (no pixel valid in both fixed and golden)"
+    return f"{figures['median_rel_range_diff']:.2e}"
+
+
 def cmd_run_pipeline(
     args: argparse.Namespace, case: P1Case, clean, write_outputs: bool = True
 ) -> int:
@@ -295,7 +335,7 @@ def cmd_run_pipeline(
     print(
         f"P1 {result.mode} ({config.variant}, {config.divider} divider): "
         f"overflows {result.overflow_total}, median |fixed-golden|/golden "
-        f"{figures['median_rel_range_diff']:.2e}, valid agreement "
+        f"{median_text(figures)}, valid agreement "
         f"{figures['valid_agreement']:.4f}, latency {result.latency} cycles, "
         f"line buffers {result.line_buffer_bits} bits, frame store {result.frame_store_bits} bits"
     )

@@ -365,9 +365,11 @@ def parse_sweep(text: str, where: str = "sweep definition", root: Path | None = 
 def load_sweep(path: str | Path) -> SweepDef:
     p = Path(path)
     try:
-        text = p.read_text()
+        text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise UserError(f"cannot read sweep definition {str(p)!r}: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise UserError(f"{p}: not a text (UTF-8) sweep definition TOML") from None
     return parse_sweep(text, where=str(p), root=p.parent)
 
 
