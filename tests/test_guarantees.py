@@ -385,3 +385,21 @@ def test_no_pixel_valid_in_both_prints_no_nan(tmp_path, capsys):
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "nan" not in out and "no pixel valid in both" in out
+
+
+# -- saturated input -----------------------------------------------------------------------
+@pytest.mark.parametrize("pipeline", ["p1", "p2"])
+def test_grey_levels_outside_the_input_format_are_said(tmp_path, capsys, pipeline):
+    rng = np.random.default_rng(0)
+    left = rng.integers(0, 256, (24, 32))
+    left[0, 0], left[1, 1] = 300, -300
+    np.save(tmp_path / "l.npy", left)
+    np.save(tmp_path / "r.npy", np.roll(left, 1, axis=1))
+    argv = ["run", "--pipeline", pipeline, "--left", str(tmp_path / "l.npy"),
+            "--right", str(tmp_path / "r.npy"), "--f-px", "40", "--baseline", "0.1"]  # fmt: skip
+    assert main(argv) == 2
+    err = _one_line_error(capsys)
+    assert "4 input pixels outside" in err and "--allow-saturated-input" in err
+    assert main([*argv, "--allow-saturated-input"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("rangefx: warning: 4 input pixels outside") and err.count("\n") == 1

@@ -312,6 +312,10 @@ def _add_p1_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--vblank", type=int, default=0, help="vertical blanking, cycles")
     g.add_argument("--gap-prob", type=float, default=0.0, help="input gap probability")
     g.add_argument("--gap-seed", type=int, default=0, help="input gap seed")
+    g.add_argument(
+        "--allow-saturated-input", action="store_true",
+        help="accept grey levels outside the input format (saturated, with a warning)",
+    )  # fmt: skip
 
 
 def _add_estimator_args(p: argparse.ArgumentParser) -> None:

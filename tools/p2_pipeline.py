@@ -30,7 +30,7 @@ from rangefx.rtl_model.p2_config import P2Config
 from . import report
 from .errors import UserError
 from .outdir import atomic_output_dir, atomic_write_text
-from .pipeline import P1Case, compare_ranges, median_text, timing_from_args
+from .pipeline import P1Case, check_input_levels, compare_ranges, median_text, timing_from_args
 
 __all__ = ["bench_p2", "cmd_run_p2", "demo_p2", "p2_figures", "riccati_for", "run_p2_case"]
 
@@ -127,6 +127,10 @@ def cmd_run_p2(args: argparse.Namespace, case: P1Case, clean) -> int:
             raise UserError(f"{name} image must hold integer grey levels for the P2 pipeline")
     case = replace(case, image1=case.image1.astype(np.int64), image2=case.image2.astype(np.int64))
     config = load_p2_config(getattr(args, "config", None), getattr(args, "divider", None))
+    check_input_levels(
+        {args.left or "image1": case.image1, args.right or "image2": case.image2},
+        config.formats["p2_pix"], "p2_pix", allow=args.allow_saturated_input,
+    )  # fmt: skip
     riccati = riccati_for(case, args)
     timing = timing_from_args(args)
     result = run_p2_case(case, config, riccati, timing, taps=bool(args.out))

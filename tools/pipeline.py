@@ -247,6 +247,43 @@ def _integer_image(image: np.ndarray, name: str) -> np.ndarray:
     return image.astype(np.int64)
 
 
+def check_input_levels(
+    images: dict[str, np.ndarray], fmt: FixedFormat, signal: str, *, allow: bool
+) -> int:
+    """Count the grey levels of ``images`` (name -> integer image) that the input format
+    ``fmt`` cannot hold, which the pipeline would saturate (a 16-bit PNG, 300, -300 for
+    ``u8.0``). Any is an error unless ``allow``; then a one-line warning says how many.
+
+    Returns
+    -------
+    int
+        The number of such pixels over all images.
+
+    Raises
+    ------
+    UserError
+        Some pixels are outside ``fmt`` and ``allow`` is False.
+    """
+    total, parts = 0, []
+    for name, image in images.items():
+        _, count = cast_array(np.asarray(image, dtype=np.int64), 0, fmt)
+        if count:
+            total += count
+            parts.append(f"{name} {count} (levels {int(image.min())}..{int(image.max())})")
+    if total:
+        what = (
+            f"{total} input pixels outside {signal} ({fmt}: "
+            f"{fmt.to_float(fmt.raw_min):g}..{fmt.to_float(fmt.raw_max):g}): {'; '.join(parts)}"
+        )
+        if not allow:
+            raise UserError(
+                f"{what}; the pipeline would saturate them: rescale the images or pass "
+                "--allow-saturated-input"
+            )
+        print(f"rangefx: warning: {what}, saturated (--allow-saturated-input)", file=sys.stderr)
+    return total
+
+
 def timing_from_args(args: argparse.Namespace) -> TimingConfig:
     try:
         return TimingConfig(
@@ -308,6 +345,10 @@ def cmd_run_pipeline(
             "stereo",
         )
     config = load_config(args.config, args.variant, args.divider)
+    check_input_levels(
+        {args.left or "image1": case.image1, args.right or "image2": case.image2},
+        config.fmt("pix_in"), "pix_in", allow=args.allow_saturated_input,
+    )  # fmt: skip
     timing = timing_from_args(args)
     result = run_case(case, config, timing, taps=bool(args.out))
     golden = golden_for(case, config)
