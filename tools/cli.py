@@ -225,12 +225,10 @@ def _load_image(path: str) -> np.ndarray:
             with warnings.catch_warnings():  # imageio's plugin search warns about plugins
                 warnings.simplefilter("ignore")
                 arr = imread(p)
-    except Exception as exc:  # any decoder failure is the user's file
-        # one line: the decoder's own text can run to several lines of plugin hints
-        reason = "the file is empty" if p.stat().st_size == 0 else "not a readable image"
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        detail = "" if p.stat().st_size == 0 else f" ({first[:120]})"
-        raise UserError(f"cannot read image {path}: {reason}{detail}") from None
+    except Exception:  # any decoder failure is the user's file
+        # one line, without the decoder's text: it runs to several lines of plugin hints
+        reason = "the file is empty" if p.stat().st_size == 0 else "not a readable image file"
+        raise UserError(f"cannot read image {path}: {reason}") from None
     try:
         return validate_image(arr, name=f"image {path}")
     except ValueError as exc:
