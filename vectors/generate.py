@@ -393,17 +393,22 @@ def case_from_manifest(directory: str | Path, manifest: Mapping) -> dict:
     camera, motion, ranging, config and timing from the manifest.
     """
     m, n = manifest["shape"]
-    images = [read_tap(directory, f"{s}.{INPUT_TAP}", manifest).reshape(m, n) for s in ("e1", "e2")]
-    c = manifest["case"]
+    images = []
+    for s in ("e1", "e2"):
+        raw = read_tap(directory, f"{s}.{INPUT_TAP}", manifest)
+        if raw.size != m * n:
+            raise ValueError(f"{s}.{INPUT_TAP} holds {raw.size} words, the shape {m}x{n} needs")
+        images.append(raw.reshape(m, n))
     try:
+        c = manifest["case"]
         config = WordLengthConfig.from_toml(manifest["config"]["toml"], manifest["config"]["name"])
         camera = PinholeCamera(**c["camera"])
         motion = MotionIncrement(**{k: np.array(v) for k, v in c["motion"].items()})
         ranging = RangingConfig(**c["ranging"])
         timing = TimingConfig(**manifest["timing"])
-    except (TypeError, KeyError, AttributeError, ValueError) as exc:
-        raise ValueError(f"manifest case is incomplete: {exc}") from None
-    rest = {k: v for k, v in c.items() if k not in ("camera", "motion", "ranging")}
+        rest = {k: v for k, v in c.items() if k not in ("camera", "motion", "ranging")}
+    except (TypeError, KeyError, AttributeError, ValueError, IndexError) as exc:
+        raise ValueError(f"manifest case is incomplete: {exc!r:.200}") from None
     if manifest.get("mode") not in ("stereo", "motion") or not isinstance(
         manifest.get("formats"), list
     ):
