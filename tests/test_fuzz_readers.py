@@ -19,9 +19,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rangefx.rtl_model.config import WordLengthConfig
+from rangefx.rtl_model.p2_config import P2Config
 from rangefx.tools import cmd_vectors
 from rangefx.tools.cli import main
 from rangefx.tools.errors import UserError
+from rangefx.tools.p2_pipeline import load_p2_config
 from rangefx.tools.pipeline import load_config, p1_case_from_scene
 from rangefx.tools.sweep import parse_sweep
 from rangefx.vectors.generate import case_from_manifest, diff_dump, load_manifest
@@ -95,10 +97,15 @@ def _write(d: Path, name: str, payload: str | bytes) -> Path:
     return p
 
 
+@pytest.mark.parametrize("pipeline", ["p1", "p2"])
 @FUZZ
 @given(data=st.data())
-def test_config_toml_reader_raises_only_user_errors(tmp_path, data):
-    base = WordLengthConfig.default().to_toml()
+def test_config_toml_reader_raises_only_user_errors(tmp_path, data, pipeline):
+    default, load = {
+        "p1": (WordLengthConfig.default, lambda p: load_config(p, None, None)),
+        "p2": (P2Config.default, lambda p: load_p2_config(p, None)),
+    }[pipeline]
+    base = default().to_toml()
     payload = data.draw(
         st.one_of(
             st.builds(lambda: _mutated_lines(base, data)),
@@ -108,7 +115,7 @@ def test_config_toml_reader_raises_only_user_errors(tmp_path, data):
     )
     path = _write(tmp_path, "c.toml", payload)
     with contextlib.suppress(UserError):
-        load_config(str(path), None, None)
+        load(str(path))
 
 
 @FUZZ

@@ -60,8 +60,11 @@ def load_p2_config(path: str | None, divider: str | None) -> P2Config:
     try:
         config = P2Config.load(path) if path else P2Config.default()
         return config.with_(divider=divider) if divider else config
+    except UnicodeDecodeError:
+        raise UserError(f"{path}: not a text (UTF-8) P2 word-length config TOML") from None
     except ValueError as exc:
-        raise UserError(str(exc)) from None
+        message = str(exc)
+        raise UserError(message if not path or path in message else f"{path}: {message}") from None
 
 
 def run_p2_case(
