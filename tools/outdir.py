@@ -42,6 +42,10 @@ def _sibling_name(path: Path, kind: str) -> Path:
     return path.parent / f".{path.name}.{kind}-{os.getpid()}-{secrets.token_hex(4)}"
 
 
+def _reason(exc: OSError) -> str:
+    return exc.strerror or str(exc) or type(exc).__name__
+
+
 def _fsync_dir(directory: Path) -> None:
     """Flush a directory entry to disk where the platform allows it (POSIX)."""
     try:
@@ -260,7 +264,7 @@ def check_output_dir(path: str | os.PathLike[str]) -> None:
             probe.mkdir()
             probe.rmdir()
     except OSError as exc:
-        raise UserError(f"cannot write output directory {str(path)!r}: {exc.strerror}") from None
+        raise UserError(f"cannot write output directory {str(path)!r}: {_reason(exc)}") from None
 
 
 @contextlib.contextmanager
@@ -311,14 +315,14 @@ def atomic_output_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
         tmp = _sibling_name(path, "tmp")
         tmp.mkdir()
     except OSError as exc:
-        raise UserError(f"cannot write output directory {str(path)!r}: {exc.strerror}") from None
+        raise UserError(f"cannot write output directory {str(path)!r}: {_reason(exc)}") from None
     try:
         yield tmp
         atomic_write_text(tmp / MARKER_NAME, _marker_text(_files_under(tmp)))
         _commit(tmp, path)
     except OSError as exc:
         shutil.rmtree(tmp, ignore_errors=True)
-        raise UserError(f"cannot write output directory {str(path)!r}: {exc.strerror}") from None
+        raise UserError(f"cannot write output directory {str(path)!r}: {_reason(exc)}") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
@@ -358,5 +362,5 @@ def check_output_file(path: str | os.PathLike[str], written_by_us: bytes) -> Pat
         os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
         os.unlink(probe)
     except OSError as exc:
-        raise UserError(f"cannot write --out {str(path)!r}: {exc.strerror}") from None
+        raise UserError(f"cannot write --out {str(path)!r}: {_reason(exc)}") from None
     return path
