@@ -31,7 +31,6 @@ import contextlib
 import hashlib
 import json
 import sys
-import time
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -112,12 +111,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     outcome = run_sweep(
         defn, out, workers=args.workers, scheduler=args.scheduler, progress=not args.json
     )
-    t_outputs = time.time_ns()
+    before = _file_stamps(out)
     summary = write_outputs(defn, outcome, out)
+    # rangefx's derived files: those write_outputs created or replaced (each is written
+    # to a temporary file and renamed, so it has a new inode); the user's are unchanged
     written = sorted(
-        p.name for p in out.iterdir()
-        if p.is_file() and p.stat().st_mtime_ns >= t_outputs - 10**9
-        and p.name not in (RESULTS_NAME, SWEEP_STATE_NAME) and not p.name.startswith(".")
+        name for name, stamp in _file_stamps(out).items()
+        if before.get(name) != stamp and name not in (RESULTS_NAME, SWEEP_STATE_NAME)
     )  # fmt: skip
     _write_state(out, {**identity, "outputs": written})
     if args.json:
@@ -150,6 +150,14 @@ def _sweep_identity(defn, source: str) -> tuple[dict[str, Any], set[str]]:
     keys = {p.key for p in expand(defn)}
     digest = hashlib.sha256(json.dumps([defn.name, sorted(keys)]).encode()).hexdigest()
     return {"name": defn.name, "definition_sha256": digest, "definition": str(source)}, keys
+
+
+def _file_stamps(out: Path) -> dict[str, tuple[int, int]]:
+    return {
+        p.name: (p.stat().st_ino, p.stat().st_mtime_ns)
+        for p in out.iterdir()
+        if p.is_file() and not p.name.startswith(".")
+    }
 
 
 def _write_state(out: Path, state: dict[str, Any]) -> None:
