@@ -57,7 +57,8 @@ module fx_cast #(
         if (OUT_S != 0) begin
             hi = (66'sd1 <<< (OUT_W - 1)) - 66'sd1;
             lo = -hi - 66'sd1;
-            if (OVF == 3) lo = -hi;                 // SAT_SYM never gives -2^(W-1)
+            // SAT_SYM never gives -2^(W-1); for W = 1 ap_fixed keeps -1 (as SAT)
+            if (OVF == 3 && OUT_W > 1) lo = -hi;
         end else begin
             hi = (66'sd1 <<< OUT_W) - 66'sd1;
             lo = 66'sd0;

@@ -84,7 +84,8 @@ class Overflow(enum.IntEnum):
     * ``SAT_ZERO``: an out-of-range value becomes 0.
     * ``SAT_SYM``: clamp to ``[-raw_max, raw_max]`` for signed formats (the most negative
       code ``-2**(W-1)`` is never produced and counts as an overflow); as ``SAT`` for
-      unsigned formats.
+      unsigned formats and, as in the ``ap_fixed`` header, for signed 1-bit formats
+      (there the symmetric clamp leaves the sign bit set: a negative result is ``-1``).
     """
 
     WRAP = 0
@@ -257,14 +258,16 @@ def overflow_raw(raw, word, signed, mode):
     Returns
     -------
     (int64, bool)
-        The value in range, and whether ``raw`` was out of range (for signed SAT_SYM the
-        code ``-2**(W-1)`` also counts, since it is replaced by ``-(2**(W-1) - 1)``).
+        The value in range, and whether ``raw`` was out of range (for signed SAT_SYM with
+        ``W >= 2`` the code ``-2**(W-1)`` also counts, since it is replaced by
+        ``-(2**(W-1) - 1)``; for ``W = 1`` the header keeps ``-1``, as SAT).
     """
     one = np.int64(1)
     # conditional expressions and one return (selects the compiler hoists out of loops;
     # see _round_offsets)
     hi = (one << (word - 1)) - 1 if signed else (one << word) - 1
-    lo = (-hi if mode == _O_SAT_SYM else -hi - 1) if signed else np.int64(0)
+    # ap_fixed's SAT_SYM clamp of a 1-bit word is the code with its sign bit set (-1)
+    lo = (-hi if (mode == _O_SAT_SYM and word > 1) else -hi - 1) if signed else np.int64(0)
     inside = (raw >= lo) & (raw <= hi)
     wrapped = ((raw - lo) & ((one << word) - 1)) + lo  # two's-complement wrap, mod 2**64 safe
     saturated = min(max(raw, lo), hi)
@@ -639,6 +642,21 @@ On ties alone `AP_TRN_ZERO` matches `AP_RND_ZERO` and `AP_TRN` matches `AP_RND_M
 they differ off the ties (0.75 gives 0 and 1), so a tie-only test cannot tell them apart.
 Defaults differ as well: `ap_fixed` uses `AP_TRN`/`AP_WRAP`, MATLAB `fimath`
 `Nearest`/`Saturate`, and `fixed_pkg` `fixed_round`/`fixed_saturate`.
+
+## The reference: the `ap_fixed` header itself
+
+`tests/test_ap_fixed_header.py` builds a C++ program with g++ against the Vitis HLS
+`ap_types` headers (they ship in the hls4ml wheel, `hls4ml/templates/vivado/ap_types/`;
+`pip download --no-deps hls4ml` and unzip, then point `RANGEFX_AP_TYPES` at the folder) and
+compares `cast_raw` and `cast_array`, value and overflow flag, for every quantisation x
+overflow mode pair on random and boundary values; CI runs it. apytypes stays a second
+opinion: it mis-rounds some shifts over 62 bits and some saturating left shifts.
+
+One corner follows the header rather than the textbook: a signed 1-bit format under
+`AP_SAT_SYM`. Its symmetric clamp `[-raw_max, raw_max]` would be `[0, 0]`, but the header
+sets the sign bit for a negative result (its "most negative plus one" is the code `1`, i.e.
+-1 in one bit), so the mode acts as `AP_SAT`: a negative result is -1, and -1 itself is
+not an overflow. For `W >= 2` `AP_SAT_SYM` never produces `-2^(W-1)`.
 """
 
 

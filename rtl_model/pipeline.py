@@ -266,6 +266,12 @@ class Pipeline(abc.ABC):
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         """The golden itself, on checked arguments (:meth:`golden` is the public entry)."""
 
+    def golden_key(self, config: WordLengthConfig) -> tuple[tuple[str, Any], ...]:
+        """(field, value) of every design field of ``config`` that :meth:`golden` reads:
+        two configs with the same key have the same golden on a case."""
+        names = config.design_fields() if self.golden_fields is None else self.golden_fields
+        return tuple((name, getattr(config, name)) for name in names)
+
     @abc.abstractmethod
     def golden_label(self, config: WordLengthConfig) -> str:
         """Name of the golden method :meth:`golden` runs under ``config``."""

@@ -131,7 +131,7 @@ def _range(fmt: FixedFormat) -> tuple[int, int]:
     """Codes the overflow mode accepts untouched (SAT_SYM: the most negative is excluded)."""
     if fmt.signed:
         hi = (1 << (fmt.word - 1)) - 1
-        lo = -hi if fmt.overflow is Overflow.SAT_SYM else -hi - 1
+        lo = -hi if (fmt.overflow is Overflow.SAT_SYM and fmt.word > 1) else -hi - 1
     else:
         lo, hi = 0, (1 << fmt.word) - 1
     return lo, hi

@@ -6,15 +6,13 @@ signal's type quantises a set of doubles exactly as the model's format does."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import os
 import shutil
 import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
+from ap_types import ap_types_dir, skip_or_fail
 
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.registry import PIPELINES
@@ -22,18 +20,6 @@ from rangefx.tools.cli import main
 from rangefx.vectors.export import hls_header, vhdl_inexact, vhdl_package
 
 NAMES = list(PIPELINES)
-
-
-def ap_types_dir() -> Path | None:
-    """The Vitis HLS ``ap_types`` headers: ``$RANGEFX_AP_TYPES``, or an installed hls4ml."""
-    env = os.environ.get("RANGEFX_AP_TYPES")
-    if env:
-        return Path(env) if (Path(env) / "ap_fixed.h").is_file() else None
-    spec = importlib.util.find_spec("hls4ml")
-    if spec is None or not spec.submodule_search_locations:
-        return None
-    path = Path(next(iter(spec.submodule_search_locations))) / "templates/vivado/ap_types"
-    return path if (path / "ap_fixed.h").is_file() else None
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -79,12 +65,13 @@ def test_cli_export(tmp_path, capsys):
     assert "needs --hls" in capsys.readouterr().err
 
 
-@pytest.mark.skipif(shutil.which("g++") is None, reason="g++ is not installed")
 @pytest.mark.parametrize("name", NAMES)
 def test_header_compiles_against_ap_fixed_and_quantises_like_the_model(name, tmp_path):
+    if shutil.which("g++") is None:
+        skip_or_fail("g++ is not installed")
     inc = ap_types_dir()
     if inc is None:
-        pytest.skip("the Vitis HLS ap_types headers are not here (hls4ml / RANGEFX_AP_TYPES)")
+        skip_or_fail("the ap_types headers are not found ($RANGEFX_AP_TYPES or hls4ml)")
     cfg = PIPELINES[name].default_config()
     (tmp_path / "types.h").write_text(hls_header(cfg))
     rng = np.random.default_rng(5)

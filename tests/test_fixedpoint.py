@@ -67,7 +67,7 @@ def reference_round(x: Fraction, quant: Quant) -> int:
 
 def reference_overflow(n: int, word: int, signed: bool, mode: Overflow) -> tuple[int, bool]:
     lo, hi = (-(2 ** (word - 1)), 2 ** (word - 1) - 1) if signed else (0, 2**word - 1)
-    if mode is Overflow.SAT_SYM and signed:
+    if mode is Overflow.SAT_SYM and signed and word > 1:  # W = 1: as SAT (the header)
         lo = -hi
     if lo <= n <= hi:
         return n, False
@@ -308,7 +308,8 @@ def test_quantise_shift_known_answers(raw, shift, quant, expected):
         (-8, 4, True, Overflow.SAT, (-8, False)),
         (20, 4, False, Overflow.SAT_SYM, (15, True)),
         (0, 1, True, Overflow.SAT_SYM, (0, False)),
-        (-1, 1, True, Overflow.SAT_SYM, (0, True)),
+        (-1, 1, True, Overflow.SAT_SYM, (-1, False)),
+        (-2, 1, True, Overflow.SAT_SYM, (-1, True)),
     ],
 )
 def test_overflow_raw_known_answers(raw, word, signed, mode, expected):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +28,14 @@ from rangefx.tools.cli import vectors as cli_vectors
 from rangefx.tools.studies.cases import scene_case
 from rangefx.vectors import formats as fio
 from rangefx.vectors import generate
-from rangefx.vectors.generate import build_vectors, check_vectors, diff_dump, write_vectors
+from rangefx.vectors.generate import (
+    build_vectors,
+    check_vectors,
+    diff_dump,
+    dump_code,
+    read_tap,
+    write_vectors,
+)
 
 CROP = ["--crop", "240", "256", "100", "124"]  # 16 x 24 pixels of the lab pair
 
@@ -288,8 +296,7 @@ def test_failed_write_leaves_no_directory(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr(cli_vectors, "write_vectors", boom)
-    with pytest.raises(OSError):
-        _gen(tmp_path / "o")
+    assert _gen(tmp_path / "o") == 2  # one error line (issue 19 item 4), not a traceback
     assert not (tmp_path / "o").exists() and list(tmp_path.iterdir()) == []
 
 
@@ -384,3 +391,95 @@ def test_readers_reject_garbage():
         fio.read_stream_bin(b"\x00\x01\x02", 8)
     with pytest.raises(ValueError, match="do not fit"):
         fio.write_mem(np.array([16]), 4)
+
+
+def _rewrite_mem(src: Path, dst: Path, words: dict[int, str]) -> None:
+    lines = src.read_text().splitlines()
+    for k, w in words.items():
+        lines[1 + k] = w
+    dst.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("kind", ["wider", "narrower", "sign_flipped", "csv_wider"])
+def test_diff_never_masks_bits_outside_the_format(tmp_path, vec, kind, capsys):
+    """Issue 19 item 3: a wider, narrower or sign-flipped word is a mismatch, exit 1."""
+    tap = "e1.col_s2"  # s21.11
+    exp = read_tap(vec, tap)
+    k = int(np.flatnonzero(exp < 0)[0])  # a negative sample: its sign bit is set
+    code = int(exp[k]) & ((1 << 21) - 1)
+    dump = tmp_path / f"{tap}.mem"
+    if kind == "wider":  # high bits the 21-bit format does not have
+        _rewrite_mem(vec / f"{tap}.mem", dump, {k: f"{code | 0xFF000000:08x}"})
+    elif kind == "narrower":  # the RTL kept 20 bits: the sign bit is lost
+        _rewrite_mem(vec / f"{tap}.mem", dump, {k: f"{code & 0xFFFFF:06x}"})
+    elif kind == "sign_flipped":
+        _rewrite_mem(vec / f"{tap}.mem", dump, {k: f"{code ^ (1 << 20):06x}"})
+    else:
+        dump = tmp_path / f"{tap}.csv"
+        csv = (vec / f"{tap}.csv").read_text().splitlines()
+        csv[1 + k] = ",".join([*csv[1 + k].split(",")[:-1], str(code | (1 << 25))])
+        dump.write_text("\n".join(csv) + "\n")
+    r = diff_dump(vec, dump)
+    assert r.mismatches == 1 and r.first["index"] == k and not r.ok
+    assert main(["vectors", "diff", str(vec), str(dump)]) == 1
+    assert "1 mismatches" in capsys.readouterr().out
+
+
+def test_diff_accepts_consistent_sign_extension(tmp_path, vec):
+    tap = "e1.col_s2"
+    exp = read_tap(vec, tap)
+    wide = {k: f"{int(v) & 0xFFFFFFFF:08x}" for k, v in enumerate(exp)}  # 32-bit sign extension
+    _rewrite_mem(vec / f"{tap}.mem", tmp_path / f"{tap}.mem", wide)
+    assert diff_dump(vec, tmp_path / f"{tap}.mem").ok
+    assert dump_code(0xFF000188, 21, True) is None
+    assert dump_code(-1, 21, False) is None
+    assert dump_code(-1, 21, True) == (1 << 21) - 1
+
+
+def _malformed(tmp_path: Path, vec: Path, change) -> Path:
+    d = tmp_path / "bad"
+    shutil.copytree(vec, d)
+    man = json.loads((d / "manifest.json").read_text())
+    change(man)
+    (d / "manifest.json").write_text(json.dumps(man))
+    return d
+
+
+def _drop(key):
+    return lambda man: man.pop(key)
+
+
+def _set(key, value):
+    return lambda man: man.__setitem__(key, value)
+
+
+def _entry_drop(key):
+    return lambda man: man["files"][3].pop(key)
+
+
+@pytest.mark.parametrize(
+    ("change", "culprit"),
+    [
+        (_drop("files"), "'files'"),
+        (_set("files", {"a": 1}), "'files'"),
+        (_set("files", [1, 2]), "files[0]"),
+        (_entry_drop("sha256"), "files[3] lacks a valid 'sha256'"),
+        (_entry_drop("size"), "files[3] lacks a valid 'size'"),
+        (_set("shape", "16x24"), "'shape'"),
+        (lambda man: man["files"][0].__setitem__("path", "../../etc/passwd"), "plain file"),
+    ],
+)
+def test_malformed_manifest_is_one_line_error(tmp_path, vec, capsys, change, culprit):
+    """Issue 19 item 5: no KeyError/TypeError traceback from a malformed manifest."""
+    d = _malformed(tmp_path, vec, change)
+    for argv in (["check", str(d)], ["diff", str(d), str(vec / "e1.col_s2.mem")]):
+        assert main(["vectors", *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("rangefx: error: ") and err.count("\n") == 1
+        assert culprit in err and "manifest.json" in err
+
+
+def test_diff_of_a_missing_dump_names_the_file(tmp_path, vec, capsys):
+    assert main(["vectors", "diff", str(vec), str(tmp_path / "nope.mem")]) == 2
+    err = capsys.readouterr().err
+    assert "cannot read dump" in err and "nope.mem" in err and "no tap" not in err

@@ -44,8 +44,10 @@ __all__ = [
     "case_from_manifest",
     "check_vectors",
     "diff_dump",
+    "dump_code",
     "load_manifest",
     "read_tap",
+    "stream_memory_bytes",
     "write_vectors",
 ]
 
@@ -106,6 +108,21 @@ def _format_entry(f: FixedFormat) -> dict:
         "quant": f.quant.name,
         "overflow": f.overflow.name,
     }
+
+
+#: Peak bytes per stream cycle while the input streams are built and encoded (measured:
+#: ~35 for a 16x24 crop with 200000 cycles of blanking; the arrays, packed words, text).
+STREAM_BYTES_PER_CYCLE = 48
+
+
+def stream_memory_bytes(shape: tuple[int, int], timing: TimingConfig, mode: str) -> int:
+    """Peak memory of the input streams of a case: every stream cycle (pixels, expected
+    input gaps, blanking) costs :data:`STREAM_BYTES_PER_CYCLE`. Stereo has two streams of
+    one frame, motion one stream of two frames."""
+    m, n = shape
+    gaps = 1.0 / (1.0 - timing.gap_prob) if timing.gap_prob < 1 else float("inf")
+    frame = m * n * gaps + m * timing.hblank + timing.vblank
+    return int(2 * frame * STREAM_BYTES_PER_CYCLE) if frame < 2**62 else 2**62
 
 
 def _input_cycles(case: Case, timing: TimingConfig) -> tuple[dict[str, tuple], dict]:
@@ -210,8 +227,10 @@ def build_vectors(
     for rom, rom_words in pipe.roms(config).items():
         word = max(1, int(rom_words.max()).bit_length())
         comment = f"{rom}: {rom_words.size} unsigned {word}-bit words, address = table index"
-        entry = {"kind": "rom", "tap": rom, "signal": None, "word": word, "signed": False,
-                 "count": int(rom_words.size), "design": config.design()}  # fmt: skip
+        rom_fmt = FixedFormat(False, word, 0)
+        entry = {"kind": "rom", "tap": rom, "signal": rom, **_format_entry(rom_fmt),
+                 "count": int(rom_words.size), "first_valid_cycle": 0,
+                 "design": config.design()}  # fmt: skip
         add(f"{rom}.mem", fmt_io.write_mem(rom_words, word, comment), entry)
     for spec in table:
         if spec.name not in values:
@@ -310,7 +329,54 @@ def load_manifest(directory: str | Path) -> dict:
         raise ValueError(f"{p} is not valid JSON: {exc}") from None
     if not isinstance(manifest, dict) or manifest.get("schema") != SCHEMA:
         raise ValueError(f"{p} is not a {SCHEMA} manifest")
+    _check_manifest(manifest, p)
     return manifest
+
+
+_ENTRY_TYPES: dict[str, tuple[type, ...]] = {
+    "path": (str,),
+    "kind": (str,),
+    "tap": (str,),
+    "sha256": (str,),
+    "size": (int,),
+    "word": (int,),
+    "frac": (int,),
+    "signed": (bool,),
+    "first_valid_cycle": (int,),
+    "signal": (str,),
+    "format": (str,),
+    "describe": (str,),
+}
+_KINDS = ("stream", "input", "stream_tap", "range", "rom")
+
+
+def _check_manifest(manifest: Mapping, where: Path) -> None:
+    """Raise ValueError naming ``where`` and the field unless the parts that ``check``,
+    ``diff`` and ``read_tap`` rely on are present and of the right type."""
+    shape = manifest.get("shape")
+    if (
+        not isinstance(shape, list)
+        or len(shape) != 2
+        or not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in shape)
+    ):
+        raise ValueError(f"{where}: 'shape' must be [rows, columns], not {shape!r}")
+    files = manifest.get("files")
+    if not isinstance(files, list):
+        raise ValueError(f"{where}: 'files' must be a list of file entries, not {files!r:.60}")
+    for k, e in enumerate(files):
+        if not isinstance(e, dict):
+            raise ValueError(f"{where}: files[{k}] is not an object")
+        for key, types in _ENTRY_TYPES.items():
+            v = e.get(key)
+            if not isinstance(v, types) or (bool not in types and isinstance(v, bool)):
+                raise ValueError(f"{where}: files[{k}] lacks a valid {key!r} (got {v!r:.60})")
+        name = e["path"]
+        if Path(name).name != name or name.startswith(".") or not name:
+            raise ValueError(f"{where}: files[{k}] path {name!r} is not a plain file name")
+        if e["kind"] not in _KINDS:
+            raise ValueError(f"{where}: files[{k}] kind {e['kind']!r} is not one of {_KINDS}")
+        if not 1 <= e["word"] <= 62 or e["size"] < 0:
+            raise ValueError(f"{where}: files[{k}] has word {e['word']}, size {e['size']}")
 
 
 def read_tap(directory: str | Path, tap: str, manifest: Mapping | None = None) -> np.ndarray:
@@ -323,7 +389,11 @@ def read_tap(directory: str | Path, tap: str, manifest: Mapping | None = None) -
     """
     manifest = manifest or load_manifest(directory)
     entry = _find_entry(manifest, tap)
-    words = fmt_io.read_mem((Path(directory) / entry["path"]).read_bytes())
+    path = Path(directory) / entry["path"]
+    try:
+        words = fmt_io.read_mem(path.read_bytes())
+    except OSError as exc:
+        raise ValueError(f"cannot read {path}: {exc.strerror}") from None
     if any(w is None for w in words):
         raise ValueError(f"{entry['path']} holds x/z words")
     return fmt_io.to_signed(np.array(words, dtype=np.uint64), entry["word"], entry["signed"])
@@ -344,9 +414,14 @@ def case_from_manifest(directory: str | Path, manifest: Mapping) -> dict:
     pipeline, camera, motion, settings, config and timing from the manifest.
     """
     m, n = manifest["shape"]
-    images = [read_tap(directory, f"{s}.{INPUT_TAP}", manifest).reshape(m, n) for s in ("e1", "e2")]
-    c = manifest["case"]
+    images = []
+    for s in ("e1", "e2"):
+        raw = read_tap(directory, f"{s}.{INPUT_TAP}", manifest)
+        if raw.size != m * n:
+            raise ValueError(f"{s}.{INPUT_TAP} holds {raw.size} words, the shape {m}x{n} needs")
+        images.append(raw.reshape(m, n))
     try:
+        c = manifest["case"]
         pipe = get_pipeline(manifest.get("pipeline", "p1"))
         config = pipe.config_from_toml(manifest["config"]["toml"], manifest["config"]["name"])
         case = Case(
@@ -359,9 +434,13 @@ def case_from_manifest(directory: str | Path, manifest: Mapping) -> dict:
             RiccatiConfig(**c["riccati"]) if "riccati" in c else RiccatiConfig(),
         )
         timing = TimingConfig(**manifest["timing"])
-    except (TypeError, KeyError) as exc:
-        raise ValueError(f"manifest case is incomplete: {exc}") from None
-    rest = {k: v for k, v in c.items() if k not in ("camera", "motion", "ranging", "riccati")}
+        rest = {k: v for k, v in c.items() if k not in ("camera", "motion", "ranging", "riccati")}
+    except (TypeError, KeyError, AttributeError, ValueError, IndexError) as exc:
+        raise ValueError(f"manifest case is incomplete: {exc!r:.200}") from None
+    if manifest.get("mode") not in ("stereo", "motion") or not isinstance(
+        manifest.get("formats"), list
+    ):
+        raise ValueError("manifest case is incomplete: 'mode' or 'formats'")
     return {
         "pipeline": pipe,
         "case": case,
@@ -438,7 +517,7 @@ def check_vectors(directory: str | Path, *, rerun: bool = True) -> CheckReport:
             report.problems.append(f"{name}: differs from a fresh run of the model")
     mine = json.loads(again.manifest_bytes())
     theirs = dict(manifest)
-    mine["generator"] = theirs["generator"]  # another version may check the same vectors
+    mine["generator"] = theirs.get("generator")  # another version may check the same vectors
     if mine != theirs:
         keys = sorted(k for k in set(mine) | set(theirs) if mine.get(k) != theirs.get(k))
         report.problems.append(f"{MANIFEST_NAME}: differs from a fresh run in {keys}")
@@ -477,6 +556,7 @@ class DiffReport:
                 f"first mismatch: sample {f['index']}, cycle {f['cycle']}, row {f['row']}, "
                 f"col {f['col']}, signal {self.tap}, expected {f['expected']} "
                 f"({f['expected_hex']}), got {f['got']} ({f['got_hex']}), format {self.format}"
+                + (f" (bits outside the {self.format} word)" if f.get("outside_format") else "")
             )
         return "\n".join(lines)
 
@@ -486,9 +566,10 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
 
     ``tap`` defaults to the dump's file name without its extension (``e1.row_r1.mem`` ->
     ``e1.row_r1``). Codes are compared as ``W``-bit two's complement words; ``x``/``z``
-    words always mismatch. A dump shorter or longer than expected counts every missing
-    or extra sample as a mismatch; the first mismatch is the first differing sample in
-    scan order (cycle = the model's cycle for that sample).
+    words and words with bits outside the format (:func:`dump_code`) always mismatch. A
+    dump shorter or longer than expected counts every missing or extra sample as a
+    mismatch; the first mismatch is the first differing sample in scan order (cycle = the
+    model's cycle for that sample).
 
     Raises
     ------
@@ -498,23 +579,22 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
     d = Path(directory)
     dump = Path(dump)
     manifest = load_manifest(d)
-    if tap is None:
-        tap = dump.name.split(".mem")[0].split(".csv")[0]
-    entry = _find_entry(manifest, tap)
-    try:
+    try:  # before the tap: a missing dump is not an unknown tap
         data = dump.read_bytes()
     except OSError as exc:
         raise ValueError(f"cannot read dump {dump}: {exc.strerror}") from None
+    if tap is None:
+        tap = dump.name.split(".mem")[0].split(".csv")[0]
+    entry = _find_entry(manifest, tap)
     word, signed = int(entry["word"]), bool(entry["signed"])
-    mask = (1 << word) - 1
     if dump.suffix == ".csv":
-        got: list[int | None] = [
-            None if v is None else v & mask for v in fmt_io.read_csv(data)["value"]
-        ]
+        read: list[int | None] = fmt_io.read_csv(data)["value"]
     elif dump.suffix == ".mem":
-        got = [None if v is None else v & mask for v in fmt_io.read_mem(data)]
+        read = fmt_io.read_mem(data)
     else:
         raise ValueError(f"dump {dump.name}: expected a .mem or .csv file")
+    # a word that is not this format's (bits outside it) is a mismatch, never masked
+    got = [dump_code(v, word, signed) for v in read]
     expected = fmt_io.to_unsigned(read_tap(d, tap, manifest), word)
     n_exp, n_got = expected.size, len(got)
     common = min(n_exp, n_got)
@@ -533,8 +613,9 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
             int(fmt_io.to_signed(expected[idx : idx + 1], word, signed)[0]) if idx < n_exp else None
         )
         got_code = got[idx] if idx < n_got else None
+        got_word = read[idx] if idx < n_got else None
         got_raw = (
-            None
+            got_word
             if got_code is None
             else int(fmt_io.to_signed(np.array([got_code], dtype=np.uint64), word, signed)[0])
         )
@@ -550,9 +631,37 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
         }
         if idx >= n_got:
             first["got_hex"] = "missing"
+        elif got_word is not None and got_code is None:
+            first["got_hex"] = f"{got_word:x}" if got_word >= 0 else str(got_word)
+            first["outside_format"] = True
     return DiffReport(
         tap, entry["signal"], entry["format"], entry["describe"], n_exp, n_got, mismatches, first
     )
+
+
+def dump_code(value: int | None, word: int, signed: bool) -> int | None:
+    """The ``word``-bit code of one RTL dump word, or ``None`` if it is not one.
+
+    Accepted: the code itself (``0 <= value < 2**word``; leading zero digits are fine),
+    for a signed format the signed raw value (``-2**(word-1) <= value < 0``, as the
+    ``.csv`` vectors write it) or a consistent sign extension of the code to a wider word
+    (every bit above ``word - 1`` equal to bit ``word - 1``: ``ffffffff`` is -1 of a 21-bit
+    tap). Anything else has bits outside the format (``ff000188`` for a 21-bit tap, a
+    negative value for an unsigned tap) and is ``None``: a mismatch, like an ``x`` word.
+    """
+    if value is None:
+        return None
+    if 0 <= value < (1 << word):
+        return value
+    if not signed:
+        return None
+    if -(1 << (word - 1)) <= value < 0:
+        return value + (1 << word)
+    if value > 0:  # a wider word: the bits from word-1 up must all be ones
+        high = value >> (word - 1)
+        if high & (high + 1) == 0:
+            return value & ((1 << word) - 1)
+    return None
 
 
 def _tap_cycles(d: Path, manifest: Mapping, tap: str, first: int) -> np.ndarray:
@@ -562,9 +671,15 @@ def _tap_cycles(d: Path, manifest: Mapping, tap: str, first: int) -> np.ndarray:
     entry = _find_entry(manifest, tap)
     stream = tap.rpartition(".")[0] or None
     names = [e for e in manifest["files"] if e["kind"] == "stream" and e["path"].endswith(".bin")]
+    if not names:
+        raise ValueError(f"{d / MANIFEST_NAME} lists no input stream (.bin) file")
     beats = {}
     for e in names:
-        data = fmt_io.read_stream_bin_valid((d / e["path"]).read_bytes(), int(e["word"]))
+        try:
+            raw = (d / e["path"]).read_bytes()
+        except OSError as exc:
+            raise ValueError(f"cannot read {d / e['path']}: {exc.strerror}") from None
+        data = fmt_io.read_stream_bin_valid(raw, int(e["word"]))
         beats[e["tap"]] = np.flatnonzero(data).astype(np.int64)
     m, n = manifest["shape"]
     if f"e1.{INPUT_TAP}" in beats:

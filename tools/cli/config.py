@@ -20,6 +20,7 @@ from rangefx.vectors.export import hls_header, vhdl_inexact, vhdl_package
 
 from ..errors import UserError
 from ..report import atomic_write_text, json_safe
+from ..report.outdir import check_output_file
 from ..studies.cases import REAL_PAIRS, real_pair_case, scene_case
 from ..studies.runner import load_config, propose_from_cases
 from .options import add_design_args, add_pipeline_arg, design_from_args, pipeline_from_args
@@ -30,23 +31,31 @@ __all__ = ["DEFAULT_SCENES", "add_parser", "cmd_config"]
 DEFAULT_SCENES = ("lab", "runway")
 
 
-def _write_text(path: str, text: str) -> None:
-    p = Path(path)
-    if p.is_dir():
-        raise UserError(f"{path} is a directory; give a file name")
+#: First bytes of each file kind rangefx writes here: an existing file is replaced only
+#: if it starts with them (a user's file is never overwritten).
+HEADERS = {"toml": b"# rangefx ", "hls": b"// rangefx ", "vhdl": b"-- rangefx "}
+
+
+def _checked(path: str | None, kind: str, option: str) -> Path | None:
+    """``path`` checked before any work: writable, not a directory, not a user's file."""
+    return None if path is None else check_output_file(path, HEADERS[kind], option)
+
+
+def _write_text(path: Path, text: str, option: str) -> None:
     try:
-        atomic_write_text(p, text)
+        atomic_write_text(path, text)
     except OSError as exc:
-        raise UserError(f"cannot write {path}: {exc.strerror}") from None
+        raise UserError(f"cannot write {option} {str(path)!r}: {exc.strerror}") from None
 
 
 def _export(config: WordLengthConfig, args: argparse.Namespace) -> int:
     if not (args.hls or args.vhdl):
         raise UserError("config export needs --hls FILE.h and/or --vhdl FILE.vhd")
-    if args.hls:
-        _write_text(args.hls, hls_header(config))
-    if args.vhdl:
-        _write_text(args.vhdl, vhdl_package(config))
+    hls, vhdl = _checked(args.hls, "hls", "--hls"), _checked(args.vhdl, "vhdl", "--vhdl")
+    if hls is not None:
+        _write_text(hls, hls_header(config), "--hls")
+    if vhdl is not None:
+        _write_text(vhdl, vhdl_package(config), "--vhdl")
         inexact = vhdl_inexact(config)
         if inexact:
             modes = sorted({m for v in inexact.values() for m in v.split(", ")})
@@ -70,10 +79,11 @@ def cmd_config(args: argparse.Namespace) -> int:
     config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
     if args.action == "export":
         return _export(config, args)
+    out = _checked(args.out, "toml", "--out")
     if args.action == "show":
         text = config.to_toml()
-        if args.out:
-            _write_text(args.out, text)
+        if out is not None:
+            _write_text(out, text, "--out")
         else:
             sys.stdout.write(text)
         return 0
@@ -91,8 +101,8 @@ def cmd_config(args: argparse.Namespace) -> int:
     proposed, minmax, overflows = propose_from_cases(
         pipeline, config, cases, guard_bits=args.guard_bits
     )
-    if args.out:
-        _write_text(args.out, proposed.to_toml())
+    if out is not None:
+        _write_text(out, proposed.to_toml(), "--out")
     rows = {
         sig: {
             "min": minmax.get(sig, (None, None))[0],

@@ -234,7 +234,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         for m, v in p1_summary.items():
             print(
                 f"{m} (fixed point, default config): overflows {v['overflows']['total']}, "
-                f"median |fixed - golden| / golden {v['median_rel_range_diff']:.2e}, "
+                f"median |fixed - golden| / golden {report.median_text(v)}, "
                 f"valid agreement {v['valid_agreement']:.4f}"
             )
         print(

@@ -13,9 +13,10 @@ import sys
 from collections.abc import Sequence
 
 from ..errors import UserError
+from ..report.outdir import check_output_dir
 from . import bench, config, demo, eval, guide, run, sweep, track, vectors
 
-__all__ = ["build_parser", "main"]
+__all__ = ["DIR_OUTPUT_COMMANDS", "EXIT_INTERRUPTED", "build_parser", "main"]
 
 #: Subcommand modules, in ``--help`` order; each has ``add_parser(sub)``.
 COMMANDS = (demo, run, config, bench, vectors, sweep, eval, track, guide)
@@ -34,14 +35,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Commands whose ``--out`` is an output directory (``atomic_output_dir``): checked for
+#: writability before the work starts.
+DIR_OUTPUT_COMMANDS = {"demo", "run", "guide", "track", "degrees", "optimise", "vectors gen"}
+#: Exit status after Ctrl-C, as a shell reports SIGINT (128 + 2).
+EXIT_INTERRUPTED = 130
+
+
+def _command_name(args: argparse.Namespace) -> str:
+    sub = getattr(args, "vectors_command", None)
+    return f"{args.command} {sub}" if args.command == "vectors" and sub else args.command
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        if _command_name(args) in DIR_OUTPUT_COMMANDS and getattr(args, "out", None):
+            check_output_dir(args.out)
         return args.func(args)
     except UserError as exc:
         print(f"rangefx: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        if args.command == "sweep":
+            msg = "interrupted; finished points are saved: re-run the same command to resume"
+        else:
+            msg = "interrupted; no output was written (an earlier output is left as it was)"
+        print(f"\nrangefx: {msg}", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

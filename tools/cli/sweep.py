@@ -37,6 +37,8 @@ one-line error), and a design option the pipeline has no field for (``--variant`
 from __future__ import annotations
 
 import argparse
+import contextlib
+import hashlib
 import json
 import sys
 from importlib import resources
@@ -48,10 +50,11 @@ from rangefx.rtl_model.config import WordLengthConfig
 from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
 
-from ..errors import UserError
-from ..report import atomic_write_text, json_safe
+from ..errors import UserError, require_memory
+from ..report import atomic_output_dir, atomic_write_text, json_safe
 from ..studies.cases import HELD_OUT_SCENES, REAL_PAIRS, held_out_case, real_pair_case
 from ..studies.runner import load_config
+from ..studies.sweep import RESULTS_NAME
 from .options import add_design_args, add_pipeline_arg, design_from_args, pipeline_from_args
 
 __all__ = [
@@ -98,13 +101,32 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             f"output directory {str(out)!r} is not empty and holds no sweep results; "
             "choose a new directory"
         )
-    summary_path = out / "summary.json"
-    if summary_path.exists():
-        summary_path.unlink()  # a resumed sweep is incomplete until it finishes
+    m, n = defn.size or (512, 512)  # the presets' default size
+    require_memory(
+        f"sweep {defn.name!r}: size [{m}, {n}] with --workers {args.workers}",
+        m * n * SWEEP_BYTES_PER_PIXEL * (1 if args.scheduler else args.workers),
+    )
+    identity, keys = _sweep_identity(defn, args.definition)
+    state = _claim_sweep_dir(out, identity, keys, restart=args.restart)
+    # a resumed sweep is incomplete until it finishes: the derived files of the earlier
+    # run (rangefx's own, listed in sweep.json) go, the user's files stay
+    for name in state.get("outputs", []):
+        if Path(name).name == name and name not in (RESULTS_NAME, SWEEP_STATE_NAME):
+            with contextlib.suppress(FileNotFoundError):
+                (out / name).unlink()
+    _write_state(out, {**identity, "outputs": []})
     outcome = run_sweep(
         defn, out, workers=args.workers, scheduler=args.scheduler, progress=not args.json
     )
+    before = _file_stamps(out)
     summary = write_outputs(defn, outcome, out)
+    # rangefx's derived files: those write_outputs created or replaced (each is written
+    # to a temporary file and renamed, so it has a new inode); the user's are unchanged
+    written = sorted(
+        name for name, stamp in _file_stamps(out).items()
+        if before.get(name) != stamp and name not in (RESULTS_NAME, SWEEP_STATE_NAME)
+    )  # fmt: skip
+    _write_state(out, {**identity, "outputs": written})
     if args.json:
         print(json.dumps(json_safe(summary)))
     else:
@@ -116,6 +138,84 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         for scene, front in summary["pareto"].items():
             print(f"Pareto front on {scene}: {len(front)} configs")
     return 0
+
+
+#: Peak bytes per pixel of one point in flight (scene, golden and fixed-point taps with the
+#: sqnr metrics; about 1.2 KiB measured on lab, doubled for headroom).
+SWEEP_BYTES_PER_PIXEL = 2048
+#: The sweep directory's own record: which definition it holds and which files rangefx
+#: derived from the results (so a resumed or restarted run removes only those).
+SWEEP_STATE_NAME = "sweep.json"
+
+
+def _sweep_identity(defn, source: str) -> tuple[dict[str, Any], set[str]]:
+    """What sweep.json records of a definition (its hash: of its name and the keys of
+    all its points, i.e. of everything that decides the results) and those point keys."""
+    from ..studies.sweep import expand
+
+    keys = {p.key for p in expand(defn)}
+    digest = hashlib.sha256(json.dumps([defn.name, sorted(keys)]).encode()).hexdigest()
+    return {"name": defn.name, "definition_sha256": digest, "definition": str(source)}, keys
+
+
+def _file_stamps(out: Path) -> dict[str, tuple[int, int]]:
+    return {
+        p.name: (p.stat().st_ino, p.stat().st_mtime_ns)
+        for p in out.iterdir()
+        if p.is_file() and not p.name.startswith(".")
+    }
+
+
+def _write_state(out: Path, state: dict[str, Any]) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out / SWEEP_STATE_NAME, json.dumps(state, indent=1) + "\n")
+    except OSError as exc:
+        raise UserError(f"cannot write sweep directory {str(out)!r}: {exc.strerror}") from None
+
+
+def _claim_sweep_dir(
+    out: Path, identity: dict[str, Any], keys: set[str], *, restart: bool
+) -> dict[str, Any]:
+    """The earlier state of sweep directory ``out``, after checking that it holds this
+    sweep (or nothing); ``restart`` deletes the earlier results and derived files first.
+
+    Raises
+    ------
+    UserError
+        ``out`` holds the results of another sweep definition, and ``restart`` is off.
+    """
+    from ..studies.sweep import load_results
+
+    path = out / SWEEP_STATE_NAME
+    state: dict[str, Any] = {}
+    if path.is_file():
+        try:
+            state = json.loads(path.read_text(encoding="utf-8"))
+            if not isinstance(state, dict):
+                raise ValueError
+        except (ValueError, UnicodeDecodeError):
+            raise UserError(f"{path} is not a rangefx sweep state file") from None
+    results = out / RESULTS_NAME
+    if not results.exists() and not state:
+        return {}
+    if restart:
+        for name in [RESULTS_NAME, *state.get("outputs", [])]:
+            if Path(name).name == name and name != SWEEP_STATE_NAME:
+                with contextlib.suppress(FileNotFoundError):
+                    (out / name).unlink()
+        return {}
+    if state:
+        same = state.get("definition_sha256") == identity["definition_sha256"]
+    else:  # a directory from before sweep.json: its records must be this sweep's points
+        same = set(load_results(results)) <= keys
+    if not same:
+        raise UserError(
+            f"sweep directory {str(out)!r} holds results of another sweep definition "
+            f"({state.get('name', 'unknown')!r}, from {state.get('definition', 'unknown')}); "
+            "choose another --out, or add --restart to delete those results and start over"
+        )
+    return state
 
 
 def _case(pipe: Pipeline, name: str, size: list[int] | None, flag: str) -> Case:
@@ -300,15 +400,13 @@ def _write_optimise_out(
     from ..report.wlplots import save_buildup
     from ..studies.buildup import PROFILE_AXES, buildup_for
 
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UserError(f"cannot create output directory {str(out)!r}: {exc.strerror}") from None
-    atomic_write_text(out / "optimised.toml", res.config.to_toml())
-    for stem, cfg in (("buildup_optimised", res.config), ("buildup_start", res.start)):
-        title = f"{pipe.name} " + stem.replace("_", " ").replace("buildup", "build-up,")
-        save_buildup(out, stem, buildup_for(pipe, case, cfg), title, xlabels=PROFILE_AXES)
-    atomic_write_text(out / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
+    # as every other command: filled aside, then put in place; the user's files are kept
+    with atomic_output_dir(out) as tmp:
+        atomic_write_text(tmp / "optimised.toml", res.config.to_toml())
+        for stem, cfg in (("buildup_optimised", res.config), ("buildup_start", res.start)):
+            title = f"{pipe.name} " + stem.replace("_", " ").replace("buildup", "build-up,")
+            save_buildup(tmp, stem, buildup_for(pipe, case, cfg), title, xlabels=PROFILE_AXES)
+        atomic_write_text(tmp / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
 
 
 def _positive_int(text: str) -> int:
@@ -328,6 +426,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", help="address of a dask.distributed scheduler")
     p.add_argument("--workers", type=_positive_int, default=2, help="local threads (default 2)")
     p.add_argument("--example", action="store_true", help="print the example definition's path")
+    p.add_argument(
+        "--restart", action="store_true",
+        help="delete the results of an earlier sweep in --out (another definition) and start over",
+    )  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.set_defaults(func=cmd_sweep)
     p = sub.add_parser("optimise", help="cheapest word lengths meeting an accuracy budget")

@@ -18,9 +18,16 @@ from pathlib import Path
 
 from rangefx.golden.geometry import PinholeCamera
 from rangefx.rtl_model.pipeline import Case
-from rangefx.vectors.generate import FORMATS, build_vectors, check_vectors, diff_dump, write_vectors
+from rangefx.vectors.generate import (
+    FORMATS,
+    build_vectors,
+    check_vectors,
+    diff_dump,
+    stream_memory_bytes,
+    write_vectors,
+)
 
-from ..errors import UserError
+from ..errors import UserError, require_memory
 from ..report import atomic_output_dir
 from ..studies.cases import scene_case
 from ..studies.runner import load_config
@@ -81,6 +88,12 @@ def cmd_gen(args: argparse.Namespace) -> int:
             f"{args.scene!r} is {full.mode}"
         )
     case = crop_case(full, args.crop)
+    m, n = case.shape
+    require_memory(
+        f"--hblank {timing.hblank} --vblank {timing.vblank} on {m}x{n} pixels (the input "
+        "streams hold every cycle)",
+        stream_memory_bytes((m, n), timing, case.mode),
+    )
     t1 = time.perf_counter()
     description = {
         "source": "scene",

@@ -2,14 +2,16 @@
 
 A result is either complete or absent: files are written to a temporary name in the
 destination directory, flushed to disk and renamed into place; an output directory is
-filled under a temporary name and swapped in only when the work succeeded (SPEC §8:
-"never a partial output presented as complete").
+filled under a temporary name and put in place only when the work succeeded (SPEC §8:
+"never a partial output presented as complete"). A file that rangefx did not write is
+never deleted or overwritten (docs/guarantees.md).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
 import secrets
 import shutil
 from collections.abc import Iterator
@@ -17,16 +19,31 @@ from pathlib import Path
 
 from ..errors import UserError
 
-__all__ = ["MARKER_NAME", "atomic_output_dir", "atomic_write_bytes", "atomic_write_text"]
+__all__ = [
+    "MARKER_NAME",
+    "atomic_output_dir",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "check_output_dir",
+    "check_output_file",
+    "remove_leftovers",
+]
 
 MARKER_NAME = ".rangefx-output"
 """File that marks a directory as written by rangefx, hence safe to replace."""
 
-_MARKER_TEXT = "This directory was written by rangefx; rangefx may replace it.\n"
+_MARKER_TEXT = (
+    "This directory was written by rangefx. A re-run replaces or removes only the files\n"
+    "listed below; any other file in it is yours and is never touched.\n"
+)
 
 
 def _sibling_name(path: Path, kind: str) -> Path:
     return path.parent / f".{path.name}.{kind}-{os.getpid()}-{secrets.token_hex(4)}"
+
+
+def _reason(exc: OSError) -> str:
+    return exc.strerror or str(exc) or type(exc).__name__
 
 
 def _fsync_dir(directory: Path) -> None:
@@ -93,6 +110,29 @@ def _is_ours(path: Path) -> bool:
     return (path / MARKER_NAME).is_file()
 
 
+def _marker_text(files: list[str], state: str = "complete") -> str:
+    return _MARKER_TEXT + f"state: {state}\n" + "".join(f"file: {f}\n" for f in files)
+
+
+def _own_files(path: Path) -> set[str] | None:
+    """Files (relative paths) an earlier rangefx run listed in ``path``'s marker; ``None``
+    for a marker written before the marker listed them."""
+    try:
+        text = (path / MARKER_NAME).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+    lines = text.splitlines()
+    if not any(line.startswith("state: ") for line in lines):
+        return None
+    return {line[len("file: ") :] for line in lines if line.startswith("file: ")}
+
+
+def _files_under(root: Path) -> list[str]:
+    return sorted(
+        str(p.relative_to(root)) for p in root.rglob("*") if p.is_file() or p.is_symlink()
+    )
+
+
 def _check_replaceable(path: Path) -> None:
     """Raise :class:`UserError` unless ``path`` is absent, empty, or a directory we wrote."""
     if path.is_symlink():
@@ -110,6 +150,85 @@ def _check_replaceable(path: Path) -> None:
         )
 
 
+_LEFTOVER = re.compile(r"^\.(?P<name>.+)\.(?:tmp|old)-(?P<pid>\d+)-[0-9a-f]{8}$")
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, OSError):
+        return True  # someone else's process, or unknowable: leave its directory alone
+    return True
+
+
+def remove_leftovers(path: str | os.PathLike[str]) -> list[Path]:
+    """Delete the temporary siblings of ``path`` that a killed rangefx run left behind.
+
+    Only directories and files named as :func:`atomic_output_dir` and
+    :func:`atomic_write_bytes` name them (``.<name>.tmp-<pid>-<8 hex>``, ``.old-``) whose
+    process is gone are removed: a live run's are left alone, and nothing else is touched.
+    Returns what was removed.
+    """
+    path = Path(path)
+    removed: list[Path] = []
+    try:
+        siblings = list(path.parent.iterdir())
+    except OSError:
+        return removed
+    for p in siblings:
+        m = _LEFTOVER.match(p.name)
+        if m is None or m["name"] != path.name or _pid_alive(int(m["pid"])):
+            continue
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                p.unlink()
+        removed.append(p)
+    return removed
+
+
+def _merge(tmp: Path, path: Path) -> None:
+    """Move ``tmp``'s files into the earlier rangefx output ``path``, keeping every file
+    rangefx did not write there; stale files of the earlier run are removed."""
+    new_files = [f for f in _files_under(tmp) if f != MARKER_NAME]
+    own = _own_files(path)
+    if own is None:  # an old-style marker: only the names this run writes are taken as ours
+        own = {f for f in new_files if (path / f).is_file()}
+    for f in new_files:
+        target = path / f
+        for parent in target.parents:
+            if parent == path:
+                break
+            if parent.exists() and not parent.is_dir():
+                raise UserError(
+                    f"{str(parent)!r} is in the way of {f}; it was not written by rangefx"
+                )
+        if (target.exists() or target.is_symlink()) and (f not in own or target.is_dir()):
+            raise UserError(
+                f"output directory {str(path)!r} holds {f!r}, which rangefx did not write; "
+                "refusing to overwrite it (move it away or choose another --out)"
+            )
+    # while files move the marker says "incomplete", and it lists old and new files so a
+    # kill here leaves a directory the next run still recognises as its own
+    atomic_write_text(path / MARKER_NAME, _marker_text(sorted(own | set(new_files)), "incomplete"))
+    for f in sorted(own - set(new_files)):
+        with contextlib.suppress(OSError):
+            (path / f).unlink()
+        for parent in (path / f).parents:
+            if parent == path:
+                break
+            with contextlib.suppress(OSError):
+                parent.rmdir()  # only if empty: a user's file keeps its folder
+    for f in new_files:
+        (path / f).parent.mkdir(parents=True, exist_ok=True)
+        os.replace(tmp / f, path / f)
+    atomic_write_text(path / MARKER_NAME, _marker_text(new_files))
+    shutil.rmtree(tmp, ignore_errors=True)
+
+
 def _commit(tmp: Path, path: Path) -> None:
     _check_replaceable(path)
     if not path.exists():
@@ -119,33 +238,56 @@ def _commit(tmp: Path, path: Path) -> None:
         os.rmdir(path)  # empty foreign directory: nothing to lose
         os.replace(tmp, path)
         return
-    old = _sibling_name(path, "old")
-    os.replace(path, old)
+    _merge(tmp, path)
+
+
+def check_output_dir(path: str | os.PathLike[str]) -> None:
+    """Fail early, before the long work, if :func:`atomic_output_dir` could not write ``path``.
+
+    Raises
+    ------
+    UserError
+        ``path`` is not replaceable (see :func:`atomic_output_dir`), or its parent cannot
+        be created or written (read-only file system, no permission, immutable directory).
+    """
+    path = Path(path)
+    if path.name in ("", ".", ".."):
+        path = path.resolve()
+    _check_replaceable(path)
     try:
-        os.replace(tmp, path)
-    except BaseException:
-        os.replace(old, path)
-        raise
-    shutil.rmtree(old, ignore_errors=True)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        probe = _sibling_name(path, "tmp")
+        probe.mkdir()
+        probe.rmdir()
+        if path.is_dir():  # a merge writes into the directory itself
+            probe = _sibling_name(path / MARKER_NAME, "tmp")
+            probe.mkdir()
+            probe.rmdir()
+    except OSError as exc:
+        raise UserError(f"cannot write output directory {str(path)!r}: {_reason(exc)}") from None
 
 
 @contextlib.contextmanager
 def atomic_output_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Fill an output directory under a temporary name and swap it in on success.
+    """Fill an output directory under a temporary name and put it in place on success.
 
     Yields a fresh, empty directory next to ``path`` (same parent, named
     ``.<name>.tmp-<pid>-<random>``). When the ``with`` body finishes normally, the marker
-    file ``.rangefx-output`` is written into it last and it takes the place of ``path``:
+    file ``.rangefx-output`` (listing the files rangefx wrote) is written into it and:
 
     * ``path`` absent (or an empty directory): the temporary directory is renamed to it;
-    * ``path`` a directory holding the marker (an earlier rangefx output): it is renamed
-      aside, the temporary directory renamed into place, and the old one deleted;
+    * ``path`` a directory holding the marker (an earlier rangefx output): the new files
+      are moved in, the earlier run's own files that this run did not write are removed,
+      and every other file (one the user added) is kept. A file of the user's with the
+      name of a new output file is never overwritten: :class:`UserError` naming it;
     * anything else (a file, a symbolic link, a non-empty directory without the marker):
       :class:`~rangefx.tools.errors.UserError` naming ``path``; user data is never
       deleted. This is checked before the body runs as well, so no work is wasted.
 
     If the body raises (including ``KeyboardInterrupt``), the temporary directory is
-    deleted, ``path`` is left untouched and the exception propagates.
+    deleted, ``path`` is left untouched and the exception propagates. An ``OSError``
+    while writing (read-only file system, disk full) becomes a :class:`UserError`.
+    Temporary directories of killed earlier runs are removed (:func:`remove_leftovers`).
 
     Parameters
     ----------
@@ -160,7 +302,8 @@ def atomic_output_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
     Raises
     ------
     UserError
-        ``path`` exists and is not a replaceable rangefx output directory.
+        ``path`` exists and is not a replaceable rangefx output directory, or cannot be
+        written.
     """
     path = Path(path)
     if path.name in ("", ".", ".."):
@@ -168,15 +311,59 @@ def atomic_output_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
     _check_replaceable(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+        remove_leftovers(path)
+        tmp = _sibling_name(path, "tmp")
+        tmp.mkdir()
     except OSError as exc:
-        raise UserError(f"cannot create output directory {str(path.parent)!r}: {exc}") from exc
-    tmp = _sibling_name(path, "tmp")
-    tmp.mkdir()
+        raise UserError(f"cannot write output directory {str(path)!r}: {_reason(exc)}") from None
     try:
         yield tmp
-        atomic_write_text(tmp / MARKER_NAME, _MARKER_TEXT)
+        atomic_write_text(tmp / MARKER_NAME, _marker_text(_files_under(tmp)))
         _commit(tmp, path)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise UserError(f"cannot write output directory {str(path)!r}: {_reason(exc)}") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     _fsync_dir(path.parent)
+
+
+def check_output_file(
+    path: str | os.PathLike[str], written_by_us: bytes, option: str = "--out"
+) -> Path:
+    """Fail early unless one output file can be written at ``path``.
+
+    ``path`` must not be a directory; its parent must exist and be writable; an existing
+    file is replaced only if it starts with ``written_by_us`` (the header rangefx writes),
+    so that a file of the user's is never overwritten. ``option`` names the command-line
+    option in the message.
+
+    Raises
+    ------
+    UserError
+        Naming ``path`` and the reason.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise UserError(f"{option} {str(path)!r} is a directory; give a file name in it")
+    if not path.parent.is_dir():
+        raise UserError(f"{option} {str(path)!r}: directory {str(path.parent)!r} does not exist")
+    if path.exists() or path.is_symlink():
+        try:
+            with open(path, "rb") as f:
+                head = f.read(len(written_by_us))
+        except OSError as exc:
+            raise UserError(f"{option} {str(path)!r}: cannot read it: {exc.strerror}") from None
+        if path.is_symlink() or head != written_by_us:
+            raise UserError(
+                f"{option} {str(path)!r} exists and was not written by rangefx; refusing to "
+                "overwrite it"
+            )
+    try:
+        probe = _sibling_name(path, "tmp")
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        os.unlink(probe)
+    except OSError as exc:
+        raise UserError(f"cannot write --out {str(path)!r}: {_reason(exc)}") from None
+    return path

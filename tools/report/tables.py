@@ -23,6 +23,7 @@ __all__ = [
     "ReportObject",
     "format_side_by_side",
     "json_safe",
+    "median_text",
     "object_table",
     "overall_metrics",
     "table_csv",
@@ -391,6 +392,14 @@ def format_side_by_side(tables: Mapping[str, Sequence[Mapping[str, Any]]], unit:
             blocks.append(f"{est:<{widths[m][0]}}  {n:>{widths[m][1]}}")
         out.append(line(obj, _fmt_num(actual), blocks))
     return "\n".join(out) + "\n"
+
+
+def median_text(figures: Mapping[str, Any]) -> str:
+    """The median relative range difference for a report line; with no pixel valid in
+    both results there is no median, and the line says so instead of printing nan."""
+    if not figures.get("n_valid_both"):
+        return "n/a (no pixel valid in both fixed and golden)"
+    return f"{figures['median_rel_range_diff']:.2e}"
 
 
 def json_safe(obj: Any) -> Any:

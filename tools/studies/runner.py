@@ -7,6 +7,7 @@ through these functions, which turn the model's ``ValueError`` into the command 
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -15,6 +16,7 @@ import numpy as np
 from rangefx.golden.ranging import RangeResult
 from rangefx.golden.scenes import Scene
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig, propose_config
+from rangefx.rtl_model.fixedpoint import FixedFormat, cast_array
 from rangefx.rtl_model.pipeline import Case, GoldenReference, Pipeline, PipelineResult
 from rangefx.rtl_model.registry import get_pipeline
 
@@ -22,6 +24,7 @@ from .. import report
 from ..errors import UserError
 
 __all__ = [
+    "check_input_levels",
     "compare_ranges",
     "golden_case",
     "load_config",
@@ -30,6 +33,43 @@ __all__ = [
     "range_source",
     "run_case",
 ]
+
+
+def check_input_levels(
+    images: dict[str, np.ndarray], fmt: FixedFormat, signal: str, *, allow: bool
+) -> int:
+    """Count the grey levels of ``images`` (name -> integer image) that the input format
+    ``fmt`` cannot hold, which the pipeline would saturate (a 16-bit PNG, 300, -300 for
+    ``u8.0``). Any is an error unless ``allow``; then a one-line warning says how many.
+
+    Returns
+    -------
+    int
+        The number of such pixels over all images.
+
+    Raises
+    ------
+    UserError
+        Some pixels are outside ``fmt`` and ``allow`` is False.
+    """
+    total, parts = 0, []
+    for name, image in images.items():
+        _, count = cast_array(np.asarray(image, dtype=np.int64), 0, fmt)
+        if count:
+            total += count
+            parts.append(f"{name} {count} (levels {int(image.min())}..{int(image.max())})")
+    if total:
+        what = (
+            f"{total} input pixels outside {signal} ({fmt}: "
+            f"{fmt.to_float(fmt.raw_min):g}..{fmt.to_float(fmt.raw_max):g}): {'; '.join(parts)}"
+        )
+        if not allow:
+            raise UserError(
+                f"{what}; the pipeline would saturate them: rescale the images or pass "
+                "--allow-saturated-input"
+            )
+        print(f"rangefx: warning: {what}, saturated (--allow-saturated-input)", file=sys.stderr)
+    return total
 
 
 def load_config(pipeline: Pipeline, path: str | None = None, **design: Any) -> WordLengthConfig:

@@ -373,9 +373,11 @@ def parse_sweep(text: str, where: str = "sweep definition", root: Path | None = 
 def load_sweep(path: str | Path) -> SweepDef:
     p = Path(path)
     try:
-        text = p.read_text()
+        text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise UserError(f"cannot read sweep definition {str(p)!r}: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise UserError(f"{p}: not a text (UTF-8) sweep definition TOML") from None
     return parse_sweep(text, where=str(p), root=p.parent)
 
 
@@ -627,6 +629,12 @@ def _run_dask(
     except (OSError, TimeoutError, ValueError) as exc:
         raise UserError(f"cannot connect to the dask scheduler {scheduler!r}: {exc}") from None
     try:
+        if not client.scheduler_info().get("workers"):
+            print(
+                f"rangefx: warning: the dask scheduler {scheduler} has no workers; the sweep "
+                "waits until one joins (Ctrl-C stops it; re-run the same command to resume)",
+                file=sys.stderr,
+            )
         futures = client.map(evaluate_point, specs, key=[f"rangefx-{s['key']}" for s in specs])
         try:
             for fut in as_completed(futures):

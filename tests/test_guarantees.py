@@ -1,0 +1,411 @@
+"""Issue 19: nothing lost, nothing masked (docs/guarantees.md).
+
+* a file the user put into an earlier output directory survives every command's re-run;
+* a file rangefx did not write is never overwritten (``config --out``, a name clash);
+* an unwritable output is one ``rangefx: error:`` line, exit 2, before the long work;
+* Ctrl-C prints one line and exits 130, leaving no temporary directory;
+* temporary directories of killed runs are removed by the next run;
+* a sweep directory holds one sweep definition.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rangefx.tools.cli import demo as cli_demo
+from rangefx.tools.cli import main
+from rangefx.tools.cli import vectors as cli_vectors
+from rangefx.tools.errors import UserError
+from rangefx.tools.report.outdir import MARKER_NAME, atomic_output_dir, remove_leftovers
+from rangefx.tools.studies import sweep as sweep_mod
+from rangefx.tools.studies.cases import scene_case
+
+CROP = ["--crop", "240", "256", "100", "124"]
+SWEEP = """
+[sweep]
+name = "{name}"
+scenes = ["lab"]
+size = [24, 32]
+combine = "one_at_a_time"
+metrics = ["golden", "overflows"]
+
+[[axis]]
+signals = "row_state"
+param = "frac"
+values = {values}
+"""
+
+
+@functools.cache
+def _lab():
+    return scene_case("lab")
+
+
+@pytest.fixture(autouse=True)
+def small_scene(monkeypatch):
+    _lab()  # rendered once per process (scene_case caches it)
+
+
+def _pair(tmp_path: Path) -> list[str]:
+    rng = np.random.default_rng(0)
+    left = rng.integers(0, 256, (24, 32)).astype(np.float64)
+    np.save(tmp_path / "l.npy", left)
+    np.save(tmp_path / "r.npy", np.roll(left, 1, axis=1))
+    return ["--left", str(tmp_path / "l.npy"), "--right", str(tmp_path / "r.npy"),
+            "--f-px", "40", "--baseline", "0.1"]  # fmt: skip
+
+
+def _write_sweep(tmp_path: Path, name: str = "a", values: str = "[6, 8]") -> Path:
+    p = tmp_path / f"{name}.toml"
+    p.write_text(SWEEP.format(name=name, values=values))
+    return p
+
+
+COMMANDS = {
+    "run": lambda t, out: ["run", *_pair(t), "--out", out],
+    "run_p1": lambda t, out: ["run", *_pair(t), "--pipeline", "p1", "--out", out],
+    "run_p2": lambda t, out: ["run", *_pair(t), "--pipeline", "p2", "--out", out],
+    "vectors_gen": lambda t, out: ["vectors", "gen", "--scene", "lab", *CROP, "--out", out],
+    "guide": lambda t, out: ["guide", "--obstacles", "synthetic", "--out", out],
+    "track": lambda t, out: ["track", "--duration", "1", "--out", out],
+    "degrees": lambda t, out: ["degrees", "--size", "32", "32", "--order", "1", "--out", out],
+    "optimise": lambda t, out: [
+        "optimise",
+        "--scene",
+        "lab",
+        "--size",
+        "32",
+        "32",
+        "--signals",
+        "row_state",
+        "--out",
+        out,
+    ],
+    "sweep": lambda t, out: ["sweep", str(_write_sweep(t)), "--out", out, "--json"],
+}
+
+
+def _plant(out: Path) -> dict[Path, str]:
+    files = {out / "notes.txt": "mine", out / "rtl" / "e1.row_r1.mem": "dump"}
+    for p, text in files.items():
+        p.parent.mkdir(exist_ok=True)
+        p.write_text(text)
+    return files
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_user_files_survive_a_rerun(tmp_path, capsys, command):
+    out = tmp_path / "out"
+    argv = COMMANDS[command](tmp_path, str(out))
+    assert main(argv) == 0
+    planted = _plant(out)
+    assert main(argv) == 0, capsys.readouterr().err
+    for p, text in planted.items():
+        assert p.read_text() == text, p
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_demo_rerun_keeps_user_files(tmp_path, monkeypatch):
+    """demo's output directory merges like every other (a stand-in body keeps it fast)."""
+
+    def fake_demo(args):
+        with atomic_output_dir(Path(args.out)) as tmp:
+            (tmp / "summary.json").write_text("{}")
+        return 0
+
+    out = tmp_path / "rangefx-out"
+    monkeypatch.setattr(cli_demo, "cmd_demo", fake_demo)  # add_parser binds it at each main()
+    assert main(["demo", "--out", str(out)]) == 0
+    planted = _plant(out)
+    assert main(["demo", "--out", str(out)]) == 0
+    assert all(p.read_text() == t for p, t in planted.items())
+
+
+def test_stale_own_files_go_user_files_stay(tmp_path):
+    out = tmp_path / "out"
+    with atomic_output_dir(out) as tmp:
+        (tmp / "a.txt").write_text("1")
+        (tmp / "sub").mkdir()
+        (tmp / "sub" / "b.txt").write_text("2")
+    (out / "sub" / "mine.txt").write_text("user")
+    with atomic_output_dir(out) as tmp:
+        (tmp / "c.txt").write_text("3")
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()) == [
+        MARKER_NAME, "c.txt", "sub/mine.txt",
+    ]  # fmt: skip
+
+
+def test_a_user_file_with_an_output_name_is_never_overwritten(tmp_path):
+    out = tmp_path / "out"
+    with atomic_output_dir(out) as tmp:
+        (tmp / "a.txt").write_text("1")
+    (out / "table.md").write_text("the user's table")
+    with pytest.raises(UserError, match=r"holds 'table.md', which rangefx did not write"):
+        with atomic_output_dir(out) as tmp:
+            (tmp / "table.md").write_text("new")
+    assert (out / "table.md").read_text() == "the user's table"
+    assert (out / "a.txt").read_text() == "1"
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
+# -- config --out: a file ------------------------------------------------------------------
+def test_config_out_directory_user_file_and_own_file(tmp_path, capsys):
+    assert main(["config", "show", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rangefx: error: --out") and "is a directory" in err
+    assert err.count("\n") == 1
+    user = tmp_path / "mine.toml"
+    user.write_text("[design]\n# my notes\n")
+    assert main(["config", "show", "--out", str(user)]) == 2
+    assert "not written by rangefx" in capsys.readouterr().err
+    assert user.read_text() == "[design]\n# my notes\n"
+    own = tmp_path / "p1.toml"
+    assert main(["config", "show", "--out", str(own)]) == 0
+    assert main(["config", "show", "--variant", "consistent", "--out", str(own)]) == 0
+    assert 'variant = "consistent"' in own.read_text()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.toml", "p1.toml"]
+
+
+# -- unwritable outputs --------------------------------------------------------------------
+@contextlib.contextmanager
+def _unwritable(d: Path):
+    """``d`` made unwritable: immutable for root (chattr +i), read-only mode otherwise."""
+    d.mkdir(exist_ok=True)
+    if os.geteuid() == 0:
+        if shutil.which("chattr") is None:
+            pytest.skip("root without chattr: cannot make a directory unwritable")
+        if subprocess.run(["chattr", "+i", str(d)], capture_output=True).returncode:
+            pytest.skip("chattr +i is not supported here")
+        undo = ["chattr", "-i", str(d)]
+    else:
+        d.chmod(0o555)
+        undo = None
+    try:
+        yield d
+    finally:
+        if undo:
+            subprocess.run(undo, check=False)
+        else:
+            d.chmod(0o755)
+
+
+UNWRITABLE = {
+    **COMMANDS,
+    "demo": lambda t, out: ["demo", "--out", out],
+    "config_show": lambda t, out: ["config", "show", "--out", str(Path(out) / "c.toml")],
+    "config_propose": lambda t, out: [
+        "config",
+        "propose",
+        "--scene",
+        "lab",
+        "--out",
+        str(Path(out) / "c.toml"),
+    ],
+}
+
+
+@pytest.mark.parametrize("command", sorted(UNWRITABLE))
+def test_unwritable_output_is_one_line_before_the_work(tmp_path, capsys, monkeypatch, command):
+    def no_work(*args, **kwargs):
+        raise AssertionError("the long work started before the output was checked")
+
+    for target in ("run_case", "run_method", "render_scene"):
+        for module in (
+            "rangefx.tools.cli.run",
+            "rangefx.tools.cli.demo",
+            "rangefx.tools.studies.cases",
+            "rangefx.tools.studies.runner",
+        ):
+            with contextlib.suppress(AttributeError):
+                monkeypatch.setattr(f"{module}.{target}", no_work)
+    monkeypatch.setattr(cli_vectors, "build_vectors", no_work)
+    argv = UNWRITABLE[command](tmp_path, str(tmp_path / "ro" / "out"))
+    with _unwritable(tmp_path / "ro"):
+        code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.startswith("rangefx: error: ") and err.count("\n") == 1, err
+    assert "ro" in err
+
+
+# -- interrupts ----------------------------------------------------------------------------
+def _interrupt(*args, **kwargs):
+    raise KeyboardInterrupt
+
+
+@pytest.mark.parametrize(
+    ("argv", "target", "says"),
+    [
+        (["vectors", "gen", "--scene", "lab", *CROP], "rangefx.tools.cli.vectors.build_vectors",
+         "no output was written"),
+        (["run", "--scene", "lab"], "rangefx.tools.cli.run.run_method", "no output was written"),
+        (["sweep", "DEF"], "rangefx.tools.studies.sweep.evaluate_point", "re-run the same command"),
+    ],
+)  # fmt: skip
+def test_ctrl_c_is_one_line_and_exit_130(tmp_path, capsys, monkeypatch, argv, target, says):
+    monkeypatch.setattr(target, _interrupt)
+    argv = [str(_write_sweep(tmp_path)) if a == "DEF" else a for a in argv]
+    assert main([*argv, "--out", str(tmp_path / "out")]) == 130
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("rangefx: interrupted;") and says in err and "\n" not in err
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_dask_scheduler_without_workers_says_so(tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=None) as lc:
+        defn = sweep_mod.load_sweep(_write_sweep(tmp_path))
+
+        def stop_at_wait(*args, **kwargs):
+            raise KeyboardInterrupt  # the sweep would wait forever: stop at the first wait
+
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(distributed, "as_completed", stop_at_wait)
+            with pytest.raises(KeyboardInterrupt):
+                sweep_mod.run_sweep(defn, tmp_path / "out", scheduler=lc.scheduler_address)
+    assert "has no workers" in capsys.readouterr().err
+
+
+# -- leftovers of killed runs ------------------------------------------------------------
+def _dead_pid() -> int:
+    proc = subprocess.Popen(["true"])
+    proc.wait()
+    return proc.pid
+
+
+def test_killed_runs_leave_no_hidden_directories_behind(tmp_path):
+    out = tmp_path / "vec"
+    dead = tmp_path / f".vec.tmp-{_dead_pid()}-0123abcd"
+    dead.mkdir()
+    (dead / "e1.pix_in.mem").write_text("00\n")
+    alive = tmp_path / f".vec.tmp-{os.getpid()}-0123abcd"  # a run still going: kept
+    alive.mkdir()
+    other = tmp_path / ".notes.tmp-1-0123abcd"  # not this output's: kept
+    other.mkdir()
+    assert main(["vectors", "gen", "--scene", "lab", *CROP, "--out", str(out)]) == 0
+    assert not dead.exists() and alive.is_dir() and other.is_dir()
+    assert remove_leftovers(out) == []
+
+
+# -- sweep directories ---------------------------------------------------------------------
+def test_sweep_dir_refuses_another_definition_unless_restarted(tmp_path, capsys):
+    out = tmp_path / "sw"
+    a, b = _write_sweep(tmp_path, "a"), _write_sweep(tmp_path, "b", "[7]")
+    assert main(["sweep", str(a), "--out", str(out), "--json"]) == 0
+    capsys.readouterr()
+    before = (out / "results.jsonl").read_text()
+    assert main(["sweep", str(b), "--out", str(out), "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "holds results of another sweep definition" in err and "--restart" in err
+    assert (out / "results.jsonl").read_text() == before
+    (out / "notes.txt").write_text("mine")
+    assert main(["sweep", str(b), "--out", str(out), "--restart", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["name"] == "b" and summary["n_points"] == 2
+    keys = {json.loads(line)["key"] for line in (out / "results.jsonl").read_text().splitlines()}
+    assert keys == {p.key for p in sweep_mod.expand(sweep_mod.load_sweep(b))}
+    assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_sweep_rerun_removes_stale_derived_files_first(tmp_path, monkeypatch):
+    out = tmp_path / "sw"
+    a = _write_sweep(tmp_path)
+    assert main(["sweep", str(a), "--out", str(out), "--json"]) == 0
+    state = json.loads((out / "sweep.json").read_text())
+    assert "points.csv" in state["outputs"] and "summary.json" in state["outputs"]
+    seen: list[list[str]] = []
+    real = sweep_mod.run_sweep
+
+    def spy(defn, out_dir, **kw):
+        seen.append(sorted(p.name for p in Path(out_dir).iterdir()))
+        return real(defn, out_dir, **kw)
+
+    monkeypatch.setattr(sweep_mod, "run_sweep", spy)
+    assert main(["sweep", str(a), "--out", str(out), "--json"]) == 0
+    assert seen == [["results.jsonl", "sweep.json"]]
+
+
+# -- upper bounds ----------------------------------------------------------------------
+def test_huge_blanking_is_refused_up_front(tmp_path, capsys):
+    out = tmp_path / "vec"
+    assert (
+        main(["vectors", "gen", "--scene", "lab", "--hblank", "1000000000", "--out", str(out)]) == 2
+    )
+    err = capsys.readouterr().err
+    assert err.startswith("rangefx: error: --hblank 1000000000") and "GiB of memory" in err
+    assert err.count("\n") == 1 and list(tmp_path.iterdir()) == []
+
+
+def test_huge_sweep_size_is_refused_before_the_directory_is_made(tmp_path, capsys):
+    d = tmp_path / "big.toml"
+    d.write_text(SWEEP.format(name="big", values="[6]").replace("[24, 32]", "[100000, 100000]"))
+    assert main(["sweep", str(d), "--out", str(tmp_path / "sw")]) == 2
+    err = capsys.readouterr().err
+    assert "size [100000, 100000]" in err and "GiB of memory" in err and err.count("\n") == 1
+    assert not (tmp_path / "sw").exists()
+
+
+# -- messages --------------------------------------------------------------------------
+def _one_line_error(capsys) -> str:
+    err = capsys.readouterr().err
+    assert err.startswith("rangefx: error: ") and err.count("\n") == 1, err
+    return err
+
+
+def test_bad_images_are_one_line(tmp_path, capsys):
+    (tmp_path / "empty.png").write_bytes(b"")
+    (tmp_path / "text.png").write_text("not an image\n")
+    for name, says in (("empty.png", "the file is empty"), ("text.png", "not a readable image")):
+        pair = ["--left", str(tmp_path / name), "--right", str(tmp_path / name)]
+        assert main(["run", *pair, "--f-px", "40", "--baseline", "0.1"]) == 2
+        err = _one_line_error(capsys)
+        assert name in err and says in err and "pip install" not in err
+
+
+def test_misspelt_signal_and_binary_toml_name_the_file(tmp_path, capsys):
+    assert main(["config", "show", "--out", str(tmp_path / "c.toml")]) == 0
+    text = (tmp_path / "c.toml").read_text().replace("\nrow_state =", "\nrow_stat =")
+    (tmp_path / "typo.toml").write_text(text)
+    assert main(["config", "show", "--config", str(tmp_path / "typo.toml")]) == 2
+    err = _one_line_error(capsys)
+    assert "unknown signals: 'row_stat' (did you mean 'row_state'?)" in err and "typo.toml" in err
+    (tmp_path / "bin.toml").write_bytes(bytes(range(256)))
+    assert main(["config", "show", "--config", str(tmp_path / "bin.toml")]) == 2
+    assert "bin.toml" in _one_line_error(capsys)
+    (tmp_path / "bin_sweep.toml").write_bytes(bytes(range(256)))
+    assert main(["sweep", str(tmp_path / "bin_sweep.toml"), "--out", str(tmp_path / "s")]) == 2
+    assert "bin_sweep.toml" in _one_line_error(capsys)
+
+
+def test_no_pixel_valid_in_both_prints_no_nan(tmp_path, capsys):
+    argv = ["run", *_pair(tmp_path), "--pipeline", "p1", "--threshold-e", "1000"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "nan" not in out and "no pixel valid in both" in out
+
+
+# -- saturated input -----------------------------------------------------------------------
+@pytest.mark.parametrize("pipeline", ["p1", "p2"])
+def test_grey_levels_outside_the_input_format_are_said(tmp_path, capsys, pipeline):
+    rng = np.random.default_rng(0)
+    left = rng.integers(0, 256, (24, 32))
+    left[0, 0], left[1, 1] = 300, -300
+    np.save(tmp_path / "l.npy", left)
+    np.save(tmp_path / "r.npy", np.roll(left, 1, axis=1))
+    argv = ["run", "--pipeline", pipeline, "--left", str(tmp_path / "l.npy"),
+            "--right", str(tmp_path / "r.npy"), "--f-px", "40", "--baseline", "0.1"]  # fmt: skip
+    assert main(argv) == 2
+    err = _one_line_error(capsys)
+    assert "4 input pixels outside" in err and "--allow-saturated-input" in err
+    assert main([*argv, "--allow-saturated-input"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("rangefx: warning: 4 input pixels outside") and err.count("\n") == 1
