@@ -453,12 +453,15 @@ def case_from_manifest(directory: str | Path, manifest: Mapping) -> dict:
 
 @dataclass
 class CheckReport:
-    """Outcome of :func:`check_vectors`: ``problems`` empty means the directory is good."""
+    """Outcome of :func:`check_vectors`: ``problems`` empty means the directory is good;
+    ``notes`` name files that are not part of the vectors (a user's RTL dump kept beside
+    them, say): reported, left alone, not a fault."""
 
     files: int = 0
     bytes: int = 0
     problems: list[str] = field(default_factory=list)
     rerun: bool = False
+    notes: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -505,7 +508,7 @@ def check_vectors(directory: str | Path, *, rerun: bool = True) -> CheckReport:
             report.problems.append(f"{e['path']}: SHA-256 differs from the manifest")
     for p in sorted(d.iterdir()):
         if p.name not in listed and p.name not in _IGNORED:
-            report.problems.append(f"{p.name}: not listed in the manifest")
+            report.notes.append(f"{p.name}: not listed in the manifest (left alone)")
     if report.problems or not rerun:
         return report
     again = build_vectors(**case_from_manifest(d, manifest))

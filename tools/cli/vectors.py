@@ -148,6 +148,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     else:
         for p in report.problems:
             print(f"problem: {p}")
+        for p in report.notes:
+            print(f"note: {p}")
         rerun = "model re-run identical" if report.rerun else "model not re-run"
         verdict = "OK" if report.ok else f"FAILED ({len(report.problems)} problems)"
         print(f"{args.dir}: {report.files} files, {report.bytes} bytes, {rerun}: {verdict}")
