@@ -42,8 +42,8 @@ class OracleRun:
         return self.taps["valid"].astype(bool)
 
 
-class P1Oracle:
-    name = "p1"
+class Oracle:
+    """An oracle behind the pipelines' ``run`` signature: :meth:`compute` runs it."""
 
     def run(
         self,
@@ -54,27 +54,24 @@ class P1Oracle:
         taps: bool = True,
         threads: int = 1,
     ) -> OracleRun:
-        ref = oracle_p1(
+        ref = self.compute(case, config)
+        return OracleRun(ref.taps, ref.overflows, ref.minmax)
+
+    def compute(self, case: Case, config: WordLengthConfig):
+        raise NotImplementedError
+
+
+class P1Oracle(Oracle):
+    def compute(self, case: Case, config: WordLengthConfig):
+        return oracle_p1(
             case.image1, case.image2, case.camera, case.motion, config, case.ranging,
             mode=case.mode,
         )  # fmt: skip
-        return OracleRun(ref.taps, ref.overflows, ref.minmax)
 
 
-class P2Oracle:
-    name = "p2"
-
-    def run(
-        self,
-        case: Case,
-        config: WordLengthConfig,
-        timing: TimingConfig | None = None,
-        *,
-        taps: bool = True,
-        threads: int = 1,
-    ) -> OracleRun:
-        ref = oracle_p2(case.image1, case.image2, case.camera, case.motion, config, case.riccati)
-        return OracleRun(ref.taps, ref.overflows, ref.minmax)
+class P2Oracle(Oracle):
+    def compute(self, case: Case, config: WordLengthConfig):
+        return oracle_p2(case.image1, case.image2, case.camera, case.motion, config, case.riccati)
 
 
 #: Pipeline name -> its oracle (same keys as ``rangefx.rtl_model.registry.PIPELINES``).
