@@ -15,20 +15,23 @@ do not depend on timing; cycle stamps come from the input beats plus declared la
 
 from __future__ import annotations
 
+import math
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.cpython.unsafe.numbers import leading_zeros, viewer
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera, k_matrix
 from rangefx.golden.ranging import RangingConfig
 
 from ..config import TimingConfig
-from ..fixedpoint import cast_shifted
+from ..fixedpoint import cast_row, cast_shifted, overflow_raw
 from ..pipeline import PipelineResult
 from ..runtime import (
+    DIV_RESTORING,
     RegisterFile,
     SignalStats,
     check_image_pair,
@@ -37,10 +40,6 @@ from ..runtime import (
     divider_setup,
     format_table,
 )
-from ..runtime import at_frac as _at
-from ..runtime import cast_row_site as _cast_row
-from ..runtime import cast_site as _cast
-from ..runtime import divide_row as _divide_row
 from ..stream import input_cycles
 from .config import P1_SIGNALS, P1Config
 
@@ -49,7 +48,13 @@ __all__ = [
     "N_SITES",
     "RANGE_TAPS",
     "FrameRegisters",
+    "at_frac",
     "buffer_bits",
+    "cast_row_site",
+    "cast_site",
+    "divide_into",
+    "divide_row",
+    "divide_scalar",
     "frame_registers",
     "frame_store_word",
     "line_buffer_words",
@@ -117,6 +122,162 @@ RANGE_TAPS = (
 # --------------------------------------------------------------------------------------
 # kernels: raw int64 arithmetic only
 # --------------------------------------------------------------------------------------
+# --------------------------------------------------------------------------------------
+# kernels: raw int64 arithmetic only. The cast and divider helpers are public: P2's
+# kernel calls them too (they stay in this module: see rangefx.rtl_model.runtime).
+# --------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True, inline="always")
+def cast_site(raw, frac_in, s, site, fm, st, ov):
+    """Cast ``raw * 2**-frac_in`` into signal ``s``; log the raw pre-quantisation value.
+
+    Min/max are kept per cast *site* as raw integers (each site has one ``frac_in``) and
+    turned into values on the host; float conversion per cast would cost more than the
+    cast itself.
+    """
+    # Unconditional stores and the common cast inlined: a branch around the stores, or a
+    # non-inlined call on the common path, defeats numba's reference-count pruning of the
+    # arrays and makes every cast ~8x slower (measured).
+    st[site, 0] = min(st[site, 0], raw)
+    st[site, 1] = max(st[site, 1], raw)
+    st[site, 2] = frac_in
+    st[site, 3] = s
+    sh = frac_in - fm[s, 1]
+    out, flag = cast_shifted(raw, sh, fm[s, 0], fm[s, 2] != 0, fm[s, 3], fm[s, 4], 0 <= sh <= 62)
+    ov[s] += flag
+    return out
+
+
+@njit(cache=True, nogil=True, inline="always")
+def at_frac(raw, frac, target):
+    """``raw`` re-expressed with ``target >= frac`` fraction bits (exact left shift)."""
+    return raw << (target - frac)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def bit_length(x):
+    """Bit length of ``x > 0`` (a leading-zero count, as in hardware)."""
+    return np.int64(64 - leading_zeros(np.uint64(x)))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def ldexp2(x, k):
+    """``math.ldexp(x, k)``; for ``|k| <= 1022`` as a product with ``2.0**k`` built from its
+    exponent bits (the same value unless the result is subnormal; no libm call)."""
+    if -1022 <= k <= 1022:
+        return x * viewer(np.int64(k + 1023) << 52, types.float64)
+    return math.ldexp(x, k)
+
+
+@njit(cache=True, nogil=True)
+def floor_div(t, d):
+    """``t // d`` for 0 <= t, 0 < d; float-assisted when exact (integer division is slow)."""
+    if t < 9007199254740992 and d < 9007199254740992:
+        q = np.int64(float(t) / float(d))
+        if q * d > t:
+            q -= 1
+        elif (q + 1) * d <= t:
+            q += 1
+        return q
+    return t // d
+
+
+@njit(cache=True, nogil=True, inline="always")
+def divide_scalar(n, fn, d, fd, word, frac, signed, quant, ovf_mode, kind, lut, r_bits):
+    """``divide(N, D, S)`` of docs/p1_datapath.md on scalars (inlined: see ``cast_site``).
+
+    ``lut`` is the reciprocal seed table (:func:`reciprocal_lut`, ``2**L`` entries; unused
+    by the restoring divider). Returns ``(raw, overflowed, lo, hi)``: ``lo``/``hi`` are the
+    value to log into the signal's min/max (the quotient ``fl(fl(N)/fl(D)) 2**(F_D - F_N)``;
+    ``+inf``/``-inf``, i.e. nothing, for ``D = 0``).
+    """
+    if d == 0:
+        if n == 0:
+            return np.int64(0), False, np.inf, -np.inf
+        big = np.int64(1) << 62  # beyond any format: the overflow mode decides
+        out, _ = overflow_raw(big if n > 0 else -big, word, signed, ovf_mode)
+        return out, True, np.inf, -np.inf
+    value = ldexp2(float(n) / float(d), fd - fn)
+    # sign, seed index and normalisation by masks and clamped shifts, not branches: the
+    # signs of real quotients are random, and a mispredicted branch per pixel cost more
+    # than the divider's arithmetic (a row of divisions: 31 -> 22 ns/pixel, measured; 15
+    # with the seed read from its table instead of computed with a division)
+    negative = -np.int64((n < 0) != (d < 0))
+    an = abs(n)
+    ad = abs(d)
+    if kind == DIV_RESTORING:
+        sh = frac + 1 + fd - fn
+        t = an << max(sh, 0)
+        dd = ad << max(-sh, 0)
+        q = floor_div(t, dd)
+        sticky = np.int64(t != q * dd)
+        # far out of range: any larger value saturates identically
+        raw = 2 * min(q, np.int64(1) << (word + 2)) + sticky
+        frac_in = frac + 2
+    else:
+        lut_bits = bit_length(lut.shape[0]) - 1
+        p = bit_length(ad) - 1
+        idx = ((ad >> max(p - lut_bits, 0)) << max(lut_bits - p, 0)) - lut.shape[0]
+        y0 = lut[idx]
+        m_r = (ad >> max(p - r_bits, 0)) << max(r_bits - p, 0)
+        t = (m_r * y0) >> r_bits
+        e = (np.int64(1) << (r_bits + 1)) - t
+        y1 = (y0 * e) >> r_bits
+        raw = an * y1
+        frac_in = fn - fd + p + r_bits
+    sh = frac_in - frac
+    out, flag = cast_shifted((raw ^ negative) - negative, sh, word, signed, quant, ovf_mode,
+                             0 <= sh <= 62)  # fmt: skip
+    return out, flag, value, value
+
+
+@njit(cache=True, nogil=True, inline="always")
+def divide_into(n, fn, d, fd, s, kind, lut, r_bits, fm, dst, ov):
+    """:func:`divide_scalar` into signal ``s``: logs min/max and counts overflows."""
+    out, flag, lo, hi = divide_scalar(n, fn, d, fd, fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3],
+                                fm[s, 4], kind, lut, r_bits)  # fmt: skip
+    dst[s, 0] = min(dst[s, 0], lo)
+    dst[s, 1] = max(dst[s, 1], hi)
+    ov[s] += flag
+    return out, flag
+
+
+@njit(cache=True, nogil=True)
+def divide_row(num, fn, den, fd, s, kind, lut, r_bits, fm, dst, ov, out, flags):
+    """:func:`divide_scalar` of a row into signal ``s`` (``out``, overflow ``flags``); the log
+    and the overflow count are kept in registers and written once per row (updating them
+    in memory per element measured ~2x the divider's own cost)."""
+    word, frac, signed, quant, ovf = fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4]
+    lo, hi, count = dst[s, 0], dst[s, 1], np.int64(0)
+    for i in range(num.shape[0]):
+        q, flag, v_lo, v_hi = divide_scalar(num[i], fn, den[i], fd, word, frac, signed, quant, ovf,
+                                      kind, lut, r_bits)  # fmt: skip
+        out[i] = q
+        flags[i] = flag
+        count += flag
+        lo = v_lo if v_lo < lo else lo
+        hi = v_hi if v_hi > hi else hi
+    dst[s, 0], dst[s, 1] = lo, hi
+    ov[s] += count
+
+
+@njit(cache=True, nogil=True)
+def cast_row_site(raw, frac_in, s, site, fm, st, ov):
+    """:func:`cast_site` of a whole row (one loop per cast: the format is loop-invariant)."""
+    out = np.empty_like(raw)
+    lo, hi, count = cast_row(raw, frac_in, fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4],
+                             out)  # fmt: skip
+    st[site, 0] = min(st[site, 0], lo)
+    st[site, 1] = max(st[site, 1], hi)
+    st[site, 2] = frac_in
+    st[site, 3] = s
+    ov[s] += count
+    return out
+
+
+# short local names for the kernels below
+_cast, _cast_row, _at, _divide_row = cast_site, cast_row_site, at_frac, divide_row
+
+
 @njit(cache=True, nogil=True)
 def _row_filter(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next):
     """The row filter's recursion along one line (state ``p0`` at column 0).

@@ -26,6 +26,8 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.riccati import RiccatiConfig, stereo_baseline
 
 from ..config import TimingConfig
+from ..p1.model import cast_site as _cast
+from ..p1.model import divide_into as _divide_into
 from ..pipeline import PipelineResult
 from ..runtime import (
     RegisterFile,
@@ -36,8 +38,6 @@ from ..runtime import (
     divider_setup,
     format_table,
 )
-from ..runtime import cast_site as _cast
-from ..runtime import divide_into as _divide_into
 from ..stream import make_stream
 from .config import P2_SIGNALS, P2Config, loop_latency
 
