@@ -25,19 +25,11 @@ from numba import njit
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.riccati import RiccatiConfig, stereo_baseline
 
+from .. import runtime
 from ..config import TimingConfig
 from ..p1.model import cast_site as _cast
 from ..p1.model import divide_into as _divide_into
 from ..pipeline import PipelineResult
-from ..runtime import (
-    RegisterFile,
-    SignalStats,
-    check_image_pair,
-    check_threads,
-    divider_latency,
-    divider_setup,
-    format_table,
-)
 from ..stream import make_stream
 from .config import P2_SIGNALS, P2Config, loop_latency
 
@@ -184,7 +176,7 @@ def p2_registers(
     ``M = α/β``, ``c_min = κ_min / M``, ``S~_end = min(γ/(β s), max of p2_st)`` (the γ clamp;
     ``s`` = pixel pitch), ``T_D = ceil(2 T_E 2^F_d)`` and ``range_max``.
     """
-    registers = RegisterFile(config)
+    registers = runtime.RegisterFile(config)
     reg, values = registers.write, registers.values
     dx = -stereo_baseline(motion)
     beta_px = riccati.beta * riccati.pixel_pitch
@@ -212,7 +204,7 @@ def stage_latencies(config: P2Config) -> dict[str, int]:
     """Declared latencies (cycles) of the P2 stages (docs/p2_datapath.md, Timing)."""
     return {
         "input": IN_LATENCY,
-        "divider": divider_latency(config.divider, config.formats["p2_r"].word),
+        "divider": runtime.divider_latency(config.divider, config.formats["p2_r"].word),
         "backward_loop": loop_latency(config),
         "forward_loop": FWD_LOOP,
         "output": OUT_LATENCY,
@@ -313,7 +305,7 @@ def run_p2(
     displaced ``b`` to the right), integer grey levels; ``riccati`` gives the weights
     (α, β, γ, pixel pitch), ``threshold_e`` and ``range_max`` of golden G5 (its ``form``
     must be ``"lq"`` and ``a_sampling`` ``"edge"``, the discretisation P2 implements)."""
-    check_threads(threads)
+    runtime.check_threads(threads)
     config = config or P2Config.default()
     riccati = riccati or RiccatiConfig()
     if riccati.form != "lq" or riccati.a_sampling != "edge":
@@ -321,21 +313,21 @@ def run_p2(
     timing = timing or TimingConfig()
     if not isinstance(config, P2Config):
         raise ValueError(f"P2 needs a P2Config, not {type(config).__name__}")
-    im1, im2 = check_image_pair(image1, image2, camera, pipeline="p2", min_shape=(1, 2))
+    im1, im2 = runtime.check_image_pair(image1, image2, camera, pipeline="p2", min_shape=(1, 2))
     m, n = im1.shape
     regs = p2_registers(camera, motion, riccati, config)
     # timing first: an impossible schedule is rejected before any work
     stream = make_stream(im2, timing)
     in_cycles = stream.pixel_cycles()[-1]
     out_cycles, sched, _ = p2_schedule(in_cycles, config, timing.hblank)
-    fm = format_table(config)
-    kind, lut = divider_setup(config)
+    fm = runtime.format_table(config)
+    kind, lut = runtime.divider_setup(config)
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
     tp = np.zeros((len(P2_TAPS), m, n) if taps else (len(P2_TAPS), 0, 0), dtype=np.int64)
 
     def band(j0: int, j1: int):
-        stats = SignalStats(N_SITES, len(P2_SIGNALS))
+        stats = runtime.SignalStats(N_SITES, len(P2_SIGNALS))
         st, dst, ov = stats.arrays
         _p2_kernel(
             im1, im2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
@@ -348,7 +340,7 @@ def run_p2(
             parts = list(pool.map(lambda b: band(*b), ((0, m // 2), (m // 2, m))))
     else:
         parts = [band(0, m)]
-    overflows, minmax = SignalStats.merge(parts, P2_SIGNALS)
+    overflows, minmax = runtime.SignalStats.merge(parts, P2_SIGNALS)
     tap_dict = {name: tp[k] for k, name in enumerate(P2_TAPS)} if taps else {}
     zf = config.formats["p2_z"]
     latency = int((out_cycles - in_cycles).max())
