@@ -119,6 +119,10 @@ class AvoidConfig:
         closed loop holds each command for a guidance interval.
     max_load_factor, max_theta_deg, max_phi_deg
         Limits on ``T/W``, ``|θ|`` and ``|φ|`` (constraints of the programme).
+    limit_backoff
+        The plan keeps this fraction inside each limit (of ``n_max - 1``, ``θ_max``,
+        ``φ_max``) so that the tracking term and the held commands of the closed loop
+        stay within them.
     n_basis
         Correction polynomials per axis.
     n_samples
@@ -138,6 +142,7 @@ class AvoidConfig:
     max_load_factor: float = 1.1
     max_theta_deg: float = 20.0
     max_phi_deg: float = 30.0
+    limit_backoff: float = 0.05
     n_basis: int = 8
     n_samples: int = 64
     replan_interval: float = 0.5
@@ -160,6 +165,8 @@ class AvoidConfig:
             raise ValueError(
                 f"max_load_factor must exceed 1 (hover needs T = W), not {self.max_load_factor!r}"
             )
+        if not 0 <= self.limit_backoff < 1:
+            raise ValueError(f"limit_backoff must lie in [0, 1), not {self.limit_backoff!r}")
         if not 0 < self.max_theta_deg < 90 or not 0 < self.max_phi_deg < 90:
             raise ValueError("max_theta_deg and max_phi_deg must lie in (0, 90)")
         for name, lo in (("n_basis", 1), ("n_samples", 8), ("maxiter", 1)):
@@ -277,11 +284,12 @@ def limit_margins(
     normal = (b * e_gam).sum(axis=1)  # Γ, eq 19
     side = (b * e_chi).sum(axis=1)  # numerator of eq 12
     thrust = np.sqrt(along**2 + normal**2 + side**2)  # T/m, eq 14
-    st = math.sin(math.radians(cfg.max_theta_deg))
-    tp = math.tan(math.radians(cfg.max_phi_deg))
+    keep = 1.0 - cfg.limit_backoff
+    st = math.sin(math.radians(keep * cfg.max_theta_deg))
+    tp = math.tan(math.radians(keep * cfg.max_phi_deg))
     return np.stack(
         [
-            cfg.max_load_factor - thrust / g,
+            1.0 + keep * (cfg.max_load_factor - 1.0) - thrust / g,
             st * thrust - along,
             st * thrust + along,
             tp * normal - side,
@@ -324,23 +332,93 @@ class _Problem:
         """Eq 20 by Gauss-Legendre quadrature on [0, T]."""
         t_go, _ = self.unpack(x)
         r, _, a = self.path(x)
+        return float(t_go * (self.basis.weights * self._integrand(r, a)).sum())
+
+    def _integrand(self, r, a):
         w = self.field.weights
-        integrand = w.zeta + 0.5 * (1.0 - w.zeta) * (
+        return w.zeta + 0.5 * (1.0 - w.zeta) * (
             w.alpha * (a**2).sum(axis=1)
             + w.mu * (r[:, 2] - w.z_ref) ** 2
             - w.beta * self.field.sum_sq_distance(r)
         )
-        return float(t_go * (self.basis.weights * integrand).sum())
+
+    def _dt(self, x) -> float:
+        return 1e-6 * max(1.0, abs(x[0]))
+
+    def _chain(self, t_go, idx, g_r, g_v=None, g_a=None) -> np.ndarray:
+        """d(row)/dc for rows that each depend on one sample ``idx[row]`` through
+        per-row gradients (rows, 3) in r, v and a; returns (rows, 3m)."""
+        b = self.basis
+        jac = b.corr[0][:, idx].T[:, :, None] * g_r[:, None, :]
+        if g_v is not None:
+            jac += (b.corr[1][:, idx].T / t_go)[:, :, None] * g_v[:, None, :]
+        if g_a is not None:
+            jac += (b.corr[2][:, idx].T / t_go**2)[:, :, None] * g_a[:, None, :]
+        return jac.reshape(len(idx), -1)
+
+    def cost_grad(self, x) -> np.ndarray:
+        t_go, _ = self.unpack(x)
+        r, _, a = self.path(x)
+        w = self.field.weights
+        wq = self.basis.weights[:, None]
+        g_a = t_go * wq * (1.0 - w.zeta) * w.alpha * a
+        g_r = -t_go * wq * (1.0 - w.zeta) * w.beta * self.field.n * (r - self.field.mean)
+        g_r[:, 2] += t_go * self.basis.weights * (1.0 - w.zeta) * w.mu * (r[:, 2] - w.z_ref)
+        idx = np.arange(len(r))
+        grad_c = self._chain(t_go, idx, g_r, None, g_a).sum(axis=0)
+        h = self._dt(x)
+        xp = x.copy()
+        xp[0] += h
+        return np.concatenate([[(self.cost(xp) - self.cost(x)) / h], grad_c])
 
     def clearance_margin(self, x) -> np.ndarray:
         r, _, _ = self.path(x)
         need = self.cfg.clearance_ft + self.cfg.margin_ft
         return (_clearances(r, self.boxes) - need).ravel()
 
+    def clearance_jac(self, x) -> np.ndarray:
+        t_go, _ = self.unpack(x)
+        r, _, _ = self.path(x)
+        n, k = len(r), len(self.boxes)
+        g = np.stack([b.signed_distance_gradient(r) for b in self.boxes], axis=1)  # n,k,3
+        # rows ordered (sample, box) like clearance_margin's ravel
+        jac_c = self._chain(t_go, np.repeat(np.arange(n), k), g.reshape(n * k, 3))
+        return np.column_stack([self._t_column(x, self.clearance_margin), jac_c])
+
+    def _t_column(self, x, fun) -> np.ndarray:
+        h = self._dt(x)
+        xp = x.copy()
+        xp[0] += h
+        return (fun(xp) - fun(x)) / h
+
     def other_margins(self, x) -> np.ndarray:
         r, v, a = self.path(x)
         lim = limit_margins(v, a, self.params, self.cfg)
-        return np.concatenate([lim.ravel(), r[:, 2]])
+        return np.concatenate([lim.T.ravel(), r[:, 2]])
+
+    def other_jac(self, x) -> np.ndarray:
+        t_go, _ = self.unpack(x)
+        r, v, a = self.path(x)
+        n = len(r)
+        eye = np.eye(3)
+        g_v = np.empty((5, n, 3))
+        g_a = np.empty((5, n, 3))
+        for ax in range(3):  # central differences per sample, vectorised over samples
+            hv = 1e-6 * np.maximum(np.abs(v[:, ax]), 1.0)[:, None]
+            ha = 1e-6 * np.maximum(np.abs(a[:, ax]), 1.0)[:, None]
+            dv = limit_margins(v + hv * eye[ax], a, self.params, self.cfg) - limit_margins(
+                v - hv * eye[ax], a, self.params, self.cfg
+            )
+            da = limit_margins(v, a + ha * eye[ax], self.params, self.cfg) - limit_margins(
+                v, a - ha * eye[ax], self.params, self.cfg
+            )
+            g_v[:, :, ax] = (dv / (2 * hv)).T
+            g_a[:, :, ax] = (da / (2 * ha)).T
+        idx = np.tile(np.arange(n), 5)  # rows ordered (limit, sample) like lim.T.ravel
+        zero = np.zeros((5 * n, 3))
+        jac_lim = self._chain(t_go, idx, zero, g_v.reshape(5 * n, 3), g_a.reshape(5 * n, 3))
+        jac_z = self._chain(t_go, np.arange(n), np.tile([0.0, 0.0, 1.0], (n, 1)))
+        return np.column_stack([self._t_column(x, self.other_margins), np.vstack([jac_lim, jac_z])])
 
 
 def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, object]:
@@ -351,14 +429,30 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
         # variables [T, c..., slack]: maximise slack s with clearance - need >= s.
         x_init = np.concatenate([x0, [float(prob.clearance_margin(x0).min(initial=0.0))]])
         bounds = [(lo, hi)] + [(None, None)] * (n - 1) + [(None, 0.0)]
+
+        def slack_jac(y, jac):
+            j = jac(y[:-1])
+            return np.column_stack([j, np.full(len(j), -1.0)])
+
         cons = [
-            {"type": "ineq", "fun": lambda y: prob.clearance_margin(y[:-1]) - y[-1]},
-            {"type": "ineq", "fun": lambda y: prob.other_margins(y[:-1])},
+            {
+                "type": "ineq",
+                "fun": lambda y: prob.clearance_margin(y[:-1]) - y[-1],
+                "jac": lambda y: slack_jac(y, prob.clearance_jac),
+            },
+            {
+                "type": "ineq",
+                "fun": lambda y: prob.other_margins(y[:-1]),
+                "jac": lambda y: np.column_stack(
+                    [prob.other_jac(y[:-1]), np.zeros(len(prob.other_margins(y[:-1])))]
+                ),
+            },
         ]
         scale = max(abs(prob.cost(x0)), 1.0)
         res = minimize(
             lambda y: -y[-1] + 1e-3 * prob.cost(y[:-1]) / scale,
             x_init,
+            jac=lambda y: np.concatenate([1e-3 * prob.cost_grad(y[:-1]) / scale, [-1.0]]),
             method="SLSQP",
             bounds=bounds,
             constraints=cons,
@@ -366,12 +460,13 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
         )
         return res.x[:-1], res
     bounds = [(lo, hi)] + [(None, None)] * (n - 1)
-    cons = [{"type": "ineq", "fun": prob.other_margins}]
+    cons = [{"type": "ineq", "fun": prob.other_margins, "jac": prob.other_jac}]
     if prob.boxes:
-        cons.append({"type": "ineq", "fun": prob.clearance_margin})
+        cons.append({"type": "ineq", "fun": prob.clearance_margin, "jac": prob.clearance_jac})
     res = minimize(
         prob.cost,
         x0,
+        jac=prob.cost_grad,
         method="SLSQP",
         bounds=bounds,
         constraints=cons,
@@ -466,6 +561,10 @@ def plan_trajectory(
     amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
     seeds += [np.concatenate([[t_rep], c.ravel()]) for c in _side_seeds(prob, t_rep, c_rep, amp)]
     best, best_res, iters = None, None, 0
+    need = cfg.clearance_ft + cfg.margin_ft
+    ends = np.stack([r0, bc.rf])
+    if boxes and _clearances(ends, prob.boxes).min() < need:
+        seeds = []  # the start or the touch-down point itself is within the clearance
     for k, x0 in enumerate(seeds):
         x, res = _solve(prob, x0, relaxed=False)
         iters += int(getattr(res, "nit", 0))

@@ -41,7 +41,7 @@ cloud, e.g. the synthetic set):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import ndimage
@@ -132,6 +132,27 @@ class ObstacleBox:
         outside = np.linalg.norm(np.maximum(d, 0.0), axis=-1)
         inside = np.minimum(d.max(axis=-1), 0.0)
         return outside + inside
+
+    def signed_distance_gradient(self, p: np.ndarray) -> np.ndarray:
+        """Gradient of :meth:`signed_distance` with respect to ``p`` (shape (..., 3))."""
+        q = self.local(p)
+        half_z = 0.5 * self.top
+        rel = np.stack([q[..., 0], q[..., 1], q[..., 2] - half_z], axis=-1)
+        half = np.array([self.half_u, self.half_v, half_z])
+        d = np.abs(rel) - half
+        sign = np.where(rel >= 0, 1.0, -1.0)
+        pos = np.maximum(d, 0.0)
+        norm = np.linalg.norm(pos, axis=-1, keepdims=True)
+        outside = norm[..., 0] > 0
+        g_local = np.where(outside[..., None], pos * sign / np.where(norm > 0, norm, 1.0), 0.0)
+        k = np.argmax(d, axis=-1)
+        inside_g = np.zeros_like(d)
+        np.put_along_axis(inside_g, k[..., None], 1.0, axis=-1)
+        g_local = np.where(outside[..., None], g_local, inside_g * sign)
+        g = np.empty_like(g_local)
+        g[..., :2] = g_local[..., :2] @ self.axes
+        g[..., 2] = g_local[..., 2]
+        return g
 
     def corners(self) -> np.ndarray:
         """The 8 corners (guidance frame), shape (8, 3)."""
@@ -318,6 +339,12 @@ class ExtractionConfig:
         Ground removal with uncertainty: a point is a ground return unless its height
         stays ``>= min_height`` when its range moves by ``ground_k`` times its
         predicted error ``ε``.
+    ground_slope
+        A cluster whose log range rises with the log range to the ground along its
+        rays faster than this is a mis-ranged ground patch (:func:`_ground_like`).
+    min_rows
+        A range-map cluster spanning fewer image rows has no upright extent (a
+        horizontal texture edge of the ground): rejected.
     lateral_margin_ft
         Growth across the ray and on top (ft): pixel footprint and edge blur.
     max_range
@@ -330,19 +357,21 @@ class ExtractionConfig:
     noise_sigma: float = 0.5
     disparity_sigma_px: float = 0.25
     link_px: int = 3
-    link_ft: float = 3.0
+    link_ft: float = 6.0
     min_points: int = 12
     along_ray_k: float = 2.5
     min_log_spread: float = 0.05
     grow_k: float = 1.0
-    ground_k: float = 1.0
+    ground_k: float = 2.0
+    ground_slope: float = 0.8
+    min_rows: int = 3
     lateral_margin_ft: float = 1.0
     max_range: float | None = None
 
     def __post_init__(self) -> None:
         for name in (
             "max_height", "max_relative_error", "link_ft", "along_ray_k",
-            "min_log_spread", "lateral_margin_ft",
+            "min_log_spread", "lateral_margin_ft", "ground_slope",
         ):  # fmt: skip
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
@@ -357,6 +386,8 @@ class ExtractionConfig:
             )
         if not isinstance(self.link_px, int) or self.link_px < 0:
             raise ValueError(f"link_px must be an integer >= 0, not {self.link_px!r}")
+        if not isinstance(self.min_rows, int) or self.min_rows < 1:
+            raise ValueError(f"min_rows must be an integer >= 1, not {self.min_rows!r}")
         if not isinstance(self.min_points, int) or self.min_points < 1:
             raise ValueError(f"min_points must be an integer >= 1, not {self.min_points!r}")
 
@@ -428,6 +459,25 @@ def _cluster_box(
     )  # fmt: skip
 
 
+def _ground_like(ranges: np.ndarray, ground_range: np.ndarray, cfg: ExtractionConfig) -> bool:
+    """True when a cluster's ranges scale like the ground's along its rays.
+
+    A ground patch whose range is over- or under-estimated by a common factor ``k``
+    maps onto the plane at height ``(1 - k) h_camera``: above the ground, but flat. An
+    upright object keeps one range over the rows it spans, while the range to the
+    ground behind it changes. The slope of ``log range`` on ``log ground range``
+    (least squares over the cluster) is ~1 for the first, ~0 for the second.
+    """
+    ok = np.isfinite(ground_range) & (ground_range > 0)
+    if ok.sum() < cfg.min_points:
+        return False
+    xg, yr = np.log(ground_range[ok]), np.log(ranges[ok])
+    if xg.std() < cfg.min_log_spread:  # too few rows to tell
+        return False
+    slope = float(np.cov(xg, yr, bias=True)[0, 1] / xg.var())
+    return slope > cfg.ground_slope
+
+
 def _boxes_from_clusters(
     labels: np.ndarray,
     pts: np.ndarray,
@@ -436,10 +486,16 @@ def _boxes_from_clusters(
     camera_xy: np.ndarray,
     cfg: ExtractionConfig,
     counts: dict[str, int],
+    *,
+    ray_aligned: bool = True,
+    ground_range: np.ndarray | None = None,
+    rows: np.ndarray | None = None,
 ) -> ExtractionResult:
     boxes, keep_pts, keep_lab = [], [], []
     counts.setdefault("along_ray_outliers", 0)
     counts.setdefault("isolated", 0)
+    counts.setdefault("ground_like", 0)
+    counts.setdefault("flat", 0)
     for lab in np.unique(labels):
         sel = np.nonzero(labels == lab)[0]
         log_r = np.log(ranges[sel])
@@ -449,9 +505,18 @@ def _boxes_from_clusters(
         if len(inl) < cfg.min_points:
             counts["isolated"] += len(inl)
             continue
-        box = _cluster_box(
-            f"obstacle {len(boxes) + 1}", pts[inl], ranges[inl], eps[inl], camera_xy, cfg
-        )
+        if rows is not None and np.ptp(rows[inl]) + 1 < cfg.min_rows:
+            counts["flat"] += len(inl)  # no image height: a texture edge, not upright
+            continue
+        if ground_range is not None and _ground_like(ranges[inl], ground_range[inl], cfg):
+            counts["ground_like"] += len(inl)
+            continue
+        name = f"obstacle {len(boxes) + 1}"
+        if ray_aligned:
+            box = _cluster_box(name, pts[inl], ranges[inl], eps[inl], camera_xy, cfg)
+        else:  # exact points: the smallest enclosing box, grown by the lateral margin
+            fit = box_from_corners(name, np.vstack([pts[inl], pts[inl] * [1, 1, 0]]))
+            box = replace(fit.grown(cfg.lateral_margin_ft), n_points=len(inl))
         keep_lab.append(np.full(len(inl), len(boxes)))
         boxes.append(box)
         keep_pts.append(pts[inl])
@@ -534,7 +599,21 @@ def extract_obstacles(
     to_g = guidance_from_ned if frame_map is None else frame_map.to_guidance
     pts = to_g(pn[keep])
     camera_xy = to_g(cam_ned)[:2]
-    return _boxes_from_clusters(comp[keep], pts, rng_map[keep], eps[keep], camera_xy, cfg, counts)
+    # Range along the optical axis at which each pixel's ray meets the ground (x_c = 1
+    # direction of eq 32 mapped by eq 33; NED z is down, the ground is z = 0).
+    ray = (
+        inertial_from_camera(
+            motion,
+            camera_points_from_range(np.ones(int(keep.sum())), xp[keep], yp[keep], camera.f_px),
+        )
+        - cam_ned
+    )
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ground_range = np.where(ray[:, 2] > 0, -cam_ned[2] / ray[:, 2], np.inf)
+    return _boxes_from_clusters(
+        comp[keep], pts, rng_map[keep], eps[keep], camera_xy, cfg, counts,
+        ground_range=ground_range, rows=np.nonzero(keep)[0],
+    )  # fmt: skip
 
 
 def extract_from_points(
@@ -545,9 +624,10 @@ def extract_from_points(
 ) -> ExtractionResult:
     """Obstacles from a bare guidance-frame point cloud (no range map, no error equation).
 
-    Ground removal (step 1), single-linkage clustering at ``link_ft`` (step 3), the
-    along-ray test with the range measured from ``camera_position`` (step 4) and the
-    extents of step 5 (the range uncertainty is then the cluster's own spread).
+    Ground removal (step 1), single-linkage clustering at ``link_ft`` (step 3) and the
+    along-ray test with the range measured from ``camera_position`` (step 4). The
+    points carry no range error, so each extent is the smallest box holding the
+    cluster down to the ground, grown by ``lateral_margin_ft``.
     """
     cfg = config or ExtractionConfig()
     pts = np.asarray(points, dtype=np.float64)
@@ -567,7 +647,9 @@ def extract_from_points(
     _, labels = connected_components(graph, directed=False)
     cam = np.asarray(camera_position, dtype=np.float64)
     ranges = np.linalg.norm(pts - cam, axis=1)
-    return _boxes_from_clusters(labels, pts, ranges, np.zeros(len(pts)), cam[:2], cfg, counts)
+    return _boxes_from_clusters(
+        labels, pts, ranges, np.zeros(len(pts)), cam[:2], cfg, counts, ray_aligned=False
+    )
 
 
 # --------------------------------------------------------------------------- scoring
