@@ -28,8 +28,13 @@ cloud, e.g. the synthetic set):
    dilation of ``link_px`` pixels; in a bare cloud by single linkage at ``link_ft``.
 4. **Along-ray outliers**: in each cluster, points whose log range is further than
    ``along_ray_k`` robust standard deviations (1.4826 MAD, at least
-   ``min_log_spread``) from the cluster's median are rejected; clusters left with fewer
-   than ``min_points`` points are isolated points, rejected.
+   ``min_log_spread``) from the cluster's median are set aside; if at least
+   ``min_points`` of them remain they are treated as a further cluster (an object
+   behind another in the image), else they are rejected. Clusters with fewer than
+   ``min_points`` points are isolated points, rejected; range-map clusters spanning
+   fewer than ``min_rows`` image rows (texture edges of the ground) and clusters whose
+   range scales like the ground's along their rays (a mis-ranged ground patch lies on a
+   plane above the ground) are rejected as ground.
 5. **Extent**: the box axis is the horizontal direction from the camera to the
    cluster's median point; the along-ray extent spans the inliers and is grown by
    ``grow_k`` times the cluster's range uncertainty (the larger of its median ``ε``
@@ -496,12 +501,17 @@ def _boxes_from_clusters(
     counts.setdefault("isolated", 0)
     counts.setdefault("ground_like", 0)
     counts.setdefault("flat", 0)
-    for lab in np.unique(labels):
-        sel = np.nonzero(labels == lab)[0]
+    pending = [np.nonzero(labels == lab)[0] for lab in np.unique(labels)]
+    while pending:
+        sel = pending.pop(0)
         log_r = np.log(ranges[sel])
         med, spread = _robust_log_spread(log_r)
-        inl = sel[np.abs(log_r - med) <= cfg.along_ray_k * max(spread, cfg.min_log_spread)]
-        counts["along_ray_outliers"] += len(sel) - len(inl)
+        near = np.abs(log_r - med) <= cfg.along_ray_k * max(spread, cfg.min_log_spread)
+        inl, out = sel[near], sel[~near]
+        if len(out) >= cfg.min_points:
+            pending.append(out)  # a second object behind (or before) the first along the rays
+        else:
+            counts["along_ray_outliers"] += len(out)
         if len(inl) < cfg.min_points:
             counts["isolated"] += len(inl)
             continue
