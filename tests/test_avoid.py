@@ -63,7 +63,7 @@ def _dist(pos, boxes):
 def test_signed_distance_matches_brute_force():
     box = _box(5.0, -3.0, heading=0.7, half_u=6.0, half_v=2.0, top=4.0)
     rng = np.random.default_rng(3)
-    p = rng.uniform(-15, 15, size=(200, 3)) + [5.0, -3.0, 2.0]
+    p = rng.uniform(-15, 15, size=(200, 3)) + np.array([5.0, -3.0, 2.0])
     # Brute force: dense samples of the box surface.
     u, v, z = np.meshgrid(np.linspace(-6, 6, 61), np.linspace(-2, 2, 21), np.linspace(0, 4, 21))
     on_surface = (
@@ -85,7 +85,7 @@ def test_signed_distance_matches_brute_force():
 def test_signed_distance_gradient_matches_finite_differences():
     box = _box(0.0, 0.0, heading=-0.4, half_u=5.0, half_v=3.0, top=6.0)
     rng = np.random.default_rng(7)
-    p = rng.uniform(-12, 12, size=(50, 3)) + [0, 0, 3]
+    p = rng.uniform(-12, 12, size=(50, 3)) + np.array([0.0, 0.0, 3.0])
     g = box.signed_distance_gradient(p)
     h = 1e-6
     fd = np.stack(
