@@ -133,8 +133,8 @@ class AvoidConfig:
         No re-solve once the plan has less than this left (s).
     track_omega, track_damping
         Tracking-term natural frequency (rad/s) and damping ratio.
-    maxiter
-        SLSQP iteration limit per solve.
+    maxiter, ftol
+        SLSQP iteration limit and cost tolerance per solve.
     """
 
     clearance_ft: float = 20.0
@@ -150,6 +150,7 @@ class AvoidConfig:
     track_omega: float = 1.0
     track_damping: float = 0.9
     maxiter: int = 200
+    ftol: float = 1e-6
 
     def __post_init__(self) -> None:
         for name in (
@@ -456,7 +457,7 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
             method="SLSQP",
             bounds=bounds,
             constraints=cons,
-            options={"maxiter": prob.cfg.maxiter, "ftol": 1e-9},
+            options={"maxiter": prob.cfg.maxiter, "ftol": prob.cfg.ftol},
         )
         return res.x[:-1], res
     bounds = [(lo, hi)] + [(None, None)] * (n - 1)
@@ -470,7 +471,7 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
         method="SLSQP",
         bounds=bounds,
         constraints=cons,
-        options={"maxiter": prob.cfg.maxiter, "ftol": 1e-9},
+        options={"maxiter": prob.cfg.maxiter, "ftol": prob.cfg.ftol},
     )
     return res.x, res
 

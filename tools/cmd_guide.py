@@ -65,7 +65,10 @@ def cmd_guide(args: argparse.Namespace) -> int:
         if args.layout_sweep < 0:
             raise UserError(f"--layout-sweep must be >= 0, not {args.layout_sweep}")
         with atomic_output_dir(out) as tmp:
-            summary = sweep_into(tmp, args.layout_sweep, args.clearance, args.guidance_interval)
+            summary = sweep_into(
+                tmp, args.layout_sweep, args.clearance, args.guidance_interval,
+                args.replan_interval,
+            )  # fmt: skip
         s = summary["summary"]
         for row in s["infeasible"]:
             print(
@@ -94,6 +97,7 @@ def cmd_guide(args: argparse.Namespace) -> int:
             clearance_ft=args.clearance,
             shift=tuple(args.shift),
             guidance_interval=args.guidance_interval,
+            replan_interval=args.replan_interval,
         )
     for note in notes:
         print(f"rangefx: warning: {note}", file=sys.stderr)
@@ -149,10 +153,12 @@ def guide_into(
     clearance_ft: float = 20.0,
     shift: tuple[float, float, float] = (0.0, 0.0, 0.0),
     guidance_interval: float = 0.1,
+    replan_interval: float = 0.5,
 ) -> tuple[dict, list[str], dict]:
     """Fly the chosen law on the chosen obstacle set; write figures, CSVs and
     ``summary.json`` into the existing directory ``tmp``; return (summary, warnings,
     metrics). With ``law="avoid"`` the report's law is flown beside it."""
+    from rangefx.guidance.avoid import AvoidConfig
     from rangefx.guidance.cases import fly
     from rangefx.guidance.example import REPORT_FIGURES
     from rangefx.guidance.plots import FIGURES, save_figures
@@ -165,11 +171,15 @@ def guide_into(
         )
     except ValueError as exc:
         raise UserError(f"--guidance-interval: {exc}") from None
+    try:
+        avoid = AvoidConfig(clearance_ft=clearance_ft, replan_interval=replan_interval)
+    except ValueError as exc:
+        raise UserError(f"--clearance / --replan-interval: {exc}") from None
     case = _case(obstacles).shifted(shift)
     runs = {}
     for which in (law, "report") if law == "avoid" else (law,):
         try:
-            runs[which] = fly(case, which, clearance_ft=clearance_ft, config=config)
+            runs[which] = fly(case, which, clearance_ft=clearance_ft, config=config, avoid=avoid)
         except (ValueError, RuntimeError) as exc:
             raise UserError(f"guidance ({which} law) failed: {exc}") from None
     run = runs[law]
@@ -224,6 +234,7 @@ def guide_into(
         "extraction": {**case.extraction.as_dict(), "scores": case.scores},
         "shift_ft": list(shift),
         "guidance_interval_s": config.guidance_interval,
+        "replan_interval_s": replan_interval,
         "report": REPORT_FIGURES,
         "warnings": notes,
         "figures": sorted(FIGURES),
@@ -237,7 +248,10 @@ def guide_into(
     return summary, notes, run.metrics
 
 
-def sweep_into(tmp: Path, n_random: int, clearance_ft: float, guidance_interval: float) -> dict:
+def sweep_into(
+    tmp: Path, n_random: int, clearance_ft: float, guidance_interval: float,
+    replan_interval: float = 0.5,
+) -> dict:  # fmt: skip
     """The layout sweep (:func:`rangefx.guidance.cases.layout_sweep`) into ``tmp``."""
     from tqdm import tqdm
 
@@ -250,11 +264,21 @@ def sweep_into(tmp: Path, n_random: int, clearance_ft: float, guidance_interval:
         )
     except ValueError as exc:
         raise UserError(f"--guidance-interval: {exc}") from None
+    from rangefx.guidance.avoid import AvoidConfig
+
+    try:
+        avoid = AvoidConfig(clearance_ft=clearance_ft, replan_interval=replan_interval)
+    except ValueError as exc:
+        raise UserError(f"--clearance / --replan-interval: {exc}") from None
     layouts = shift_grid_layouts() + random_layouts(n_random)
     bar = tqdm(total=len(layouts), desc="layout sweep", disable=not sys.stderr.isatty())
     try:
         out = layout_sweep(
-            layouts, clearance_ft=clearance_ft, config=config, progress=lambda _n: bar.update()
+            layouts,
+            clearance_ft=clearance_ft,
+            config=config,
+            avoid=avoid,
+            progress=lambda _n: bar.update(),
         )
     finally:
         bar.close()
@@ -305,6 +329,13 @@ def add_parser(sub) -> None:
         type=float,
         default=0.1,
         help="time between guidance updates, s (default 0.1)",
+    )
+    p.add_argument(
+        "--replan-interval",
+        type=float,
+        default=0.5,
+        metavar="S",
+        help="avoid law: time between re-solves of its programme, s (default 0.5)",
     )
     p.add_argument(
         "--layout-sweep",
