@@ -115,7 +115,7 @@ AVOID_KEYS = KEYS | {
     "extraction",
     "report_law",
 }
-COARSE = ["--guidance-interval", "0.5", "--replan-interval", "4"]
+COARSE = ["--guidance-interval", "0.5", "--replan-interval", "100"]
 
 
 def test_guide_avoid_json_keys_and_report_law_beside(tmp_path, capsys):
