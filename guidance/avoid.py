@@ -142,7 +142,7 @@ class AvoidConfig:
     max_load_factor: float = 1.1
     max_theta_deg: float = 20.0
     max_phi_deg: float = 30.0
-    limit_backoff: float = 0.05
+    limit_backoff: float = 0.1
     n_basis: int = 8
     n_samples: int = 64
     replan_interval: float = 0.5
@@ -233,6 +233,7 @@ class AvoidPlan:
     coeffs: np.ndarray
     feasible: bool
     min_clearance_ft: float
+    limits_ok: bool = True
     solve_time_s: float = 0.0
     iterations: int = 0
     status: str = ""
@@ -263,10 +264,18 @@ def _path_from(herm, corr, t_go, r0, v0, rf, vf, coeffs):
 
 
 def limit_margins(
-    v: np.ndarray, a: np.ndarray, params: VehicleParams, cfg: AvoidConfig
+    v: np.ndarray,
+    a: np.ndarray,
+    params: VehicleParams,
+    cfg: AvoidConfig,
+    min_speed: float = 0.0,
 ) -> np.ndarray:
     """Margins (>= 0 when met) of the load-factor, θ and φ limits at velocities ``v`` and
-    accelerations ``a`` (shape (n, 3)); columns ``[n, +θ, -θ, +φ, -φ]``.
+    accelerations ``a`` (shape (n, 3)); columns ``[n, +θ, -θ, +φ, -φ, V]``.
+
+    The last column keeps the airspeed above ``min_speed``: the point-mass model is
+    singular at ``V = 0`` (eqs 2-3), and a plan that turns the velocity round through
+    zero near the touch-down cannot be flown.
 
     The quantities are those of the inverse (eqs 12-19, four-quadrant form).
     """
@@ -295,6 +304,7 @@ def limit_margins(
             st * thrust + along,
             tp * normal - side,
             tp * normal + side,
+            speed - min_speed,
         ],
         axis=1,
     )
@@ -320,6 +330,11 @@ class _Problem:
     cfg: AvoidConfig
     basis: _Basis
     t_bounds: tuple[float, float]
+
+    @property
+    def min_speed(self) -> float:
+        """Half the smaller of the current and the final speed (see :func:`limit_margins`)."""
+        return 0.5 * min(float(np.linalg.norm(self.v0)), float(np.linalg.norm(self.bc.vf)))
 
     def unpack(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         return float(x[0]), x[1:].reshape(-1, 3)
@@ -394,7 +409,7 @@ class _Problem:
 
     def other_margins(self, x) -> np.ndarray:
         r, v, a = self.path(x)
-        lim = limit_margins(v, a, self.params, self.cfg)
+        lim = limit_margins(v, a, self.params, self.cfg, self.min_speed)
         return np.concatenate([lim.T.ravel(), r[:, 2]])
 
     def other_jac(self, x) -> np.ndarray:
@@ -402,22 +417,24 @@ class _Problem:
         r, v, a = self.path(x)
         n = len(r)
         eye = np.eye(3)
-        g_v = np.empty((5, n, 3))
-        g_a = np.empty((5, n, 3))
+        nl = 6
+        g_v = np.empty((nl, n, 3))
+        g_a = np.empty((nl, n, 3))
         for ax in range(3):  # central differences per sample, vectorised over samples
             hv = 1e-6 * np.maximum(np.abs(v[:, ax]), 1.0)[:, None]
             ha = 1e-6 * np.maximum(np.abs(a[:, ax]), 1.0)[:, None]
-            dv = limit_margins(v + hv * eye[ax], a, self.params, self.cfg) - limit_margins(
-                v - hv * eye[ax], a, self.params, self.cfg
+            ms = self.min_speed
+            dv = limit_margins(v + hv * eye[ax], a, self.params, self.cfg, ms) - limit_margins(
+                v - hv * eye[ax], a, self.params, self.cfg, ms
             )
-            da = limit_margins(v, a + ha * eye[ax], self.params, self.cfg) - limit_margins(
-                v, a - ha * eye[ax], self.params, self.cfg
+            da = limit_margins(v, a + ha * eye[ax], self.params, self.cfg, ms) - limit_margins(
+                v, a - ha * eye[ax], self.params, self.cfg, ms
             )
             g_v[:, :, ax] = (dv / (2 * hv)).T
             g_a[:, :, ax] = (da / (2 * ha)).T
-        idx = np.tile(np.arange(n), 5)  # rows ordered (limit, sample) like lim.T.ravel
-        zero = np.zeros((5 * n, 3))
-        jac_lim = self._chain(t_go, idx, zero, g_v.reshape(5 * n, 3), g_a.reshape(5 * n, 3))
+        idx = np.tile(np.arange(n), nl)  # rows ordered (limit, sample) like lim.T.ravel
+        zero = np.zeros((nl * n, 3))
+        jac_lim = self._chain(t_go, idx, zero, g_v.reshape(nl * n, 3), g_a.reshape(nl * n, 3))
         jac_z = self._chain(t_go, np.arange(n), np.tile([0.0, 0.0, 1.0], (n, 1)))
         return np.column_stack([self._t_column(x, self.other_margins), np.vstack([jac_lim, jac_z])])
 
@@ -477,7 +494,9 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
 
 
 def _is_feasible(prob: _Problem, x: np.ndarray, tol: float = 1e-3) -> bool:
-    cm = prob.clearance_margin(x)
+    """Within the limits and at least the required clearance (the planning margin is
+    slack for the closed loop, not part of the requirement)."""
+    cm = prob.clearance_margin(x) + prob.cfg.margin_ft
     return bool(
         np.all(np.isfinite(x))
         and (cm.size == 0 or cm.min() >= -tol)
@@ -562,9 +581,8 @@ def plan_trajectory(
     amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
     seeds += [np.concatenate([[t_rep], c.ravel()]) for c in _side_seeds(prob, t_rep, c_rep, amp)]
     best, best_res, iters = None, None, 0
-    need = cfg.clearance_ft + cfg.margin_ft
     ends = np.stack([r0, bc.rf])
-    if boxes and _clearances(ends, prob.boxes).min() < need:
+    if boxes and _clearances(ends, prob.boxes).min() < cfg.clearance_ft:
         seeds = []  # the start or the touch-down point itself is within the clearance
     for k, x0 in enumerate(seeds):
         x, res = _solve(prob, x0, relaxed=False)
@@ -578,11 +596,13 @@ def plan_trajectory(
     if not feasible:
         best, best_res = _solve(prob, x_rep, relaxed=True)
         iters += int(getattr(best_res, "nit", 0))
+        feasible = _is_feasible(prob, best)  # the largest clearance may still meet it
     t_go, c = prob.unpack(best)
     cm = prob.clearance_margin(best)
     min_clear = float(cm.min() + cfg.clearance_ft + cfg.margin_ft) if cm.size else math.inf
+    limits_ok = bool(prob.other_margins(best).min() >= -1e-3)
     return AvoidPlan(
-        t0, t_go, r0, v0, bc.rf.copy(), bc.vf.copy(), c, feasible, min_clear,
+        t0, t_go, r0, v0, bc.rf.copy(), bc.vf.copy(), c, feasible, min_clear, limits_ok,
         time.perf_counter() - start, iters, str(getattr(best_res, "message", "")),
     )  # fmt: skip
 
@@ -603,8 +623,11 @@ def simulate_avoid(
     ``field`` carries the report's weights and obstacle points (the eq-20 cost);
     ``boxes`` the obstacle extents the clearance is kept from. ``extras`` of the result
     hold ``feasible``, ``plans`` (count), ``replan_failures``, per-solve times
-    (``solve_times_s``), SLSQP iterations, the planned minimum clearance and the
-    boxes.
+    (``solve_times_s``), SLSQP iterations, the planned minimum clearance, the boxes and
+    ``terminal_segment_skipped_s``: when the last held command (≤ 1.5 guidance
+    intervals before the end) would bring the airspeed to zero, where eqs 2-3 are
+    singular, the flight ends at the start of that segment and this says how long it
+    was (0 otherwise).
 
     Raises
     ------
@@ -624,6 +647,7 @@ def simulate_avoid(
     plans = [plan]
     feasible = plan.feasible
     failures = 0
+    terminal_skip = 0.0
     last_plan_t = 0.0
     w, zt = av.track_omega, av.track_damping
     while True:
@@ -632,11 +656,14 @@ def simulate_avoid(
         if t - last_plan_t >= av.replan_interval - 1e-9 and remaining > av.terminal_time:
             new = plan_trajectory(
                 r, v, bc, field, boxes, params=params, config=av, warm=plan, t0=t,
-                t_go_max=remaining + 0.5 * plan.t_go,
+                # A re-plan may delay the arrival by at most one re-plan interval, and a
+                # relaxed plan (whose cost is the clearance, not time) not at all:
+                # otherwise the time-to-go drifts up from re-plan to re-plan.
+                t_go_max=remaining + (av.replan_interval if plan.feasible else 1e-6),
             )  # fmt: skip
             plans.append(new)
             last_plan_t = t
-            if new.feasible or not plan.feasible:
+            if new.feasible or (not plan.feasible and new.limits_ok):
                 plan = new
                 feasible = feasible and new.feasible
             else:
@@ -657,7 +684,15 @@ def simulate_avoid(
         n_s = max(1, math.ceil(dt / cfg.sample_interval - 1e-9))
         t_end = t + dt
         t_eval = np.minimum(t + dt * np.arange(1, n_s + 1) / n_s, t_end)
-        sol = integrate_held_controls(state, ctrl, params, t, t_end, t_eval, cfg)
+        try:
+            sol = integrate_held_controls(state, ctrl, params, t, t_end, t_eval, cfg)
+        except RuntimeError:
+            if not last:
+                raise
+            # The last held command would stop the vehicle (V -> 0, eqs 2-3 singular)
+            # within the final sliver of the flight: it ends here, and says so.
+            terminal_skip = dt
+            break
         ts.extend(sol.t.tolist())
         states.extend(sol.y.T)
         state = sol.y[:, -1].copy()
@@ -700,6 +735,7 @@ def simulate_avoid(
             "solve_times_s": [p.solve_time_s for p in plans],
             "solve_iterations": [p.iterations for p in plans],
             "planned_min_clearance_ft": float(min(p.min_clearance_ft for p in plans)),
+            "terminal_segment_skipped_s": terminal_skip,
             "boxes": boxes,
             "config": replace(av),
         },

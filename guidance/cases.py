@@ -213,6 +213,7 @@ def guidance_metrics(
             "solve_time_per_guidance_update_s": float(times.sum() / m["guidance_updates"]),
         }
         m["planned_min_clearance_ft"] = ex["planned_min_clearance_ft"]
+        m["terminal_segment_skipped_s"] = ex["terminal_segment_skipped_s"]
     return m
 
 
@@ -308,7 +309,12 @@ def layout_sweep(
     rows = []
     for name, vehicles in layouts:
         case = synthetic_case(vehicles, name=name)
-        run = fly(case, "avoid", clearance_ft=clearance_ft, config=config, avoid=avoid)
+        try:
+            run = fly(case, "avoid", clearance_ft=clearance_ft, config=config, avoid=avoid)
+        except RuntimeError as exc:  # the model left its domain: say so, do not drop it
+            rows.append({"layout": name, "feasible": False, "failed": str(exc),
+                         "vehicles": [list(v.centre) for v in vehicles]})  # fmt: skip
+            continue
         m = run.metrics
         bc = REPORT_BOUNDARY
         ends = np.stack([bc.r0, bc.rf])
@@ -334,14 +340,18 @@ def layout_sweep(
         )
         if progress is not None:
             progress(name)
-    feas = [r for r in rows if r["feasible"]]
+    flown = [r for r in rows if "failed" not in r]
+    feas = [r for r in flown if r["feasible"]]
     kept = [r for r in feas if r["clearance_kept"]]
     summary = {
         "layouts": len(rows),
         "feasible": len(feas),
         "feasible_keeping_clearance": len(kept),
         "fraction_feasible_keeping_clearance": len(kept) / len(feas) if feas else math.nan,
-        "worst_true_clearance_ft": min(r["min_true_obstacle_distance_ft"] for r in rows),
+        "failed": [{"layout": r["layout"], "reason": r["failed"]} for r in rows if "failed" in r],
+        "worst_true_clearance_ft": min(
+            (r["min_true_obstacle_distance_ft"] for r in flown), default=math.nan
+        ),
         "worst_true_clearance_feasible_ft": (
             min(r["min_true_obstacle_distance_ft"] for r in feas) if feas else math.nan
         ),
@@ -351,13 +361,14 @@ def layout_sweep(
                 "touchdown_extent_clearance_ft": r["touchdown_extent_clearance_ft"],
                 "min_true_obstacle_distance_ft": r["min_true_obstacle_distance_ft"],
             }
-            for r in rows
+            for r in flown
             if not r["feasible"]
         ],
-        "max_load_factor": max(r["max_load_factor"] for r in rows),
+        "max_load_factor": max((r["max_load_factor"] for r in flown), default=math.nan),
+        "max_load_factor_feasible": max((r["max_load_factor"] for r in feas), default=math.nan),
         "flight_time_range_s": [
-            min(r["flight_time_s"] for r in rows),
-            max(r["flight_time_s"] for r in rows),
+            min((r["flight_time_s"] for r in flown), default=math.nan),
+            max((r["flight_time_s"] for r in flown), default=math.nan),
         ],
         "clearance_ft": clearance_ft,
     }

@@ -193,9 +193,9 @@ def box_from_corners(name: str, corners: np.ndarray) -> ObstacleBox:
     """Smallest upright box (oriented along one of its footprint's edges) holding
     ``corners`` (shape (k, 3), guidance frame); exact for a box's own 8 corners."""
     pts = np.asarray(corners, dtype=np.float64)
-    best = None
     xy = pts[:, :2]
     hull = xy[_convex_hull_indices(xy)]
+    candidates = []  # (area, perimeter, heading, centre, half sizes) per hull-edge direction
     for k in range(len(hull)):
         e = hull[(k + 1) % len(hull)] - hull[k]
         if np.hypot(*e) < 1e-12:
@@ -204,11 +204,17 @@ def box_from_corners(name: str, corners: np.ndarray) -> ObstacleBox:
         c, s = math.cos(h), math.sin(h)
         uv = xy @ np.array([[c, -s], [s, c]])
         lo, hi = uv.min(axis=0), uv.max(axis=0)
-        area = float(np.prod(hi - lo))
-        if best is None or area < best[0] - 1e-9:
-            mid = 0.5 * (lo + hi)
-            centre = mid[0] * np.array([c, s]) + mid[1] * np.array([-s, c])
-            best = (area, h, centre, 0.5 * (hi - lo))
+        mid = 0.5 * (lo + hi)
+        centre = mid[0] * np.array([c, s]) + mid[1] * np.array([-s, c])
+        size = hi - lo
+        candidates.append((float(np.prod(size)), float(size.sum()), h, centre, 0.5 * size))
+    best = None
+    if candidates:
+        # Two visible faces of a box give a right triangle, whose hypotenuse encloses the
+        # same area as the faces: among near-minimal areas take the smallest perimeter.
+        a_min = min(c[0] for c in candidates)
+        near = [c for c in candidates if c[0] <= 1.02 * a_min + 1e-9]
+        best = min(near, key=lambda c: c[1])[1:]
     if best is None:  # all corners on one vertical line
         best = (0.0, 0.0, xy[0], np.zeros(2))
     _, h, centre, half = best
