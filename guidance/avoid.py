@@ -656,10 +656,16 @@ def simulate_avoid(
         if t - last_plan_t >= av.replan_interval - 1e-9 and remaining > av.terminal_time:
             new = plan_trajectory(
                 r, v, bc, field, boxes, params=params, config=av, warm=plan, t0=t,
-                # A re-plan may delay the arrival by at most one re-plan interval, and a
-                # relaxed plan (whose cost is the clearance, not time) not at all:
-                # otherwise the time-to-go drifts up from re-plan to re-plan.
-                t_go_max=remaining + (av.replan_interval if plan.feasible else 1e-6),
+                # A re-plan may delay the arrival by at most one re-plan interval (and
+                # never past 1.25 x the first plan's), a relaxed plan (whose cost is the
+                # clearance, not time) not at all: else the time-to-go drifts up.
+                t_go_max=max(
+                    min(
+                        remaining + (av.replan_interval if plan.feasible else 1e-6),
+                        1.25 * plans[0].t_go - t,  # never beyond 1.25 x the first arrival
+                    ),
+                    remaining + 1e-6,
+                ),
             )  # fmt: skip
             plans.append(new)
             last_plan_t = t
