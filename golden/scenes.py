@@ -56,6 +56,7 @@ __all__ = [
     "Scene",
     "SceneObject",
     "frame2_positions",
+    "object_corners",
     "render_plane",
     "render_scene",
 ]
@@ -819,6 +820,38 @@ def render_scene(
     ss = preset.supersample if supersample is None else _check_supersample(supersample)
     camera = PinholeCamera.from_fov(width, height, preset.hfov_deg)
     return _render(preset, camera, seed, sigma, ss)
+
+
+def object_corners(name: str) -> dict[str, np.ndarray]:
+    """True geometry of a preset's named objects: the corners of their planar faces.
+
+    For the ``runway`` vehicles (boxes on the ground, the bottom face left out) these are
+    the box's 8 corners, in the scene's NED frame and length unit. Objects made of
+    curved surfaces only (the lab pencils) have no entry. Scoring obstacle extraction
+    against the scene uses this (``rangefx.guidance.extraction``).
+
+    Raises
+    ------
+    ValueError
+        For an unknown scene name.
+    """
+    builders = {"lab": _lab_preset, "runway": _runway_preset}
+    if name not in builders:
+        raise ValueError(f"unknown scene name {name!r}; valid names: {', '.join(SCENE_NAMES)}")
+    preset = builders[name]()
+    by_label: dict[int, list[np.ndarray]] = {}
+    for prim in preset.world.primitives:
+        if not isinstance(prim, _Rect):
+            continue
+        corners = prim.corners()
+        if corners is not None:
+            by_label.setdefault(prim.materials[0].label, []).append(corners)
+    out = {}
+    for obj in preset.objects:
+        if obj.label in by_label:
+            pts = np.concatenate(by_label[obj.label])
+            out[obj.name] = np.unique(np.round(pts, 9), axis=0)
+    return out
 
 
 def render_plane(

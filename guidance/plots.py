@@ -74,6 +74,30 @@ def project_to_image(
     return col, row, front
 
 
+def _clearance_ring(box, clearance: float, n: int = 24) -> np.ndarray:
+    """Horizontal outline at ``clearance`` from a box's footprint (rounded corners): the
+    convex hull of circles of that radius about its corners."""
+    from scipy.spatial import ConvexHull
+
+    ang = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
+    circle = clearance * np.column_stack([np.cos(ang), np.sin(ang)])
+    pts = (box.footprint()[:, None, :] + circle[None]).reshape(-1, 2)
+    ring = pts[ConvexHull(pts).vertices]
+    return np.vstack([ring, ring[:1]])
+
+
+_BOX_EDGES = ((0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5),
+              (2, 6), (3, 7))  # fmt: skip
+
+
+def _draw_box_edges(ax, box, to_ned, camera, motion, color, ls, label) -> None:
+    col, row, front = project_to_image(to_ned(box.corners()), camera, motion)
+    for k, (i, j) in enumerate(_BOX_EDGES):
+        if front[i] and front[j]:
+            ax.plot([col[i], col[j]], [row[i], row[j]], ls, color=color, lw=0.9,
+                    label=label if k == 0 else None)  # fmt: skip
+
+
 def _save(fig, path: Path) -> None:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
@@ -89,6 +113,11 @@ def save_figures(
     image: np.ndarray | None = None,
     view: tuple[PinholeCamera, MotionIncrement] | None = None,
     to_ned=ned_from_guidance,
+    extents: tuple = (),
+    truth: tuple = (),
+    clearance_ft: float | None = None,
+    compare: SimulationResult | None = None,
+    labels: tuple[str, str] = ("trajectory", "report law"),
 ) -> list[Path]:
     """Write Figs 4-10 for a run into ``out_dir`` (which must exist).
 
@@ -108,6 +137,14 @@ def save_figures(
     to_ned
         Map from guidance-frame points to the camera's NED frame (default: flip ``z``;
         for the ``runway`` scene, :meth:`FrameMap.to_scene`).
+    extents, truth
+        Obstacle extents used by the law and the true objects
+        (:class:`~rangefx.guidance.extraction.ObstacleBox`), drawn in Figs 5 and 10.
+    clearance_ft
+        Drawn around each extent (the extent grown by it) in Figs 5 and 10.
+    compare
+        A second run (e.g. the report's law on the same obstacles) drawn beside the
+        first in Figs 5, 6 and 10; ``labels`` name the two.
     """
     out = Path(out_dir)
     pos = res.positions
@@ -132,8 +169,21 @@ def save_figures(
     finish(fig, ax, "fig4_altitude_vs_downrange.png")
 
     fig, ax = plt.subplots(figsize=(6, 6))  # Fig 5
-    ax.plot(pos[:, 1], pos[:, 0], "b-", label="trajectory")
-    ax.plot(obs[:, 1], obs[:, 0], "o", mfc="none", ms=4, color="0.4", label="obstacle points")
+    ax.plot(pos[:, 1], pos[:, 0], "b-", label=labels[0])
+    if compare is not None:
+        ax.plot(compare.positions[:, 1], compare.positions[:, 0], "m--", label=labels[1])
+    ax.plot(obs[:, 1], obs[:, 0], "o", mfc="none", ms=3, color="0.6", label="obstacle points")
+    for k, box in enumerate(extents):
+        fp = np.vstack([box.footprint(), box.footprint()[:1]])
+        ax.plot(fp[:, 1], fp[:, 0], "-", color="darkorange", lw=1.2,
+                label="obstacle extents" if k == 0 else None)  # fmt: skip
+        if clearance_ft:
+            ring = _clearance_ring(box, clearance_ft)
+            ax.plot(ring[:, 1], ring[:, 0], ":", color="darkorange", lw=0.8,
+                    label=f"clearance {clearance_ft:g} ft" if k == 0 else None)  # fmt: skip
+    for k, box in enumerate(truth):
+        fp = np.vstack([box.footprint(), box.footprint()[:1]])
+        ax.fill(fp[:, 1], fp[:, 0], color="k", alpha=0.6, label="true vehicles" if k == 0 else None)
     ax.plot(*res.bc.r0[[1, 0]], "g^", label="start")
     ax.plot(*res.bc.rf[[1, 0]], "rv", label="touch-down")
     ax.set_xlabel("cross range y (ft)")
@@ -144,7 +194,15 @@ def save_figures(
 
     dist = res.closest_obstacle_distance()
     fig, ax = plt.subplots(figsize=(7, 3.5))  # Fig 6
-    ax.plot(t, dist, "b-")
+    ax.plot(t, dist, "b-", label="to obstacle points")
+    if truth:
+        d_true = np.min([b.signed_distance(pos) for b in truth], axis=0)
+        ax.plot(t, d_true, "k-", label="to true vehicles")
+    if compare is not None and truth:
+        d_cmp = np.min([b.signed_distance(compare.positions) for b in truth], axis=0)
+        ax.plot(compare.t, d_cmp, "m--", label=f"{labels[1]}, to true vehicles")
+    if clearance_ft:
+        ax.axhline(clearance_ft, color="darkorange", ls=":", label=f"clearance {clearance_ft:g} ft")
     k = int(np.argmin(dist))
     ax.plot(t[k], dist[k], "r.", label=f"min {dist[k]:.2f} ft at {t[k]:.2f} s")
     ax.set_xlabel("time (s)")
@@ -184,7 +242,16 @@ def save_figures(
     c_g, r_g, f_g = project_to_image(to_ned(ground), camera, motion)
     c_o, r_o, _ = project_to_image(to_ned(obs), camera, motion)
     ax.plot(c_o, r_o, "s", ms=2, color="w" if image is not None else "0.3", label="obstacles")
-    ax.plot(c_t, r_t, "-", color="yellow" if image is not None else "b", label="trajectory")
+    ax.plot(c_t, r_t, "-", color="yellow" if image is not None else "b", label=labels[0])
+    if compare is not None:
+        c_c, r_c, _ = project_to_image(to_ned(compare.positions), camera, motion)
+        ax.plot(c_c, r_c, "--", color="m", label=labels[1])
+    for k, box in enumerate(extents):
+        _draw_box_edges(ax, box, to_ned, camera, motion, "darkorange", "-",
+                        "obstacle extents" if k == 0 else None)  # fmt: skip
+        if clearance_ft:
+            _draw_box_edges(ax, box.grown(clearance_ft), to_ned, camera, motion, "darkorange",
+                            ":", f"clearance {clearance_ft:g} ft" if k == 0 else None)  # fmt: skip
     step = max(1, len(pos) // 40)
     for i in range(0, len(pos), step):  # vertical lines: altitude above the runway
         if f_t[i] and f_g[i]:

@@ -43,7 +43,13 @@ from .model import (
     velocity_from_state,
 )
 
-__all__ = ["SimulationConfig", "SimulationResult", "simulate", "trajectory_metrics"]
+__all__ = [
+    "SimulationConfig",
+    "SimulationResult",
+    "integrate_held_controls",
+    "simulate",
+    "trajectory_metrics",
+]
 
 
 @dataclass(frozen=True)
@@ -206,7 +212,7 @@ def simulate(
         n_s = max(1, math.ceil(dt / cfg.sample_interval - 1e-9))
         t_end = t + dt
         t_eval = np.minimum(t + dt * np.arange(1, n_s + 1) / n_s, t_end)  # rounding
-        sol = _integrate(state, ctrl, params, t, t_end, t_eval, cfg)
+        sol = integrate_held_controls(state, ctrl, params, t, t_end, t_eval, cfg)
         ts.extend(sol.t.tolist())
         states.extend(sol.y.T)
         state = sol.y[:, -1].copy()
@@ -240,7 +246,25 @@ def simulate(
     )
 
 
-def _integrate(state, ctrl: Controls, params: VehicleParams, t0, t1, t_eval, cfg):
+def integrate_held_controls(
+    state: np.ndarray,
+    ctrl: Controls,
+    params: VehicleParams,
+    t0: float,
+    t1: float,
+    t_eval: np.ndarray,
+    cfg: SimulationConfig,
+):
+    """Integrate eqs 1-6 from ``t0`` to ``t1`` with the controls held (zero-order hold).
+
+    Returns the ``solve_ivp`` solution sampled at ``t_eval``.
+
+    Raises
+    ------
+    RuntimeError
+        At zero airspeed or when the integrator fails.
+    """
+
     def rhs(_t, y):
         if y[3] <= 0:
             raise RuntimeError("airspeed reached zero: the point-mass model (eqs 2-3) is singular")

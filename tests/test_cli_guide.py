@@ -23,7 +23,8 @@ KEYS = {
 @pytest.fixture(scope="module")
 def guide_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("guide") / "out"
-    return out, main(["guide", "--out", str(out), "--json", "--guidance-interval", "0.25"])
+    argv = ["guide", "--out", str(out), "--json", "--law", "report", "--guidance-interval", "0.25"]
+    return out, main(argv)
 
 
 def test_guide_json_and_outputs(guide_run, capsys):
@@ -51,6 +52,8 @@ def test_guide_prints_one_json_object(tmp_path, capsys):
             "--out",
             str(tmp_path / "o"),
             "--json",
+            "--law",
+            "report",
             "--guidance-interval",
             "0.5",
             "--shift",
@@ -72,6 +75,9 @@ def test_guide_prints_one_json_object(tmp_path, capsys):
         (["--guidance-interval", "-1"], "--guidance-interval"),
         (["--guidance-interval", "nan"], "--guidance-interval"),
         (["--shift", "nan", "0", "0"], "--shift"),
+        (["--clearance", "-5"], "--clearance"),
+        (["--clearance", "inf"], "--clearance"),
+        (["--replan-interval", "0"], "--replan-interval"),
     ],
 )
 def test_guide_bad_input_is_one_line_error(tmp_path, capsys, argv, culprit):
@@ -86,7 +92,8 @@ def test_guide_refuses_foreign_output_dir(tmp_path, capsys):
     out = tmp_path / "mine"
     out.mkdir()
     (out / "keep.txt").write_text("user data")
-    assert main(["guide", "--out", str(out), "--guidance-interval", "0.5"]) == 2
+    argv = ["guide", "--out", str(out), "--law", "report", "--guidance-interval", "0.5"]
+    assert main(argv) == 2
     assert (out / "keep.txt").read_text() == "user data"
     assert "rangefx: error:" in capsys.readouterr().err
 
@@ -95,3 +102,43 @@ def test_guide_unknown_obstacle_source_exits_2(tmp_path):
     with pytest.raises(SystemExit) as exc:
         main(["guide", "--out", str(tmp_path / "o"), "--obstacles", "moon"])
     assert exc.value.code == 2
+
+
+AVOID_KEYS = KEYS | {
+    "law",
+    "clearance_ft",
+    "min_true_obstacle_distance_ft",
+    "min_extent_distance_ft",
+    "max_abs_phi_deg_excluding_final_0_5s",
+    "feasible",
+    "compute",
+    "extraction",
+    "report_law",
+}
+COARSE = ["--guidance-interval", "0.5", "--replan-interval", "100"]
+
+
+def test_guide_avoid_json_keys_and_report_law_beside(tmp_path, capsys):
+    out = tmp_path / "o"
+    assert main(["guide", "--out", str(out), "--json", "--clearance", "10", *COARSE]) == 0
+    data = json.loads(capsys.readouterr().out.strip())
+    assert AVOID_KEYS <= set(data)
+    assert data["law"] == "avoid" and data["clearance_ft"] == 10.0 and data["feasible"] is True
+    assert data["min_true_obstacle_distance_ft"] >= 10.0
+    assert data["min_obstacle_distance"] == data["min_extent_distance_ft"]
+    assert data["extraction"]["scores"]["detected"] == 4
+    assert data["report_law"]["law"] == "report"
+    assert data["max_abs_phi_deg_excluding_final_0_5s"] <= data["max_abs_phi_deg"]
+    rows = (out / "extents.csv").read_text().splitlines()
+    assert len(rows) == 1 + data["extraction"]["n_obstacles"]
+
+
+def test_guide_avoid_infeasible_clearance_is_flagged(tmp_path, capsys):
+    # The touch-down point lies 22 ft from vehicles 1 and 2: 40 ft cannot be kept.
+    out = tmp_path / "o"
+    assert main(["guide", "--out", str(out), "--json", "--clearance", "40", *COARSE]) == 0
+    cap = capsys.readouterr()
+    data = json.loads(cap.out.strip())
+    assert data["feasible"] is False and data["clearance_kept"] is False
+    assert "no trajectory keeps 40 ft" in cap.err
+    assert all(line.startswith("rangefx: warning:") for line in cap.err.strip().splitlines())

@@ -237,13 +237,21 @@ def cmd_demo(args: argparse.Namespace) -> int:
                 f"median |fixed - golden| / golden {report.median_text(v)}, "
                 f"valid agreement {v['valid_agreement']:.4f}"
             )
+        rep = e2e["report_law"]
         print(
-            "end to end (runway -> P1 motion mode -> obstacles -> guidance): "
-            f"{e2e['n_obstacles']} obstacle points, flight time {e2e['flight_time_s']:.2f} s, "
-            f"min obstacle distance {e2e['min_obstacle_distance']:.2f} ft, "
+            "end to end (runway -> P1 motion mode -> obstacle extraction -> avoiding law): "
+            f"{e2e['extraction']['n_obstacles']} obstacles "
+            f"({e2e['extraction']['scores']['detected']} of "
+            f"{e2e['extraction']['scores']['n_true']} vehicles detected), "
+            f"flight time {e2e['flight_time_s']:.2f} s, "
+            f"min distance to the true vehicles {e2e['min_true_obstacle_distance_ft']:.2f} ft "
+            f"(clearance {e2e['clearance_ft']:g} ft, feasible {e2e['feasible']}), "
             f"max load factor {e2e['max_load_factor']:.3f}, "
             f"max |theta| {e2e['max_abs_theta_deg']:.1f} deg, "
-            f"max |phi| {e2e['max_abs_phi_deg']:.1f} deg (figures in guide/)"
+            f"max |phi| {e2e['max_abs_phi_deg']:.1f} deg; report law beside it: "
+            f"{rep['flight_time_s']:.2f} s, {rep['min_true_obstacle_distance_ft']:.2f} ft to "
+            f"the true vehicles, {rep['min_obstacle_distance']:.2f} ft to its points "
+            "(figures in guide/)"
         )
         for note in e2e_notes:
             print(f"rangefx: warning: {note}", file=sys.stderr)

@@ -1,0 +1,748 @@
+"""An obstacle-avoiding guidance law beyond the report: receding-horizon optimal control
+with a clearance constraint per obstacle and the vehicle limits as constraints (SPEC §13).
+
+Why
+---
+The report's law (eqs 20-69) sees the obstacles only through their number and centroid
+(``Σ|r - r_i|² = n|r - s|² + const``, SPEC §9), so it cannot go round an individual
+vehicle. This law keeps the report's problem — the performance index of eq 20, the
+same boundary conditions, the same point-mass model and inverse (eqs 1-19) — and adds
+what the closed form cannot carry: state constraints.
+
+Problem solved at each re-plan (from the current state ``r0, v0`` at ``t = 0``)
+-----------------------------------------------------------------------------------
+Minimise over the time-to-go ``T`` and the path ``r(t)``::
+
+    J = ∫_0^T { ζ + (1-ζ)/2 [ α|r''|² + μ (z - z_r)² - β Σ_i |r - r_i|² ] } dt      (eq 20)
+
+subject to ``r(0) = r0, r'(0) = v0, r(T) = r_f, r'(T) = v_f`` and, at ``n_samples``
+points along the path,
+
+* **clearance**: ``dist(r, B_k) >= clearance + margin`` for every obstacle extent
+  ``B_k`` (:class:`~rangefx.guidance.extraction.ObstacleBox`, signed distance);
+* **load factor**: ``T/W = |b + (D/m) e_V| / g <= n_max`` with ``b = r'' + g e_z``
+  (eq 14 with eq 7's drag; the inverse of eqs 12-19 in the four-quadrant form of
+  :func:`~rangefx.guidance.model.inverse_controls`);
+* **thrust angle**: ``|b·e_V + D/m| <= sin(θ_max) |b + (D/m) e_V|`` (eq 13);
+* **bank**: ``|b·e_χ| <= tan(φ_max) b·e_γ`` (eq 12; this also keeps the thrust up);
+* **ground**: ``z >= 0`` at interior samples.
+
+``r_i`` are the same obstacle points the report's law uses (so without active
+constraints this is the report's own problem, whose extremal is eqs 37-52 at the
+``T`` where ``∂J/∂T = H = 0``), ``T`` is confined below the conjugate point
+``0.98 · 4.730/σ`` (beyond it the −β term makes ``J`` unbounded below, see
+:mod:`.law`).
+
+Parametrisation (transcription)
+-------------------------------
+With ``s = t/T``, ``r(s) = h00(s) r0 + h10(s) T v0 + h01(s) r_f + h11(s) T v_f +
+Σ_j c_j s²(1-s)² P_j(2s - 1)``: the cubic Hermite polynomial meets the four boundary
+conditions exactly for every ``T`` and ``c`` (the correction and its slope vanish at
+both ends), ``P_j`` are Legendre polynomials (``n_basis`` per axis). ``J`` is
+integrated by Gauss-Legendre quadrature. The nonlinear programme in ``(T, c)`` is
+solved by SLSQP (``scipy.optimize.minimize``). **Seed**: the report's extremal
+(:func:`~rangefx.guidance.law.open_loop_solution` at its time-to-go from eq 55),
+projected on the basis by least squares; further seeds bend that path to either side
+when the first does not converge to a feasible plan.
+
+Closed loop
+-----------
+At every guidance update the command is the plan's ``r''`` plus a tracking term
+``ω² (r_plan - r) + 2ζ_t ω (v_plan - v)``, turned into ``(T, θ, φ)`` by the inverse
+(eqs 12-19) and held while eqs 1-6 are integrated (as in :func:`.simulate.simulate`).
+Every ``replan_interval`` the programme is solved again from the measured state (warm
+started from the current plan); in the last ``terminal_time`` the plan is followed
+without re-solving (as the report's law counts its time-to-go down there).
+
+Infeasible layouts
+------------------
+When no plan meets the clearance within the limits (for instance an obstacle within
+the clearance of the touch-down point), the law says so: it solves the relaxed problem
+that maximises the smallest clearance within the limits, flies that, issues
+:class:`InfeasibleClearanceWarning` and sets ``feasible = False`` (never a silent
+closer pass).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.polynomial import legendre as npleg
+from scipy.optimize import minimize
+
+from .extraction import ObstacleBox
+from .law import (
+    FIRST_SINGULAR_SIGMA_T,
+    BoundaryConditions,
+    NoTransversalityRootWarning,
+    ObstacleField,
+    open_loop_solution,
+    solve_time_to_go,
+)
+from .model import (
+    VehicleParams,
+    accelerations,
+    inverse_controls,
+    state_from_position_velocity,
+    velocity_from_state,
+)
+from .simulate import SimulationConfig, SimulationResult, integrate_held_controls
+
+__all__ = [
+    "AvoidConfig",
+    "AvoidPlan",
+    "InfeasibleClearanceWarning",
+    "limit_margins",
+    "plan_trajectory",
+    "simulate_avoid",
+]
+
+
+class InfeasibleClearanceWarning(UserWarning):
+    """No trajectory meets the required clearance within the vehicle limits."""
+
+
+@dataclass(frozen=True)
+class AvoidConfig:
+    """Settings of the avoiding law.
+
+    Parameters
+    ----------
+    clearance_ft
+        Required distance from every obstacle extent (ft).
+    margin_ft
+        Planning margin added to the clearance: the plan is checked at samples and the
+        closed loop holds each command for a guidance interval.
+    max_load_factor, max_theta_deg, max_phi_deg
+        Limits on ``T/W``, ``|θ|`` and ``|φ|`` (constraints of the programme).
+    limit_backoff
+        The plan keeps this fraction inside each limit (of ``n_max - 1``, ``θ_max``,
+        ``φ_max``) so that the tracking term and the held commands of the closed loop
+        stay within them.
+    n_basis
+        Correction polynomials per axis.
+    n_samples
+        Constraint samples along the plan (also the quadrature order).
+    replan_interval
+        Time between re-solves in the closed loop (s).
+    terminal_time
+        No re-solve once the plan has less than this left (s).
+    track_omega, track_damping
+        Tracking-term natural frequency (rad/s) and damping ratio.
+    maxiter, ftol
+        SLSQP iteration limit and cost tolerance per solve.
+    """
+
+    clearance_ft: float = 20.0
+    margin_ft: float = 1.0
+    max_load_factor: float = 1.1
+    max_theta_deg: float = 20.0
+    max_phi_deg: float = 30.0
+    limit_backoff: float = 0.1
+    n_basis: int = 8
+    n_samples: int = 64
+    replan_interval: float = 0.5
+    terminal_time: float = 2.0
+    track_omega: float = 1.0
+    track_damping: float = 0.9
+    maxiter: int = 200
+    ftol: float = 1e-6
+
+    def __post_init__(self) -> None:
+        for name in (
+            "clearance_ft", "max_load_factor", "max_theta_deg", "max_phi_deg",
+            "replan_interval", "terminal_time", "track_omega", "track_damping",
+        ):  # fmt: skip
+            v = getattr(self, name)
+            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"avoid {name} must be a positive number, not {v!r}")
+        if not (isinstance(self.margin_ft, (int, float)) and self.margin_ft >= 0):
+            raise ValueError(f"avoid margin_ft must be >= 0, not {self.margin_ft!r}")
+        if self.max_load_factor <= 1.0:
+            raise ValueError(
+                f"max_load_factor must exceed 1 (hover needs T = W), not {self.max_load_factor!r}"
+            )
+        if not 0 <= self.limit_backoff < 1:
+            raise ValueError(f"limit_backoff must lie in [0, 1), not {self.limit_backoff!r}")
+        if not 0 < self.max_theta_deg < 90 or not 0 < self.max_phi_deg < 90:
+            raise ValueError("max_theta_deg and max_phi_deg must lie in (0, 90)")
+        for name, lo in (("n_basis", 1), ("n_samples", 8), ("maxiter", 1)):
+            v = getattr(self, name)
+            if not isinstance(v, int) or v < lo:
+                raise ValueError(f"avoid {name} must be an integer >= {lo}, not {v!r}")
+
+
+# --------------------------------------------------------------------------- basis
+
+
+@dataclass(frozen=True)
+class _Basis:
+    """Hermite + correction basis evaluated at fixed ``s`` nodes (values, d/ds, d²/ds²)."""
+
+    s: np.ndarray
+    weights: np.ndarray  # quadrature weights on [0, 1]
+    herm: np.ndarray  # (3, 4, n): order, [h00, h10, h01, h11], node
+    corr: np.ndarray  # (3, m, n)
+
+
+def _hermite(s: np.ndarray) -> np.ndarray:
+    h = np.empty((3, 4, len(s)))
+    s2, s3 = s * s, s**3
+    h[0] = [2 * s3 - 3 * s2 + 1, s3 - 2 * s2 + s, -2 * s3 + 3 * s2, s3 - s2]
+    h[1] = [6 * s2 - 6 * s, 3 * s2 - 4 * s + 1, -6 * s2 + 6 * s, 3 * s2 - 2 * s]
+    h[2] = [12 * s - 6, 6 * s - 4, -12 * s + 6, 6 * s - 2]
+    return h
+
+
+def _correction(s: np.ndarray, m: int) -> np.ndarray:
+    """``s²(1-s)² P_j(2s-1)`` and its first two s-derivatives, shape (3, m, n)."""
+    w = np.polynomial.Polynomial([0, 0, 1, -2, 1])  # s²(1-s)²
+    out = np.empty((3, m, len(s)))
+    for j in range(m):
+        pj = np.polynomial.Polynomial(npleg.leg2poly([0] * j + [1])).convert()
+        pj = pj(np.polynomial.Polynomial([-1, 2]))  # P_j(2s - 1)
+        poly = w * pj
+        for k in range(3):
+            out[k, j] = poly.deriv(k)(s) if k else poly(s)
+    return out
+
+
+def _basis(n_nodes: int, m: int) -> _Basis:
+    x, wq = npleg.leggauss(n_nodes)
+    s = 0.5 * (x + 1.0)
+    return _Basis(s, 0.5 * wq, _hermite(s), _correction(s, m))
+
+
+@dataclass(frozen=True)
+class AvoidPlan:
+    """A planned path from ``(r0, v0)`` at time ``t0`` to ``(r_f, v_f)`` at ``t0 + T``.
+
+    ``coeffs`` (m, 3): correction coefficients. Evaluate with :meth:`evaluate`.
+    """
+
+    t0: float
+    t_go: float
+    r0: np.ndarray
+    v0: np.ndarray
+    rf: np.ndarray
+    vf: np.ndarray
+    coeffs: np.ndarray
+    feasible: bool
+    min_clearance_ft: float
+    limits_ok: bool = True
+    solve_time_s: float = 0.0
+    iterations: int = 0
+    status: str = ""
+
+    def evaluate(self, tau: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position, velocity and acceleration at plan times ``tau`` (s from ``t0``)."""
+        tau = np.atleast_1d(np.asarray(tau, dtype=np.float64))
+        s = np.clip(tau / self.t_go, 0.0, 1.0)
+        return _path(s, self.t_go, self.r0, self.v0, self.rf, self.vf, self.coeffs)
+
+
+def _path(s, t_go, r0, v0, rf, vf, coeffs):
+    herm = _hermite(s)
+    corr = _correction(s, len(coeffs))
+    return _path_from(herm, corr, t_go, r0, v0, rf, vf, coeffs)
+
+
+def _path_from(herm, corr, t_go, r0, v0, rf, vf, coeffs):
+    ends = np.stack([r0, t_go * v0, rf, t_go * vf])  # (4, 3)
+    out = []
+    for k in range(3):
+        val = herm[k].T @ ends + corr[k].T @ coeffs  # (n, 3), d^k/ds^k
+        out.append(val / t_go**k)
+    return out[0], out[1], out[2]
+
+
+# --------------------------------------------------------------------------- constraints
+
+
+def limit_margins(
+    v: np.ndarray,
+    a: np.ndarray,
+    params: VehicleParams,
+    cfg: AvoidConfig,
+    min_speed: float = 0.0,
+) -> np.ndarray:
+    """Margins (>= 0 when met) of the load-factor, θ and φ limits at velocities ``v`` and
+    accelerations ``a`` (shape (n, 3)); columns ``[n, +θ, -θ, +φ, -φ, V]``.
+
+    The last column keeps the airspeed above ``min_speed``: the point-mass model is
+    singular at ``V = 0`` (eqs 2-3), and a plan that turns the velocity round through
+    zero near the touch-down cannot be flown.
+
+    The quantities are those of the inverse (eqs 12-19, four-quadrant form).
+    """
+    g = params.g
+    speed = np.linalg.norm(v, axis=1)
+    speed = np.maximum(speed, 1e-9)
+    ev = v / speed[:, None]
+    gam = np.arcsin(np.clip(v[:, 2] / speed, -1.0, 1.0))
+    chi = np.arctan2(v[:, 1], v[:, 0])
+    cg, sg, cc, sc = np.cos(gam), np.sin(gam), np.cos(chi), np.sin(chi)
+    b = a + np.array([0.0, 0.0, g])
+    e_gam = np.stack([-sg * cc, -sg * sc, cg], axis=1)
+    e_chi = np.stack([-sc, cc, np.zeros_like(cc)], axis=1)
+    drag = params.drag(speed) / params.mass
+    along = (b * ev).sum(axis=1) + drag  # numerator of eq 13
+    normal = (b * e_gam).sum(axis=1)  # Γ, eq 19
+    side = (b * e_chi).sum(axis=1)  # numerator of eq 12
+    thrust = np.sqrt(along**2 + normal**2 + side**2)  # T/m, eq 14
+    keep = 1.0 - cfg.limit_backoff
+    st = math.sin(math.radians(keep * cfg.max_theta_deg))
+    tp = math.tan(math.radians(keep * cfg.max_phi_deg))
+    return np.stack(
+        [
+            1.0 + keep * (cfg.max_load_factor - 1.0) - thrust / g,
+            st * thrust - along,
+            st * thrust + along,
+            tp * normal - side,
+            tp * normal + side,
+            speed - min_speed,
+        ],
+        axis=1,
+    )
+
+
+def _clearances(pos: np.ndarray, boxes: tuple[ObstacleBox, ...]) -> np.ndarray:
+    if not boxes:
+        return np.full((len(pos), 0), np.inf)
+    return np.stack([b.signed_distance(pos) for b in boxes], axis=1)
+
+
+# --------------------------------------------------------------------------- one solve
+
+
+@dataclass
+class _Problem:
+    r0: np.ndarray
+    v0: np.ndarray
+    bc: BoundaryConditions
+    field: ObstacleField
+    boxes: tuple[ObstacleBox, ...]
+    params: VehicleParams
+    cfg: AvoidConfig
+    basis: _Basis
+    t_bounds: tuple[float, float]
+
+    @property
+    def min_speed(self) -> float:
+        """Half the smaller of the current and the final speed (see :func:`limit_margins`)."""
+        return 0.5 * min(float(np.linalg.norm(self.v0)), float(np.linalg.norm(self.bc.vf)))
+
+    def unpack(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        return float(x[0]), x[1:].reshape(-1, 3)
+
+    def path(self, x):
+        t_go, c = self.unpack(x)
+        b = self.basis
+        return _path_from(b.herm, b.corr, t_go, self.r0, self.v0, self.bc.rf, self.bc.vf, c)
+
+    def cost(self, x) -> float:
+        """Eq 20 by Gauss-Legendre quadrature on [0, T]."""
+        t_go, _ = self.unpack(x)
+        r, _, a = self.path(x)
+        return float(t_go * (self.basis.weights * self._integrand(r, a)).sum())
+
+    def _integrand(self, r, a):
+        w = self.field.weights
+        return w.zeta + 0.5 * (1.0 - w.zeta) * (
+            w.alpha * (a**2).sum(axis=1)
+            + w.mu * (r[:, 2] - w.z_ref) ** 2
+            - w.beta * self.field.sum_sq_distance(r)
+        )
+
+    def _dt(self, x) -> float:
+        return 1e-6 * max(1.0, abs(x[0]))
+
+    def _chain(self, t_go, idx, g_r, g_v=None, g_a=None) -> np.ndarray:
+        """d(row)/dc for rows that each depend on one sample ``idx[row]`` through
+        per-row gradients (rows, 3) in r, v and a; returns (rows, 3m)."""
+        b = self.basis
+        jac = b.corr[0][:, idx].T[:, :, None] * g_r[:, None, :]
+        if g_v is not None:
+            jac += (b.corr[1][:, idx].T / t_go)[:, :, None] * g_v[:, None, :]
+        if g_a is not None:
+            jac += (b.corr[2][:, idx].T / t_go**2)[:, :, None] * g_a[:, None, :]
+        return jac.reshape(len(idx), -1)
+
+    def cost_grad(self, x) -> np.ndarray:
+        t_go, _ = self.unpack(x)
+        r, _, a = self.path(x)
+        w = self.field.weights
+        wq = self.basis.weights[:, None]
+        g_a = t_go * wq * (1.0 - w.zeta) * w.alpha * a
+        g_r = -t_go * wq * (1.0 - w.zeta) * w.beta * self.field.n * (r - self.field.mean)
+        g_r[:, 2] += t_go * self.basis.weights * (1.0 - w.zeta) * w.mu * (r[:, 2] - w.z_ref)
+        idx = np.arange(len(r))
+        grad_c = self._chain(t_go, idx, g_r, None, g_a).sum(axis=0)
+        h = self._dt(x)
+        xp = x.copy()
+        xp[0] += h
+        return np.concatenate([[(self.cost(xp) - self.cost(x)) / h], grad_c])
+
+    def clearance_margin(self, x) -> np.ndarray:
+        r, _, _ = self.path(x)
+        need = self.cfg.clearance_ft + self.cfg.margin_ft
+        return (_clearances(r, self.boxes) - need).ravel()
+
+    def clearance_jac(self, x) -> np.ndarray:
+        t_go, _ = self.unpack(x)
+        r, _, _ = self.path(x)
+        n, k = len(r), len(self.boxes)
+        g = np.stack([b.signed_distance_gradient(r) for b in self.boxes], axis=1)  # n,k,3
+        # rows ordered (sample, box) like clearance_margin's ravel
+        jac_c = self._chain(t_go, np.repeat(np.arange(n), k), g.reshape(n * k, 3))
+        return np.column_stack([self._t_column(x, self.clearance_margin), jac_c])
+
+    def _t_column(self, x, fun) -> np.ndarray:
+        h = self._dt(x)
+        xp = x.copy()
+        xp[0] += h
+        return (fun(xp) - fun(x)) / h
+
+    def other_margins(self, x) -> np.ndarray:
+        r, v, a = self.path(x)
+        lim = limit_margins(v, a, self.params, self.cfg, self.min_speed)
+        return np.concatenate([lim.T.ravel(), r[:, 2]])
+
+    def other_jac(self, x) -> np.ndarray:
+        t_go, _ = self.unpack(x)
+        r, v, a = self.path(x)
+        n = len(r)
+        eye = np.eye(3)
+        nl = 6
+        g_v = np.empty((nl, n, 3))
+        g_a = np.empty((nl, n, 3))
+        for ax in range(3):  # central differences per sample, vectorised over samples
+            hv = 1e-6 * np.maximum(np.abs(v[:, ax]), 1.0)[:, None]
+            ha = 1e-6 * np.maximum(np.abs(a[:, ax]), 1.0)[:, None]
+            ms = self.min_speed
+            dv = limit_margins(v + hv * eye[ax], a, self.params, self.cfg, ms) - limit_margins(
+                v - hv * eye[ax], a, self.params, self.cfg, ms
+            )
+            da = limit_margins(v, a + ha * eye[ax], self.params, self.cfg, ms) - limit_margins(
+                v, a - ha * eye[ax], self.params, self.cfg, ms
+            )
+            g_v[:, :, ax] = (dv / (2 * hv)).T
+            g_a[:, :, ax] = (da / (2 * ha)).T
+        idx = np.tile(np.arange(n), nl)  # rows ordered (limit, sample) like lim.T.ravel
+        zero = np.zeros((nl * n, 3))
+        jac_lim = self._chain(t_go, idx, zero, g_v.reshape(nl * n, 3), g_a.reshape(nl * n, 3))
+        jac_z = self._chain(t_go, np.arange(n), np.tile([0.0, 0.0, 1.0], (n, 1)))
+        return np.column_stack([self._t_column(x, self.other_margins), np.vstack([jac_lim, jac_z])])
+
+
+def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, object]:
+    """SLSQP on the programme; ``relaxed`` maximises the smallest clearance instead."""
+    lo, hi = prob.t_bounds
+    n = len(x0)
+    if relaxed:
+        # variables [T, c..., slack]: maximise slack s with clearance - need >= s.
+        x_init = np.concatenate([x0, [float(prob.clearance_margin(x0).min(initial=0.0))]])
+        bounds = [(lo, hi)] + [(None, None)] * (n - 1) + [(None, 0.0)]
+
+        def slack_jac(y, jac):
+            j = jac(y[:-1])
+            return np.column_stack([j, np.full(len(j), -1.0)])
+
+        cons = [
+            {
+                "type": "ineq",
+                "fun": lambda y: prob.clearance_margin(y[:-1]) - y[-1],
+                "jac": lambda y: slack_jac(y, prob.clearance_jac),
+            },
+            {
+                "type": "ineq",
+                "fun": lambda y: prob.other_margins(y[:-1]),
+                "jac": lambda y: np.column_stack(
+                    [prob.other_jac(y[:-1]), np.zeros(len(prob.other_margins(y[:-1])))]
+                ),
+            },
+        ]
+        scale = max(abs(prob.cost(x0)), 1.0)
+        res = minimize(
+            lambda y: -y[-1] + 1e-3 * prob.cost(y[:-1]) / scale,
+            x_init,
+            jac=lambda y: np.concatenate([1e-3 * prob.cost_grad(y[:-1]) / scale, [-1.0]]),
+            method="SLSQP",
+            bounds=bounds,
+            constraints=cons,
+            options={"maxiter": prob.cfg.maxiter, "ftol": prob.cfg.ftol},
+        )
+        return res.x[:-1], res
+    bounds = [(lo, hi)] + [(None, None)] * (n - 1)
+    cons = [{"type": "ineq", "fun": prob.other_margins, "jac": prob.other_jac}]
+    if prob.boxes:
+        cons.append({"type": "ineq", "fun": prob.clearance_margin, "jac": prob.clearance_jac})
+    res = minimize(
+        prob.cost,
+        x0,
+        jac=prob.cost_grad,
+        method="SLSQP",
+        bounds=bounds,
+        constraints=cons,
+        options={"maxiter": prob.cfg.maxiter, "ftol": prob.cfg.ftol},
+    )
+    return res.x, res
+
+
+def _is_feasible(prob: _Problem, x: np.ndarray, tol: float = 1e-3) -> bool:
+    """Within the limits and at least the required clearance (the planning margin is
+    slack for the closed loop, not part of the requirement)."""
+    cm = prob.clearance_margin(x) + prob.cfg.margin_ft
+    return bool(
+        np.all(np.isfinite(x))
+        and (cm.size == 0 or cm.min() >= -tol)
+        and prob.other_margins(x).min() >= -tol
+    )
+
+
+def _fit_coeffs(prob: _Problem, t_go: float, target: np.ndarray) -> np.ndarray:
+    """Least-squares correction coefficients that bring the path closest to ``target``
+    (positions at the basis nodes for this ``t_go``)."""
+    b = prob.basis
+    ends = np.stack([prob.r0, t_go * prob.v0, prob.bc.rf, t_go * prob.bc.vf])
+    resid = target - b.herm[0].T @ ends
+    coeffs, *_ = np.linalg.lstsq(b.corr[0].T, resid, rcond=None)
+    return coeffs
+
+
+def _report_seed(prob: _Problem) -> tuple[float, np.ndarray]:
+    """The report's extremal from the current state (eqs 37-52 at eq 55's time-to-go)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NoTransversalityRootWarning)
+        ttg = solve_time_to_go(prob.r0, prob.v0, prob.bc, prob.field)
+    t_go = float(np.clip(ttg.t_go, *prob.t_bounds))
+    sol = open_loop_solution(prob.r0, prob.v0, t_go, prob.bc, prob.field)
+    target = sol.derivative(prob.basis.s * t_go, 0)
+    return t_go, _fit_coeffs(prob, t_go, target)
+
+
+def _side_seeds(prob: _Problem, t_go: float, coeffs: np.ndarray, amplitude: float):
+    """The seed bent sideways (horizontal normal to the start-goal line) both ways."""
+    d = prob.bc.rf[:2] - prob.r0[:2]
+    nrm = np.array([-d[1], d[0], 0.0]) / max(np.hypot(*d), 1e-9)
+    s = prob.basis.s
+    bump = (16.0 * s**2 * (1 - s) ** 2)[:, None] * nrm  # 1 at mid-path
+    r_seed, _, _ = prob.path(np.concatenate([[t_go], coeffs.ravel()]))
+    for sign in (1.0, -1.0):
+        yield _fit_coeffs(prob, t_go, r_seed + sign * amplitude * bump)
+
+
+def plan_trajectory(
+    r0: np.ndarray,
+    v0: np.ndarray,
+    bc: BoundaryConditions,
+    field: ObstacleField,
+    boxes: tuple[ObstacleBox, ...],
+    *,
+    params: VehicleParams | None = None,
+    config: AvoidConfig | None = None,
+    warm: AvoidPlan | None = None,
+    t0: float = 0.0,
+    t_go_max: float | None = None,
+) -> AvoidPlan:
+    """Solve the programme of the module docstring once, from ``(r0, v0)`` at ``t0``.
+
+    Seeds, in order: ``warm`` (the previous plan, resampled from ``t0``) if given, else
+    the report's extremal; if the result is not feasible, that seed bent sideways by
+    ``±(clearance + half the largest obstacle)`` and the report's extremal. If none is
+    feasible, the relaxed programme (largest smallest-clearance within the limits)
+    gives the plan, with ``feasible=False``.
+    """
+    params = params or VehicleParams()
+    cfg = config or AvoidConfig()
+    r0 = np.asarray(r0, dtype=np.float64)
+    v0 = np.asarray(v0, dtype=np.float64)
+    t_sing = 0.98 * FIRST_SINGULAR_SIGMA_T / float(field.sigma.max())
+    hi = min(t_sing, t_go_max) if t_go_max else t_sing
+    prob = _Problem(
+        r0, v0, bc, field, tuple(boxes), params, cfg,
+        _basis(cfg.n_samples, cfg.n_basis), (0.05, hi),
+    )  # fmt: skip
+    start = time.perf_counter()
+    seeds: list[np.ndarray] = []
+    if warm is not None:
+        remaining = max(warm.t_go - (t0 - warm.t0), 0.1)
+        t_go = float(np.clip(remaining, 0.05, hi))
+        tau = (t0 - warm.t0) + prob.basis.s * t_go
+        target, _, _ = warm.evaluate(tau)
+        seeds.append(np.concatenate([[t_go], _fit_coeffs(prob, t_go, target).ravel()]))
+    t_rep, c_rep = _report_seed(prob)
+    x_rep = np.concatenate([[t_rep], c_rep.ravel()])
+    seeds.append(x_rep)
+    amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
+    seeds += [np.concatenate([[t_rep], c.ravel()]) for c in _side_seeds(prob, t_rep, c_rep, amp)]
+    best, best_res, iters = None, None, 0
+    ends = np.stack([r0, bc.rf])
+    if boxes and _clearances(ends, prob.boxes).min() < cfg.clearance_ft:
+        seeds = []  # the start or the touch-down point itself is within the clearance
+    for k, x0 in enumerate(seeds):
+        x, res = _solve(prob, x0, relaxed=False)
+        iters += int(getattr(res, "nit", 0))
+        if _is_feasible(prob, x):
+            if best is None or prob.cost(x) < prob.cost(best):
+                best, best_res = x, res
+            if k == 0 or warm is None:
+                break  # the first feasible solution from the preferred seed
+    feasible = best is not None
+    if not feasible:
+        best, best_res = _solve(prob, x_rep, relaxed=True)
+        iters += int(getattr(best_res, "nit", 0))
+        feasible = _is_feasible(prob, best)  # the largest clearance may still meet it
+    t_go, c = prob.unpack(best)
+    cm = prob.clearance_margin(best)
+    min_clear = float(cm.min() + cfg.clearance_ft + cfg.margin_ft) if cm.size else math.inf
+    limits_ok = bool(prob.other_margins(best).min() >= -1e-3)
+    return AvoidPlan(
+        t0, t_go, r0, v0, bc.rf.copy(), bc.vf.copy(), c, feasible, min_clear, limits_ok,
+        time.perf_counter() - start, iters, str(getattr(best_res, "message", "")),
+    )  # fmt: skip
+
+
+# --------------------------------------------------------------------------- closed loop
+
+
+def simulate_avoid(
+    bc: BoundaryConditions,
+    field: ObstacleField,
+    boxes: tuple[ObstacleBox, ...],
+    params: VehicleParams | None = None,
+    config: SimulationConfig | None = None,
+    avoid: AvoidConfig | None = None,
+) -> SimulationResult:
+    """Fly the avoiding law in closed loop on the nonlinear model (module docstring).
+
+    ``field`` carries the report's weights and obstacle points (the eq-20 cost);
+    ``boxes`` the obstacle extents the clearance is kept from. ``extras`` of the result
+    hold ``feasible``, ``plans`` (count), ``replan_failures``, per-solve times
+    (``solve_times_s``), SLSQP iterations, the planned minimum clearance, the boxes and
+    ``terminal_segment_skipped_s``: when the last held command (≤ 1.5 guidance
+    intervals before the end) would bring the airspeed to zero, where eqs 2-3 are
+    singular, the flight ends at the start of that segment and this says how long it
+    was (0 otherwise).
+
+    Raises
+    ------
+    RuntimeError
+        If the flight does not end within ``config.max_time`` or the model leaves its
+        domain.
+    """
+    params = params or VehicleParams()
+    cfg = config or SimulationConfig()
+    av = avoid or AvoidConfig()
+    boxes = tuple(boxes)
+    state = state_from_position_velocity(bc.r0, bc.v0)
+    t = 0.0
+    ts, states = [0.0], [state.copy()]
+    rec: dict[str, list] = {k: [] for k in ("t_cmd", "a_cmd", "a_ach", "T", "th", "ph", "tgo")}
+    plan = plan_trajectory(bc.r0, bc.v0, bc, field, boxes, params=params, config=av)
+    plans = [plan]
+    feasible = plan.feasible
+    failures = 0
+    terminal_skip = 0.0
+    last_plan_t = 0.0
+    w, zt = av.track_omega, av.track_damping
+    while True:
+        r, v = state[:3], velocity_from_state(state)
+        remaining = plan.t_go - (t - plan.t0)
+        if t - last_plan_t >= av.replan_interval - 1e-9 and remaining > av.terminal_time:
+            new = plan_trajectory(
+                r, v, bc, field, boxes, params=params, config=av, warm=plan, t0=t,
+                # A re-plan may delay the arrival by at most one re-plan interval (and
+                # never past 1.25 x the first plan's), a relaxed plan (whose cost is the
+                # clearance, not time) not at all: else the time-to-go drifts up.
+                t_go_max=max(
+                    min(
+                        remaining + (av.replan_interval if plan.feasible else 1e-6),
+                        1.25 * plans[0].t_go - t,  # never beyond 1.25 x the first arrival
+                    ),
+                    remaining + 1e-6,
+                ),
+            )  # fmt: skip
+            plans.append(new)
+            last_plan_t = t
+            if new.feasible or (not plan.feasible and new.limits_ok):
+                plan = new
+                feasible = feasible and new.feasible
+            else:
+                failures += 1  # keep following the last feasible plan
+            remaining = plan.t_go - (t - plan.t0)
+        rp, vp, ap = plan.evaluate(t - plan.t0)
+        a_cmd = ap[0] + w * w * (rp[0] - r) + 2.0 * zt * w * (vp[0] - v)
+        ctrl = inverse_controls(v, a_cmd, params)
+        rec["t_cmd"].append(t)
+        rec["a_cmd"].append(a_cmd)
+        rec["a_ach"].append(accelerations(state, ctrl, params))
+        rec["T"].append(ctrl.thrust)
+        rec["th"].append(ctrl.theta)
+        rec["ph"].append(ctrl.phi)
+        rec["tgo"].append(remaining)
+        last = remaining <= 1.5 * cfg.guidance_interval
+        dt = max(remaining, 1e-6) if last else cfg.guidance_interval
+        n_s = max(1, math.ceil(dt / cfg.sample_interval - 1e-9))
+        t_end = t + dt
+        t_eval = np.minimum(t + dt * np.arange(1, n_s + 1) / n_s, t_end)
+        try:
+            sol = integrate_held_controls(state, ctrl, params, t, t_end, t_eval, cfg)
+        except RuntimeError:
+            if not last:
+                raise
+            # The last held command would stop the vehicle (V -> 0, eqs 2-3 singular)
+            # within the final sliver of the flight: it ends here, and says so.
+            terminal_skip = dt
+            break
+        ts.extend(sol.t.tolist())
+        states.extend(sol.y.T)
+        state = sol.y[:, -1].copy()
+        t = float(sol.t[-1])
+        if last:
+            break
+        if t > cfg.max_time:
+            raise RuntimeError(f"flight did not end within max_time = {cfg.max_time:g} s")
+    if not feasible:
+        worst = min(p.min_clearance_ft for p in plans if not p.feasible)
+        warnings.warn(
+            f"no trajectory keeps {av.clearance_ft:g} ft from every obstacle within the "
+            f"limits (load factor {av.max_load_factor:g}, |theta| {av.max_theta_deg:g} deg, "
+            f"|phi| {av.max_phi_deg:g} deg); flying the plan that maximises the smallest "
+            f"clearance ({worst:.2f} ft planned)",
+            InfeasibleClearanceWarning,
+            stacklevel=2,
+        )
+    n_upd = len(rec["tgo"])
+    return SimulationResult(
+        t=np.asarray(ts),
+        states=np.asarray(states),
+        t_cmd=np.asarray(rec["t_cmd"]),
+        accel_cmd=np.asarray(rec["a_cmd"]),
+        accel_achieved=np.asarray(rec["a_ach"]),
+        thrust=np.asarray(rec["T"]),
+        theta=np.asarray(rec["th"]),
+        phi=np.asarray(rec["ph"]),
+        t_go=np.asarray(rec["tgo"]),
+        h_residual=np.full(n_upd, np.nan),
+        root_found=np.ones(n_upd, dtype=bool),
+        obstacles=field.points,
+        bc=bc,
+        params=params,
+        extras={
+            "law": "avoid",
+            "feasible": bool(feasible),
+            "plans": len(plans),
+            "replan_failures": failures,
+            "solve_times_s": [p.solve_time_s for p in plans],
+            "solve_iterations": [p.iterations for p in plans],
+            "planned_min_clearance_ft": float(min(p.min_clearance_ft for p in plans)),
+            "terminal_segment_skipped_s": terminal_skip,
+            "boxes": boxes,
+            "config": replace(av),
+        },
+    )
