@@ -85,12 +85,17 @@ from .law import (
 )
 from .model import (
     VehicleParams,
-    accelerations,
     inverse_controls,
     state_from_position_velocity,
     velocity_from_state,
 )
-from .simulate import SimulationConfig, SimulationResult, integrate_held_controls
+from .simulate import (
+    SimulationConfig,
+    SimulationResult,
+    held_sample_times,
+    integrate_held_controls,
+    record_command,
+)
 
 __all__ = [
     "AvoidConfig",
@@ -678,18 +683,10 @@ def simulate_avoid(
         rp, vp, ap = plan.evaluate(t - plan.t0)
         a_cmd = ap[0] + w * w * (rp[0] - r) + 2.0 * zt * w * (vp[0] - v)
         ctrl = inverse_controls(v, a_cmd, params)
-        rec["t_cmd"].append(t)
-        rec["a_cmd"].append(a_cmd)
-        rec["a_ach"].append(accelerations(state, ctrl, params))
-        rec["T"].append(ctrl.thrust)
-        rec["th"].append(ctrl.theta)
-        rec["ph"].append(ctrl.phi)
-        rec["tgo"].append(remaining)
+        record_command(rec, t, a_cmd, state, ctrl, params, remaining)
         last = remaining <= 1.5 * cfg.guidance_interval
         dt = max(remaining, 1e-6) if last else cfg.guidance_interval
-        n_s = max(1, math.ceil(dt / cfg.sample_interval - 1e-9))
-        t_end = t + dt
-        t_eval = np.minimum(t + dt * np.arange(1, n_s + 1) / n_s, t_end)
+        t_end, t_eval = held_sample_times(t, dt, cfg.sample_interval)
         try:
             sol = integrate_held_controls(state, ctrl, params, t, t_end, t_eval, cfg)
         except RuntimeError:

@@ -46,7 +46,9 @@ from .model import (
 __all__ = [
     "SimulationConfig",
     "SimulationResult",
+    "held_sample_times",
     "integrate_held_controls",
+    "record_command",
     "simulate",
     "trajectory_metrics",
 ]
@@ -143,6 +145,34 @@ class SimulationResult:
         return np.sqrt((d**2).sum(axis=-1)).min(axis=1)
 
 
+def record_command(
+    rec: dict[str, list],
+    t: float,
+    a_cmd: np.ndarray,
+    state: np.ndarray,
+    ctrl: Controls,
+    params: VehicleParams,
+    t_go: float,
+) -> None:
+    """Append one guidance update to ``rec``: its time, the commanded and achieved
+    accelerations, the controls of the inverse (eqs 17-19) and the time-to-go."""
+    rec["t_cmd"].append(t)
+    rec["a_cmd"].append(a_cmd)
+    rec["a_ach"].append(accelerations(state, ctrl, params))
+    rec["T"].append(ctrl.thrust)
+    rec["th"].append(ctrl.theta)
+    rec["ph"].append(ctrl.phi)
+    rec["tgo"].append(t_go)
+
+
+def held_sample_times(t: float, dt: float, sample_interval: float) -> tuple[float, np.ndarray]:
+    """End and output times of one held-command interval ``[t, t + dt]``, sampled at most
+    ``sample_interval`` apart (the last sample exactly at the end despite rounding)."""
+    n_s = max(1, math.ceil(dt / sample_interval - 1e-9))
+    t_end = t + dt
+    return t_end, np.minimum(t + dt * np.arange(1, n_s + 1) / n_s, t_end)
+
+
 def simulate(
     bc: BoundaryConditions,
     obstacles: ObstacleField,
@@ -194,13 +224,7 @@ def simulate(
             t_go, h_res, found = t_go_next, math.nan, True
         a_cmd = command_acceleration(r, v, t_go, bc, obstacles)
         ctrl = inverse_controls(v, a_cmd, params)
-        rec["t_cmd"].append(t)
-        rec["a_cmd"].append(a_cmd)
-        rec["a_ach"].append(accelerations(state, ctrl, params))
-        rec["T"].append(ctrl.thrust)
-        rec["th"].append(ctrl.theta)
-        rec["ph"].append(ctrl.phi)
-        rec["tgo"].append(t_go)
+        record_command(rec, t, a_cmd, state, ctrl, params, t_go)
         rec["h"].append(h_res)
         rec["ok"].append(found)
         # End within 1.5 intervals: a sliver of t_go left for one more update would
@@ -209,9 +233,7 @@ def simulate(
         dt = t_go if last else cfg.guidance_interval
         if t_go_next is not None or t_go <= cfg.terminal_time:
             t_go_next = t_go - dt
-        n_s = max(1, math.ceil(dt / cfg.sample_interval - 1e-9))
-        t_end = t + dt
-        t_eval = np.minimum(t + dt * np.arange(1, n_s + 1) / n_s, t_end)  # rounding
+        t_end, t_eval = held_sample_times(t, dt, cfg.sample_interval)
         sol = integrate_held_controls(state, ctrl, params, t, t_end, t_eval, cfg)
         ts.extend(sol.t.tolist())
         states.extend(sol.y.T)

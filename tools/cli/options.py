@@ -11,6 +11,7 @@ reads that setting (:data:`CASE_OPTIONS`). Every such option defaults to ``None`
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from typing import Any
 
 from rangefx.rtl_model.config import TimingConfig
@@ -31,6 +32,7 @@ __all__ = [
     "add_timing_args",
     "apply_case_options",
     "design_from_args",
+    "int_at_least",
     "pipeline_from_args",
     "reject_options",
     "timing_from_args",
@@ -56,6 +58,21 @@ TIMING_OPTIONS: dict[str, str] = {
     "gap_prob": "--gap-prob",
     "gap_seed": "--gap-seed",
 }
+
+
+def int_at_least(minimum: int, what: str = "value") -> Callable[[str], int]:
+    """An argparse ``type``: an integer ``>= minimum``, else a one-line parser error."""
+
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if v < minimum:
+            raise argparse.ArgumentTypeError(f"{what} must be >= {minimum}, not {v}")
+        return v
+
+    return parse
 
 
 def add_pipeline_arg(p: argparse.ArgumentParser, *, default: str | None = "p1") -> None:

@@ -55,7 +55,15 @@ from ..report import atomic_output_dir, atomic_write_text, json_safe
 from ..studies.cases import HELD_OUT_SCENES, REAL_PAIRS, held_out_case, real_pair_case
 from ..studies.runner import load_config
 from ..studies.sweep import RESULTS_NAME
-from .options import add_design_args, add_pipeline_arg, design_from_args, pipeline_from_args
+from .options import (
+    add_design_args,
+    add_pipeline_arg,
+    design_from_args,
+    int_at_least,
+    pipeline_from_args,
+)
+
+_positive_int = int_at_least(1)
 
 __all__ = [
     "DEFAULT_MARGIN",
@@ -407,16 +415,6 @@ def _write_optimise_out(
             title = f"{pipe.name} " + stem.replace("_", " ").replace("buildup", "build-up,")
             save_buildup(tmp, stem, buildup_for(pipe, case, cfg), title, xlabels=PROFILE_AXES)
         atomic_write_text(tmp / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
-    return v
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

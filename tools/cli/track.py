@@ -36,6 +36,7 @@ from rangefx.golden.tracking import (
 from .. import report
 from ..errors import UserError
 from ..report import atomic_output_dir, atomic_write_text, json_safe
+from .options import int_at_least
 
 __all__ = ["add_parser", "cmd_degrees", "cmd_track"]
 
@@ -306,16 +307,6 @@ def cmd_degrees(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- parser
 
 
-def _size(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 8:
-        raise argparse.ArgumentTypeError(f"image size must be >= 8 pixels, not {v}")
-    return v
-
-
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register ``track`` and ``degrees`` on the ``rangefx`` subparsers."""
     p = sub.add_parser("track", help="G1: range by irradiance tracking on the ch. 2 scene")
@@ -346,7 +337,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         choices=(1, 2, 3, 4),
         help="estimator order for every degree (default: both order = degree and order 4)",
     )
-    p.add_argument("--size", type=_size, nargs=2, metavar=("H", "W"), help="render size")
+    p.add_argument(
+        "--size",
+        type=int_at_least(8, "image size"),
+        nargs=2,
+        metavar=("H", "W"),
+        help="render size",
+    )
     p.add_argument("--seed", type=int, default=0, help="scene noise seed")
     p.add_argument("--out", help="also write table.md and summary.json here")
     p.add_argument("--json", action="store_true", help="print one JSON object with the figures")
