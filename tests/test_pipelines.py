@@ -39,11 +39,11 @@ def run(name: str) -> PipelineResult:
 
 
 def test_registry():
-    assert set(NAMES) == {"p1", "p2"}
+    assert set(NAMES) == {"p1", "p2", "p3"}
     for name, p in PIPELINES.items():
         assert p.name == name and get_pipeline(name) is p
         assert issubclass(p.config_type, WordLengthConfig)
-    with pytest.raises(ValueError, match="unknown pipeline 'p9'; choose from p1, p2"):
+    with pytest.raises(ValueError, match="unknown pipeline 'p9'; choose from p1, p2, p3"):
         get_pipeline("p9")
 
 

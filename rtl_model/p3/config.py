@@ -75,8 +75,8 @@ class P3Config(WordLengthConfig):
         Largest disparity, full-scale px (the clip and the E2 row buffers); 0 = the
         pyramid's claim ``2^(L-1) coarse_px`` (G6's ``None``).
     keys_bits
-        Fraction bits of the warp's position that index the Keys weight ROM
-        (``2**keys_bits`` rows of 4 weights; the lower bits of ``u`` are dropped).
+        Fraction bits of the warp's position ``x - u`` (rounded to them) that index the
+        Keys weight ROM (``2**keys_bits`` rows of 4 weights).
     divider, recip_lut_bits, recip_bits
         The shared divider model of both quotients (``p3_du``, ``p3_range``).
     """
@@ -96,7 +96,7 @@ class P3Config(WordLengthConfig):
     coarse_px: float = 1.0
     max_disparity: float = 0.0
     coarse_lag: int = 0
-    keys_bits: int = 6
+    keys_bits: int = 8
     divider: str = "reciprocal"
     recip_lut_bits: int = 8
     recip_bits: int = 20

@@ -187,6 +187,8 @@ def _level_kernel(
     fe = max(f_l, f_warp)
     fu2 = max(f_u, f_du)
     mask = (np.int64(1) << f_u) - 1
+    # the position x - u rounded to keys_bits fraction bits (half an index step added)
+    half = np.int64(1) << (f_u - keys_bits - 1) if f_u > keys_bits else np.int64(0)
     ax = np.empty((m, n), dtype=np.int64)
     for y in range(m):
         for x in range(n):
@@ -202,7 +204,7 @@ def _level_kernel(
         # the warp: W(x) = E2(x - u) from the row buffer, Keys weights from the ROM
         for y in range(m):
             for x in range(n):
-                src = (np.int64(x) << f_u) - u[y, x]
+                src = (np.int64(x) << f_u) - u[y, x] + half
                 i0 = src >> f_u
                 t = src & mask
                 idx = t >> (f_u - keys_bits) if f_u >= keys_bits else t << (keys_bits - f_u)
