@@ -175,19 +175,50 @@ P2_DESIGNS = (
 )
 
 
+def lab_crop(
+    rng: np.random.Generator, m: int, n: int
+) -> tuple[np.ndarray, np.ndarray, PinholeCamera]:
+    """A random ``m`` x ``n`` crop of the ``lab`` pair (rendered once) and its camera."""
+    if "lab" not in _SCENES:
+        _SCENES["lab"] = render_scene("lab")
+    s = _SCENES["lab"]
+    j0, i0 = int(rng.integers(100, 400)), int(rng.integers(100, 400))
+    crop = (slice(j0, j0 + m), slice(i0, i0 + n))
+    return s.image1[crop].copy(), s.image2[crop].copy(), PinholeCamera(n, m, s.camera.f_px)
+
+
+def stereo_cases(
+    seed0: int, designs: tuple[dict[str, Any], ...], make_case: Callable[[int, int, str], Case]
+) -> list[dict[str, Any]]:
+    """The quantisation x overflow cases of a stereo-only pipeline: every third on a
+    ``lab`` crop, both dividers in turn, ``designs`` in turn; ``make_case(i, seed, kind)``."""
+    out = []
+    for i, (quant, overflow) in enumerate(itertools.product(Quant, Overflow)):
+        kind = "lab" if i % 3 == 0 else "random"
+        design = {"divider": ("restoring", "reciprocal")[i % 2], **designs[i % len(designs)]}
+        out.append(
+            dict(
+                quant=quant,
+                overflow=overflow,
+                narrow=i % 5 != 2,
+                timing=TIMINGS[(i // 2) % 3],
+                seed=seed0 + i,
+                design=design,
+                mode="stereo",
+                kind=kind,
+                case=lambda i=i, k=kind: make_case(i, seed0 + i, k),
+            )
+        )
+    return out
+
+
 def p2_case(seed: int, kind: str, riccati: RiccatiConfig) -> Case:
     """A tiny random stereo case: a crop of ``lab``, or a random texture shifted by a
     fraction of a pixel plus noise with a flat run (E1 = E2: A = 0, the c floor acts)."""
     rng = np.random.default_rng(seed)
     m, n = int(rng.integers(2, 5)), int(rng.integers(8, 14))
     if kind == "lab":
-        if "lab" not in _SCENES:
-            _SCENES["lab"] = render_scene("lab")
-        s = _SCENES["lab"]
-        j0, i0 = int(rng.integers(100, 400)), int(rng.integers(100, 400))
-        crop = (slice(j0, j0 + m), slice(i0, i0 + n))
-        im1, im2 = s.image1[crop].copy(), s.image2[crop].copy()
-        camera = PinholeCamera(n, m, s.camera.f_px)
+        im1, im2, camera = lab_crop(rng, m, n)
     else:
         im1 = rng.integers(0, 256, (m, n)).astype(np.uint8)
         shifted = 0.6 * im1.astype(float) + 0.4 * np.roll(im1, -1, axis=1)
@@ -198,25 +229,11 @@ def p2_case(seed: int, kind: str, riccati: RiccatiConfig) -> Case:
 
 
 def p2_cases() -> list[dict[str, Any]]:
-    out = []
-    for i, (quant, overflow) in enumerate(itertools.product(Quant, Overflow)):
-        kind = "lab" if i % 3 == 0 else "random"
-        riccati = P2_RICCATI[(i // 3) % len(P2_RICCATI)]
-        design = {"divider": ("restoring", "reciprocal")[i % 2], **P2_DESIGNS[i % len(P2_DESIGNS)]}
-        out.append(
-            dict(
-                quant=quant,
-                overflow=overflow,
-                narrow=i % 5 != 2,
-                timing=TIMINGS[(i // 2) % 3],
-                seed=2000 + i,
-                design=design,
-                mode="stereo",
-                kind=kind,
-                case=lambda s=2000 + i, k=kind, r=riccati: p2_case(s, k, r),
-            )
-        )
-    return out
+    return stereo_cases(
+        2000,
+        P2_DESIGNS,
+        lambda i, seed, kind: p2_case(seed, kind, P2_RICCATI[(i // 3) % len(P2_RICCATI)]),
+    )
 
 
 def p2_defaults() -> list[tuple[dict[str, Any], Callable[[], Case]]]:
@@ -241,13 +258,7 @@ def p3_case(seed: int, kind: str) -> Case:
     rng = np.random.default_rng(seed)
     m, n = int(rng.integers(8, 13)), int(rng.integers(12, 19))
     if kind == "lab":
-        if "lab" not in _SCENES:
-            _SCENES["lab"] = render_scene("lab")
-        s = _SCENES["lab"]
-        j0, i0 = int(rng.integers(100, 400)), int(rng.integers(100, 400))
-        crop = (slice(j0, j0 + m), slice(i0, i0 + n))
-        im1, im2 = s.image1[crop].copy(), s.image2[crop].copy()
-        camera = PinholeCamera(n, m, s.camera.f_px)
+        im1, im2, camera = lab_crop(rng, m, n)
     else:
         base = rng.uniform(0, 255, (m, n + 8))
         base = (base + np.roll(base, 1, axis=1) + np.roll(base, -1, axis=1)) / 3
@@ -263,24 +274,7 @@ def p3_case(seed: int, kind: str) -> Case:
 
 
 def p3_cases() -> list[dict[str, Any]]:
-    out = []
-    for i, (quant, overflow) in enumerate(itertools.product(Quant, Overflow)):
-        kind = "lab" if i % 3 == 0 else "random"
-        design = {"divider": ("restoring", "reciprocal")[i % 2], **P3_DESIGNS[i % len(P3_DESIGNS)]}
-        out.append(
-            dict(
-                quant=quant,
-                overflow=overflow,
-                narrow=i % 5 != 2,
-                timing=TIMINGS[(i // 2) % 3],
-                seed=3000 + i,
-                design=design,
-                mode="stereo",
-                kind=kind,
-                case=lambda s=3000 + i, k=kind: p3_case(s, k),
-            )
-        )
-    return out
+    return stereo_cases(3000, P3_DESIGNS, lambda i, seed, kind: p3_case(seed, kind))
 
 
 def p3_defaults() -> list[tuple[dict[str, Any], Callable[[], Case]]]:

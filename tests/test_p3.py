@@ -6,6 +6,7 @@ the cases it refuses. Bit-exactness against ``tests/oracle_p3.py`` is in
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 from fractions import Fraction
 
@@ -19,6 +20,7 @@ from rangefx.rtl_model.p3.model import buffer_bits, keys_rom, keys_weights
 from rangefx.rtl_model.pipeline import Case
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.tools import report
+from rangefx.tools.cli import main
 from rangefx.tools.studies.cases import real_pair_case, scene_case
 
 P3 = PIPELINES["p3"]
@@ -107,3 +109,11 @@ def test_cases_p3_does_not_model_are_errors():
     mirrored = Case(case.image1, case.image2, case.camera, MotionIncrement.stereo(-0.1))
     with pytest.raises(ValueError, match="second camera on the right"):
         P3.run(mirrored)
+
+
+def test_range_max_option_reaches_p3(capsys):
+    """``--range-max`` is a case option P3 reads (its only one): the register holds it."""
+    argv = ["run", "--pipeline", "p3", "--scene", "lab", "--range-max", "50", "--json"]
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["registers"]["range_max"] == [50.0, 50.0] and out["overflows"]["total"] == 0

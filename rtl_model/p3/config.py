@@ -59,6 +59,8 @@ MULTISCALE_FIELDS: tuple[str, ...] = (
     "max_disparity",
     "coarse_lag",
 )
+#: G6's measured defaults: P3's design fields default to them.
+_G6 = MultiscaleConfig()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -87,15 +89,15 @@ class P3Config(WordLengthConfig):
     QUOTIENTS: ClassVar[tuple[str, ...]] = ("p3_du", "p3_range")
     DOC: ClassVar[str] = "docs/multiscale.md"
 
-    levels: int = 4
-    warps: int = 2
-    sigma: float = 2.0
-    radius: int = 4
-    threshold_g: float = 2.0
-    threshold_r: float = 25.0
-    coarse_px: float = 1.0
+    levels: int = _G6.levels
+    warps: int = _G6.warps
+    sigma: float = _G6.sigma
+    radius: int = _G6.radius
+    threshold_g: float = _G6.threshold_g
+    threshold_r: float = _G6.threshold_r
+    coarse_px: float = _G6.coarse_px
     max_disparity: float = 0.0
-    coarse_lag: int = 0
+    coarse_lag: int = _G6.coarse_lag
     keys_bits: int = 8
     divider: str = "reciprocal"
     recip_lut_bits: int = 8
