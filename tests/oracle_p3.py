@@ -34,7 +34,7 @@ from rangefx.rtl_model.p3.config import P3_SIGNALS, P3Config
 __all__ = ["oracle_p3"]
 
 _BINOM = (1, 4, 6, 4, 1)
-_WARP_TAPS = ("warp", "wx", "g", "e", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
+_WARP_TAPS = ("warp", "wx", "g", "err", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
 
 
 def _dyadic(x: Fraction) -> tuple[int, int]:
@@ -235,7 +235,7 @@ def oracle_p3(
                     u[y][x] = min(max(un, 0), UMAX[lv])
                 DU.append(drow)
             if record:
-                arrays = {"warp": W, "wx": WX, "g": G, "e": E, **out, "du": DU, "u": u}
+                arrays = {"warp": W, "wx": WX, "g": G, "err": E, **out, "du": DU, "u": u}
                 for t in _WARP_TAPS:
                     taps[f"{t}{k}"] = np.array(arrays[t], dtype=np.int64)
             sums = out

@@ -66,7 +66,7 @@ L_AX, L_WARP, L_WX, L_G, L_E, L_RGG, L_RGE, L_REE, L_SGG, L_SGE, L_SEE, L_U = ra
 N_SITES = S_LEVEL + 24
 
 #: Taps of one warp stage at level 0 (tap name = base + warp index, e.g. ``warp0``).
-WARP_TAPS = ("warp", "wx", "g", "e", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
+WARP_TAPS = ("warp", "wx", "g", "err", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
 #: The 5-tap binomial of the reduce (weights / 16 per pass).
 _BINOM = np.array([1, 4, 6, 4, 1], dtype=np.int64)
 _KEYS_A = -0.5
@@ -420,7 +420,7 @@ def tap_offsets(config: P3Config, shape: tuple[int, int]) -> dict[str, tuple[int
     for k in range(config.warps):
         lines, c = d + k * r, i0 + k * p
         out[f"warp{k}"] = (lines, c + lat["warp"])
-        out[f"e{k}"] = (lines, c + lat["warp"] + 1)
+        out[f"err{k}"] = (lines, c + lat["warp"] + 1)
         out[f"wx{k}"] = (lines, c + lat["warp"] + lat["derivative"])
         out[f"g{k}"] = (lines, c + lat["warp"] + lat["derivative"] + 1)
         for t in ("rgg", "rge", "ree"):

@@ -6,7 +6,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from rangefx.golden.multiscale import range_g6
+from rangefx.golden.multiscale import disparity_g6, range_g6
 
 from ..config import TimingConfig, WordLengthConfig
 from ..cost import CostReport
@@ -53,8 +53,11 @@ class P3Pipeline(Pipeline):
         ms = config.multiscale()
         result = range_g6(case.image1, case.image2, case.camera, case.motion, ms, case.ranging)
         golden_taps = {}
-        if taps:
-            golden_taps = {f"u{config.warps - 1}": result.terms["disparity"], "range": result.range}
+        if taps:  # P3 models the second camera on the right: G6 unmirrored
+            traced = disparity_g6(case.image1, case.image2, ms, trace=True)
+            names = {t.name for t in self.tap_table(config)}
+            golden_taps = {k: v for k, v in traced.items() if k in names}
+            golden_taps.update(valid=result.valid, range=result.range)
         return GoldenReference(result, golden_taps)
 
     def golden_label(self, config: WordLengthConfig) -> str:
