@@ -183,10 +183,6 @@ def _filt(a: np.ndarray, taps: np.ndarray, axis: int) -> np.ndarray:
     return correlate1d(a, taps, axis=axis, mode="nearest")
 
 
-def _window(a: np.ndarray, w: np.ndarray) -> np.ndarray:
-    return _filt(_filt(a, w, 1), w, 0)
-
-
 def _reduce(a: np.ndarray) -> np.ndarray:
     """One pyramid step: separable 5-tap binomial, keep even rows and columns."""
     return _filt(_filt(a, _BINOMIAL5, 1), _BINOMIAL5, 0)[::2, ::2]
@@ -238,13 +234,22 @@ def warp_rows(image: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 def disparity_g6(
-    image1: np.ndarray, image2: np.ndarray, config: MultiscaleConfig | None = None
+    image1: np.ndarray,
+    image2: np.ndarray,
+    config: MultiscaleConfig | None = None,
+    *,
+    trace: bool = False,
 ) -> dict[str, np.ndarray]:
     """Disparity ``u`` with ``E1(x) = E2(x - u)`` along the rows, coarse to fine.
 
     Returns a dict of full-scale arrays: ``disparity`` (px), ``valid``, ``grad_rms``
     (windowed RMS of ``g``), ``residual_rms`` (windowed RMS residual of the last fit,
-    grey levels), ``inside`` (the matching pixel lies in the second image).
+    grey levels), ``inside`` (the matching pixel lies in the second image). With
+    ``trace``, also every intermediate of level 0 under the names of the fixed-point
+    P3's taps (the float value of each): ``ax`` (``E1x``), ``u_start``, and per warp
+    ``k`` ``warp{k}`` (W), ``wx{k}``, ``g{k}``, ``err{k}`` (e), the row passes ``rgg{k}``,
+    ``rge{k}``, ``ree{k}``, the window sums ``sgg{k}``, ``sge{k}``, ``see{k}``, ``du{k}``
+    and the updated ``u{k}``.
     """
     config = config or MultiscaleConfig()
     e1 = validate_image(image1, "image1")
@@ -267,17 +272,21 @@ def disparity_g6(
                 u = np.concatenate([np.repeat(u[:1], lag, axis=0), u[: u.shape[0] - lag]])
         cap = limit / 2**level
         ax = _filt(a, _CENTRAL, 1)
-        for _ in range(config.warps):
+        traced = {"ax": ax, "u_start": u} if trace and level == 0 else None
+        for k in range(config.warps):
             wimg, inside = warp_rows(b, u)
             wx = _filt(wimg, _CENTRAL, 1)
             g = 0.5 * (ax + wx)  # eq 6: the mean gradient of the two images
             e = a - wimg  # c1 of eq 10, about the current estimate
-            sgg = _window(g * g, w)
-            sge = _window(g * e, w)
-            see = _window(e * e, w)
+            rows = {"gg": _filt(g * g, w, 1), "ge": _filt(g * e, w, 1), "ee": _filt(e * e, w, 1)}
+            sgg, sge, see = (_filt(rows[p], w, 0) for p in ("gg", "ge", "ee"))
             with np.errstate(divide="ignore", invalid="ignore"):
                 du = np.where(sgg > 0, -sge / sgg, 0.0)  # normal equation of eq 10
             u = np.clip(u + du, 0.0, cap)
+            if traced is not None:
+                stage = {"warp": wimg, "wx": wx, "g": g, "err": e, "sgg": sgg, "sge": sge}
+                stage.update(see=see, du=du, u=u, **{f"r{p}": v for p, v in rows.items()})
+                traced.update({f"{name}{k}": v for name, v in stage.items()})
     with np.errstate(invalid="ignore"):
         resid = np.sqrt(np.maximum(see - np.where(sgg > 0, sge * sge / sgg, 0.0), 0.0))
     grad_rms = np.sqrt(sgg)
@@ -289,13 +298,14 @@ def disparity_g6(
         & (u > 0)
         & (u <= limit)
     )
-    return {
+    out = {
         "disparity": u,
         "valid": valid,
         "grad_rms": grad_rms,
         "residual_rms": resid,
         "inside": inside,
     }
+    return {**out, **traced} if trace else out
 
 
 def _stereo_baseline(motion: MotionIncrement) -> float:

@@ -4,7 +4,7 @@ Shared core: :mod:`.fixedpoint` (formats, casts), :mod:`.config` (the one word-l
 config type, timing), :mod:`.stream` (AXI4-Stream-video beats), :mod:`.runtime` (the
 shared kernels and host pieces), :mod:`.cost` (cost primitives), :mod:`.pipeline` (the
 interface, case and result types) and :mod:`.registry` (``PIPELINES``); one subpackage
-per pipeline: :mod:`.p1`, :mod:`.p2`.
+per pipeline: :mod:`.p1`, :mod:`.p2`, :mod:`.p3`.
 """
 
 from .config import TimingConfig, WordLengthConfig, propose_config

@@ -7,12 +7,15 @@ from types import MappingProxyType
 
 from .p1.pipeline import P1Pipeline
 from .p2.pipeline import P2Pipeline
+from .p3.pipeline import P3Pipeline
 from .pipeline import Pipeline
 
 __all__ = ["PIPELINES", "get_pipeline"]
 
 #: Pipeline name -> its one instance.
-PIPELINES: Mapping[str, Pipeline] = MappingProxyType({"p1": P1Pipeline(), "p2": P2Pipeline()})
+PIPELINES: Mapping[str, Pipeline] = MappingProxyType(
+    {"p1": P1Pipeline(), "p2": P2Pipeline(), "p3": P3Pipeline()}
+)
 
 
 def get_pipeline(name: str) -> Pipeline:

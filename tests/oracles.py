@@ -3,9 +3,9 @@ signature (SPEC §10), so that one parametrised bit-exact test covers every pipe
 Amaranth's tests swap ``FIFOModel`` for the design.
 
 Each oracle is a slow, exact reference (apytypes + Python integers) written from the
-pipeline's datapath page, not from its model: ``oracle_p1.py`` (docs/p1_datapath.md) and
-``oracle_p2.py`` (docs/p2_datapath.md). Values do not depend on timing, so ``timing`` and
-``threads`` are accepted and ignored.
+pipeline's datapath page, not from its model: ``oracle_p1.py`` (docs/p1_datapath.md),
+``oracle_p2.py`` (docs/p2_datapath.md) and ``oracle_p3.py`` (docs/multiscale.md). Values
+do not depend on timing, so ``timing`` and ``threads`` are accepted and ignored.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from oracle_p1 import oracle_p1
 from oracle_p2 import oracle_p2
+from oracle_p3 import oracle_p3
 
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
 from rangefx.rtl_model.pipeline import Case
@@ -74,5 +75,10 @@ class P2Oracle(Oracle):
         return oracle_p2(case.image1, case.image2, case.camera, case.motion, config, case.riccati)
 
 
+class P3Oracle(Oracle):
+    def compute(self, case: Case, config: WordLengthConfig):
+        return oracle_p3(case.image1, case.image2, case.camera, case.motion, config, case.ranging)
+
+
 #: Pipeline name -> its oracle (same keys as ``rangefx.rtl_model.registry.PIPELINES``).
-ORACLES = {"p1": P1Oracle(), "p2": P2Oracle()}
+ORACLES = {"p1": P1Oracle(), "p2": P2Oracle(), "p3": P3Oracle()}

@@ -11,7 +11,9 @@ under every timing.
 Per pipeline, :data:`SPECS` says how its cases are drawn: P1 over stereo and motion, both
 estimator variants and both dividers, on a textured plane and random textures; P2 over
 both dividers, four sets of Riccati weights, on ``lab`` crops and random shifted
-textures with a flat run (E1 = E2, where the ``c`` floor acts).
+textures with a flat run (E1 = E2, where the ``c`` floor acts); P3 over both dividers,
+1-3 levels, 1-3 warps, radius 1-4, coarse lag 0-2 and 4-8 Keys ROM bits, on ``lab`` crops
+and smooth random textures shifted by 0.5-3 px.
 """
 
 from __future__ import annotations
@@ -173,19 +175,50 @@ P2_DESIGNS = (
 )
 
 
+def lab_crop(
+    rng: np.random.Generator, m: int, n: int
+) -> tuple[np.ndarray, np.ndarray, PinholeCamera]:
+    """A random ``m`` x ``n`` crop of the ``lab`` pair (rendered once) and its camera."""
+    if "lab" not in _SCENES:
+        _SCENES["lab"] = render_scene("lab")
+    s = _SCENES["lab"]
+    j0, i0 = int(rng.integers(100, 400)), int(rng.integers(100, 400))
+    crop = (slice(j0, j0 + m), slice(i0, i0 + n))
+    return s.image1[crop].copy(), s.image2[crop].copy(), PinholeCamera(n, m, s.camera.f_px)
+
+
+def stereo_cases(
+    seed0: int, designs: tuple[dict[str, Any], ...], make_case: Callable[[int, int, str], Case]
+) -> list[dict[str, Any]]:
+    """The quantisation x overflow cases of a stereo-only pipeline: every third on a
+    ``lab`` crop, both dividers in turn, ``designs`` in turn; ``make_case(i, seed, kind)``."""
+    out = []
+    for i, (quant, overflow) in enumerate(itertools.product(Quant, Overflow)):
+        kind = "lab" if i % 3 == 0 else "random"
+        design = {"divider": ("restoring", "reciprocal")[i % 2], **designs[i % len(designs)]}
+        out.append(
+            dict(
+                quant=quant,
+                overflow=overflow,
+                narrow=i % 5 != 2,
+                timing=TIMINGS[(i // 2) % 3],
+                seed=seed0 + i,
+                design=design,
+                mode="stereo",
+                kind=kind,
+                case=lambda i=i, k=kind: make_case(i, seed0 + i, k),
+            )
+        )
+    return out
+
+
 def p2_case(seed: int, kind: str, riccati: RiccatiConfig) -> Case:
     """A tiny random stereo case: a crop of ``lab``, or a random texture shifted by a
     fraction of a pixel plus noise with a flat run (E1 = E2: A = 0, the c floor acts)."""
     rng = np.random.default_rng(seed)
     m, n = int(rng.integers(2, 5)), int(rng.integers(8, 14))
     if kind == "lab":
-        if "lab" not in _SCENES:
-            _SCENES["lab"] = render_scene("lab")
-        s = _SCENES["lab"]
-        j0, i0 = int(rng.integers(100, 400)), int(rng.integers(100, 400))
-        crop = (slice(j0, j0 + m), slice(i0, i0 + n))
-        im1, im2 = s.image1[crop].copy(), s.image2[crop].copy()
-        camera = PinholeCamera(n, m, s.camera.f_px)
+        im1, im2, camera = lab_crop(rng, m, n)
     else:
         im1 = rng.integers(0, 256, (m, n)).astype(np.uint8)
         shifted = 0.6 * im1.astype(float) + 0.4 * np.roll(im1, -1, axis=1)
@@ -196,29 +229,56 @@ def p2_case(seed: int, kind: str, riccati: RiccatiConfig) -> Case:
 
 
 def p2_cases() -> list[dict[str, Any]]:
-    out = []
-    for i, (quant, overflow) in enumerate(itertools.product(Quant, Overflow)):
-        kind = "lab" if i % 3 == 0 else "random"
-        riccati = P2_RICCATI[(i // 3) % len(P2_RICCATI)]
-        design = {"divider": ("restoring", "reciprocal")[i % 2], **P2_DESIGNS[i % len(P2_DESIGNS)]}
-        out.append(
-            dict(
-                quant=quant,
-                overflow=overflow,
-                narrow=i % 5 != 2,
-                timing=TIMINGS[(i // 2) % 3],
-                seed=2000 + i,
-                design=design,
-                mode="stereo",
-                kind=kind,
-                case=lambda s=2000 + i, k=kind, r=riccati: p2_case(s, k, r),
-            )
-        )
-    return out
+    return stereo_cases(
+        2000,
+        P2_DESIGNS,
+        lambda i, seed, kind: p2_case(seed, kind, P2_RICCATI[(i // 3) % len(P2_RICCATI)]),
+    )
 
 
 def p2_defaults() -> list[tuple[dict[str, Any], Callable[[], Case]]]:
     return [({}, lambda: p2_case(3, "lab", RiccatiConfig(threshold_e=2.0, range_max=100.0)))]
+
+
+# -- P3 cases --------------------------------------------------------------------------
+P3_DESIGNS = (
+    {},
+    {"radius": 2, "sigma": 1.0, "levels": 3},
+    {"radius": 1, "sigma": 0.8, "levels": 3, "warps": 3, "coarse_lag": 1, "keys_bits": 4},
+    {"radius": 2, "sigma": 1.5, "levels": 2, "warps": 1, "max_disparity": 3.0,
+     "recip_lut_bits": 5, "recip_bits": 13},
+    {"radius": 3, "sigma": 1.5, "threshold_r": 40.0, "threshold_g": 1.0, "keys_bits": 5,
+     "coarse_lag": 2},
+)  # fmt: skip
+
+
+def p3_case(seed: int, kind: str) -> Case:
+    """A tiny random stereo case: a crop of ``lab``, or a smooth random texture whose
+    second view is shifted by 0.5-3 px (E1(x) = E2(x - d)) plus noise."""
+    rng = np.random.default_rng(seed)
+    m, n = int(rng.integers(8, 13)), int(rng.integers(12, 19))
+    if kind == "lab":
+        im1, im2, camera = lab_crop(rng, m, n)
+    else:
+        base = rng.uniform(0, 255, (m, n + 8))
+        base = (base + np.roll(base, 1, axis=1) + np.roll(base, -1, axis=1)) / 3
+        cols = np.arange(n + 8, dtype=float)
+        d = float(rng.uniform(0.5, 3.0))
+        shifted = np.array([np.interp(cols + d, cols, row) for row in base])
+        im1 = np.clip(np.rint(base[:, 4 : 4 + n]), 0, 255).astype(np.uint8)
+        im2 = np.clip(np.rint(shifted[:, 4 : 4 + n] + rng.normal(0, 1, (m, n))), 0, 255)
+        im2 = im2.astype(np.uint8)
+        camera = PinholeCamera(n, m, float(rng.uniform(300, 600)))
+    ranging = RangingConfig(range_max=100.0)
+    return Case(im1, im2, camera, MotionIncrement.stereo(0.1), "stereo", ranging)
+
+
+def p3_cases() -> list[dict[str, Any]]:
+    return stereo_cases(3000, P3_DESIGNS, lambda i, seed, kind: p3_case(seed, kind))
+
+
+def p3_defaults() -> list[tuple[dict[str, Any], Callable[[], Case]]]:
+    return [({}, lambda: p3_case(5, "lab"))]
 
 
 @dataclass(frozen=True)
@@ -247,6 +307,13 @@ SPECS = {
     ),
     "p2": Spec(
         p2_cases, p2_defaults, (2, 13), {"divider": {"restoring", "reciprocal"}}, {"lab", "random"}
+    ),
+    "p3": Spec(
+        p3_cases,
+        p3_defaults,
+        (3, 9),
+        {"divider": {"restoring", "reciprocal"}, "warps": {1, 2, 3}, "coarse_lag": {0, 1, 2}},
+        {"lab", "random"},
     ),
 }
 

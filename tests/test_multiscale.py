@@ -24,7 +24,12 @@ from rangefx.golden.realdata import middlebury_metrics
 from rangefx.golden.scenes import render_scene
 from rangefx.tools import report
 from rangefx.tools.cli import main
-from rangefx.tools.cli.eval import MIDDLEBURY_KEYS, MIDDLEBURY_METHODS, PEERS
+from rangefx.tools.cli.eval import (
+    MIDDLEBURY_KEYS,
+    MIDDLEBURY_METHODS,
+    MIDDLEBURY_PIPELINES,
+    PEERS,
+)
 
 #: Sub-pixel steps of the synthetic shift: the texture is area-averaged over blocks of
 #: this many texels, so a shift of ``s`` texels is an exact shift of ``s / _SUB`` px.
@@ -212,14 +217,17 @@ def test_eval_middlebury_json_keys(capsys):
     assert out["protocol"] == "middlebury" and out["factor"] == 19
     assert list(out["factors"]) == ["19"]
     methods = out["factors"]["19"]["methods"]
-    assert list(methods) == list(MIDDLEBURY_METHODS)
+    assert list(methods) == [*MIDDLEBURY_METHODS, *MIDDLEBURY_PIPELINES]
     for figures in methods.values():
         assert set(figures) == set(MIDDLEBURY_KEYS)
         assert 0 < figures["density"] <= 1
         assert figures["bad_0_5"] >= figures["bad_1"] >= figures["bad_2"] >= 0
     g6, g3 = methods["g6_multiscale"], methods["g3_consistent"]
     assert g6["mae_px"] < g3["mae_px"] and g6["density"] > g3["density"]
-    assert set(out["fixed_point"]) >= {"p1_paper", "p1_consistent", "p2"}
+    assert set(out["fixed_point"]) >= {"p1_paper", "p1_consistent", "p2", "p3"}
+    # P3, the fixed-point G6, scores as its golden does on the pair's integer grey levels
+    p3 = methods["p3"]
+    assert abs(p3["density"] - g6["density"]) < 0.01 and abs(p3["mae_px"] - g6["mae_px"]) < 0.02
 
 
 def test_eval_peers_skipped_cleanly_without_opencv(capsys, monkeypatch):

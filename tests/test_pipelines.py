@@ -39,11 +39,11 @@ def run(name: str) -> PipelineResult:
 
 
 def test_registry():
-    assert set(NAMES) == {"p1", "p2"}
+    assert set(NAMES) == {"p1", "p2", "p3"}
     for name, p in PIPELINES.items():
         assert p.name == name and get_pipeline(name) is p
         assert issubclass(p.config_type, WordLengthConfig)
-    with pytest.raises(ValueError, match="unknown pipeline 'p9'; choose from p1, p2"):
+    with pytest.raises(ValueError, match="unknown pipeline 'p9'; choose from p1, p2, p3"):
         get_pipeline("p9")
 
 
@@ -235,6 +235,8 @@ def _error(capsys, argv) -> str:
         (["--pipeline", "p2", "--pole", "0.3"], "--pole does not apply to pipeline p2"),
         (["--pipeline", "p2", "--bias", "nan"], "--bias does not apply to pipeline p2"),
         (["--pipeline", "p2", "--threshold-g", "2"], "--threshold-g does not apply to pipeline p2"),
+        (["--pipeline", "p3", "--threshold-g", "2"], "--threshold-g does not apply to pipeline p3"),
+        (["--pipeline", "p3", "--pole", "0.3"], "--pole does not apply to pipeline p3"),
         (["--pipeline", "p1", "--bias", "nan"], "bias must be a finite non-negative number"),
         (["--pipeline", "p1", "--method", "g3_paper"], "--method applies to --pipeline golden"),
         (["--hblank", "3"], "--hblank applies to the fixed-point pipelines only"),

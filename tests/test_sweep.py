@@ -82,8 +82,29 @@ signals = "backward_loop"
 param = "frac_delta"
 values = [-4, -2]
 """
+#: The P3 counterpart: the estimate's fraction bits and a group move of the window sums
+#: (P3's own group); 32x40 lab, stereo.
+SMALL_P3 = """
+[sweep]
+name = "t3"
+pipeline = "p3"
+scenes = ["lab"]
+size = [32, 40]
+combine = "one_at_a_time"
+metrics = ["golden", "truth", "sqnr", "overflows"]
+
+[[axis]]
+signals = "p3_u"
+param = "frac"
+range = [5, 9]
+
+[[axis]]
+signals = "window"
+param = "frac_delta"
+values = [-4, -2]
+"""
 #: Small sweep definition per pipeline of the registry.
-SMALL_DEFS = {"p1": SMALL, "p2": SMALL_P2}
+SMALL_DEFS = {"p1": SMALL, "p2": SMALL_P2, "p3": SMALL_P3}
 
 
 def _small(pipeline: str = "p1"):
@@ -281,6 +302,7 @@ def test_kill_and_resume_computes_every_point_once(tmp_path, pipeline):
 BUILDUP_CSVS = {
     "p1": ("buildup_base_row.csv", "buildup_base_col.csv"),
     "p2": ("buildup_base_riccati.csv",),
+    "p3": ("buildup_base_warps.csv",),
 }
 
 
@@ -321,6 +343,14 @@ def test_outputs_written(tmp_path, pipeline):
         with open(tmp_path / "sensitivity.csv") as f:
             sens = list(csv.DictReader(f))
         assert [(r["signal"], int(r["value"])) for r in sens] == [("p2_st", v) for v in range(4, 8)]
+        return
+    if pipeline == "p3":
+        base = outcome.records[expand(defn)[0].key]
+        assert base["taps"]["ax"] == {"sqnr_db": None, "max_abs_err": 0.0}  # E1x is exact
+        assert base["taps"]["u1"]["sqnr_db"] > 30 and base["taps"]["sgg1"]["sqnr_db"] > 30
+        # narrowing the window sums by 4 fraction bits saves line-buffer bits
+        grp = next(p for p in outcome.points if p.labels == (("window.frac_delta", -4),))
+        assert outcome.records[grp.key]["cost_bits"] < base["cost_bits"]
         return
     rec = next(iter(outcome.records.values()))
     for key in (

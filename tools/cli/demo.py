@@ -138,7 +138,7 @@ def _paper_diagnostics(scene: Scene, est: EstimatorConfig, valid: np.ndarray) ->
 def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     est = estimator_from_args(args)
-    steps = ["render lab", *DEMO_METHODS, "p1/p2 fixed point", "end to end", "figures"]
+    steps = ["render lab", *DEMO_METHODS, "fixed point", "end to end", "figures"]
     bar = tqdm(total=len(steps), desc="rangefx demo", disable=args.json or not sys.stderr.isatty())
     with atomic_output_dir(out) as tmp:
         bar.set_postfix_str(steps[0])
@@ -159,7 +159,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
             )
             summary_methods[m] = _method_figures(scene, results[m])
             bar.update()
-        bar.set_postfix_str("p1/p2 fixed point")
+        bar.set_postfix_str("fixed point")
         design = design_from_args(PIPELINES["p1"], args)
         p1_summary = demo_pipelines(scene, tmp, design, args.pipeline)
         bar.update()

@@ -20,10 +20,12 @@ Two protocols (``--protocol``):
     density over all pixels, disparity MAE (avgerr), bad-0.5 / bad-1 / bad-2 (percent of
     the scored pixels) and the median relative metric-depth error with ``doffs``, at the
     factors 4, 8, 16 and the default one (or the one ``--factor``), for every method of
-    :data:`MIDDLEBURY_METHODS` (G6 included). ``--peers`` adds OpenCV's StereoSGBM and
-    StereoBM under the same protocol in the same run (extra ``rangefx[peers]``; without
-    OpenCV a one-line note, and they are skipped). Every method, G6 and the peers alike,
-    is given the dataset's disparity search range
+    :data:`MIDDLEBURY_METHODS` (G6 included) and for the fixed-point pipelines of
+    :data:`MIDDLEBURY_PIPELINES` (P3, the fixed-point G6, on the pair's integer grey
+    levels, shipped default config with the search range as ``max_disparity``).
+    ``--peers`` adds OpenCV's StereoSGBM and StereoBM under the same protocol in the same
+    run (extra ``rangefx[peers]``; without OpenCV a one-line note, and they are skipped).
+    Every method, G6, P3 and the peers alike, is given the dataset's disparity search range
     (:func:`~rangefx.golden.realdata.search_range`, as Middlebury's ``ndisp``).
 ``report``
     The figures this command printed before: density among the pixels with known truth
@@ -66,6 +68,7 @@ __all__ = [
     "MIDDLEBURY_FACTORS",
     "MIDDLEBURY_KEYS",
     "MIDDLEBURY_METHODS",
+    "MIDDLEBURY_PIPELINES",
     "PEERS",
     "add_parser",
     "cmd_eval",
@@ -78,6 +81,9 @@ __all__ = [
 EVAL_METHODS: tuple[str, ...] = ("g2_central", "g3_consistent", "g3_paper", "g5_riccati")
 #: Methods scored under the Middlebury protocol: the report's and G6.
 MIDDLEBURY_METHODS: tuple[str, ...] = (*EVAL_METHODS, "g6_multiscale")
+#: Fixed-point pipelines scored as methods under the Middlebury protocol (P3 beside its
+#: golden G6); each is given the search range as its ``max_disparity`` design field.
+MIDDLEBURY_PIPELINES: tuple[str, ...] = ("p3",)
 #: Factors of the Middlebury tables (the default factor is added).
 MIDDLEBURY_FACTORS: tuple[int, ...] = (4, 8, 16)
 #: The figures of every method under the Middlebury protocol (``--json``).
@@ -199,6 +205,14 @@ def evaluate_middlebury(
     out = {}
     for m, r in _method_results(data, MIDDLEBURY_METHODS).items():
         out[m] = _middlebury(data, disparity_from_range(r.range, data), r.valid)
+    case = real_pair_case(DATASETS[0], data.factor)
+    to_dataset_unit = 1e3  # the case is in metres, the dataset's depth in mm
+    for name in MIDDLEBURY_PIPELINES:
+        pipeline = PIPELINES[name]
+        config = load_config(pipeline, None, max_disparity=float(search_range(data)))
+        result = run_case(pipeline, case, config, taps=False)
+        disparity = disparity_from_range(result.range * to_dataset_unit, data)
+        out[name] = _middlebury(data, disparity, result.valid)
     note = None
     if peers:
         found, note = run_peers(data)

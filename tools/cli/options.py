@@ -49,7 +49,7 @@ DESIGN_OPTIONS: dict[str, str] = {
 CASE_OPTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
     "threshold_e": ("--threshold-e", ("p1", "p2")),
     "threshold_g": ("--threshold-g", ("p1",)),
-    "range_max": ("--range-max", ("p1", "p2")),
+    "range_max": ("--range-max", ("p1", "p2", "p3")),
 }
 #: Timing options: attribute -> flag.
 TIMING_OPTIONS: dict[str, str] = {

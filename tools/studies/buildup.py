@@ -11,7 +11,11 @@ pipeline has its own profiles (:data:`BUILDUPS`):
 * P2 (:func:`riccati_profiles`): along the backward Riccati sweep (position 0 is its
   first step, column ``n - 2``), the RMS relative range error over the rows (pixels valid
   in both) and the RMS error of ``e = G - G_hat`` against G5's, beside its
-  ``LSB / sqrt(12)``.
+  ``LSB / sqrt(12)``;
+* P3 (:func:`warp_profiles`): along the Gauss–Newton stages of level 0 (position 0 is
+  the estimate expanded from the coarser levels, ``k + 1`` the one after warp ``k``), the
+  RMS error of ``u`` against G6's at the same stage, beside its ``LSB / sqrt(12)``: the
+  coarse levels' error arrives in the start, each warp adds its own and corrects some.
 
 A profile is ``{"index": positions, "<curve>": values, "<curve>.lsb_rms": ...}``; the
 profiles of one run are keyed by name (``row``, ``col``, ``riccati``), and
@@ -41,6 +45,7 @@ __all__ = [
     "buildup_for",
     "riccati_profiles",
     "scan_profiles",
+    "warp_profiles",
 ]
 
 #: P1's row-filter taps (error against the column index) and column-filter taps (against
@@ -55,6 +60,7 @@ PROFILE_AXES: Mapping[str, str] = {
     "row": "column index (along the line)",
     "col": "row index (down the columns)",
     "riccati": "position in the backward Riccati sweep (0: column n - 2)",
+    "warps": "level-0 stage (0: the expanded coarse estimate, k + 1: after warp k)",
 }
 
 Profiles = dict[str, dict[str, np.ndarray]]
@@ -108,10 +114,29 @@ def riccati_profiles(
     return {"riccati": prof}
 
 
+def warp_profiles(
+    result: PipelineResult, golden: GoldenReference, specs: Mapping[str, TapSpec]
+) -> Profiles:
+    """P3 along the stages of level 0: RMS |u - u_G6| of ``u_start``, ``u0``, ``u1``, ...
+    (every stage the golden traces), beside ``LSB / sqrt(12)`` of ``p3_u``."""
+    stages = ["u_start"]
+    while f"u{len(stages) - 1}" in result.taps:
+        stages.append(f"u{len(stages) - 1}")
+    stages = [t for t in stages if t in result.taps and t in golden.taps]
+    if not stages:
+        return {}
+    rms = [
+        math.sqrt(float(np.mean((tap_float(result, specs[t]) - golden.taps[t]) ** 2)))
+        for t in stages
+    ]
+    lsb = _lsb_rms(specs[stages[0]], (len(stages),))
+    return {"warps": {"index": np.arange(len(stages)), "u": np.array(rms), "u.lsb_rms": lsb}}
+
+
 #: Pipeline name -> its build-up profiles (fixed result, golden with taps, tap table).
 BUILDUPS: Mapping[
     str, Callable[[PipelineResult, GoldenReference, Mapping[str, TapSpec]], Profiles]
-] = {"p1": scan_profiles, "p2": riccati_profiles}
+] = {"p1": scan_profiles, "p2": riccati_profiles, "p3": warp_profiles}
 
 
 def buildup_for(

@@ -1,0 +1,167 @@
+"""Word-length and design configuration of the P3 pipeline (multi-scale G6, SPEC §12).
+
+:class:`P3Config` is the P3 case of the one word-length config type
+:class:`~rangefx.rtl_model.config.WordLengthConfig`: one format per name of
+:data:`P3_SIGNALS` (``docs/multiscale.md``, "P3: the fixed-point datapath") plus the
+design fields, which are G6's settings (:class:`~rangefx.golden.multiscale.MultiscaleConfig`)
+and the hardware choices (Keys weight ROM, divider); TOML, validation and the int64 check
+naming the signal are shared.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import ClassVar
+
+from rangefx.golden.multiscale import MultiscaleConfig
+
+from ..config import Terms, WordLengthConfig, signed_bits
+from ..fixedpoint import FixedFormat
+from ..runtime import DIVIDERS
+
+__all__ = ["P3_SIGNALS", "P3Config"]
+
+#: (name, meaning) of every P3 signal and register, in datapath order.
+_SIGNAL_TABLE: tuple[tuple[str, str], ...] = (
+    ("p3_pix", "input pixels E1, E2 (grey levels; level 0 of the pyramid)"),
+    ("p3_pyr", "pyramid levels 1.. of E1, E2 (5-tap binomial reduce)"),
+    ("p3_grad", "central differences along the row, E1x and Wx (eqs 18-19)"),
+    ("p3_keys", "ROM: Keys cubic weights of the warp, 4 per fraction index"),
+    ("p3_warp", "W = E2(x - u), the warped second image (Keys cubic)"),
+    ("p3_g", "g = (E1x + Wx) / 2, the eq 6 mean gradient"),
+    ("p3_e", "e = E1 - W, c1 of eq 10 about the current estimate"),
+    ("p3_win", "register: Gaussian window taps w_0..w_r (symmetric)"),
+    ("p3_rgg", "row pass of the window on g^2"),
+    ("p3_rge", "row pass of the window on g e"),
+    ("p3_ree", "row pass of the window on e^2"),
+    ("p3_sgg", "window sum of g^2 (column pass) and the T_g^2 register"),
+    ("p3_sge", "window sum of g e (column pass)"),
+    ("p3_see", "window sum of e^2 (column pass)"),
+    ("p3_du", "du = -sum(g e) / sum(g^2) (divider quotient, eq 10 normal equation)"),
+    ("p3_u", "disparity u (px of its level), its expansion, registers u_max, u_min"),
+    ("p3_res", "residual test: sum(e^2) sum(g^2) - sum(g e)^2 and T_r^2 sum(g^2)"),
+    ("p3_tr2", "register: T_r^2"),
+    ("p3_fb", "register: f B (px x length unit)"),
+    ("p3_range", "range z = f B / u (divider quotient) and range_max"),
+)
+
+#: G6's settings among the design fields (the golden reads these and nothing else).
+MULTISCALE_FIELDS: tuple[str, ...] = (
+    "levels",
+    "warps",
+    "sigma",
+    "radius",
+    "threshold_g",
+    "threshold_r",
+    "coarse_px",
+    "max_disparity",
+    "coarse_lag",
+)
+#: G6's measured defaults: P3's design fields default to them.
+_G6 = MultiscaleConfig()
+
+
+@dataclass(frozen=True, kw_only=True)
+class P3Config(WordLengthConfig):
+    """Formats of every P3 signal plus the design choices.
+
+    Attributes
+    ----------
+    formats
+        One :class:`FixedFormat` per name in :data:`P3_SIGNALS`.
+    levels, warps, sigma, radius, threshold_g, threshold_r, coarse_px, coarse_lag
+        G6's settings (:class:`~rangefx.golden.multiscale.MultiscaleConfig`).
+    max_disparity
+        Largest disparity, full-scale px (the clip and the E2 row buffers); 0 = the
+        pyramid's claim ``2^(L-1) coarse_px`` (G6's ``None``).
+    keys_bits
+        Fraction bits of the warp's position ``x - u`` (rounded to them) that index the
+        Keys weight ROM (``2**keys_bits`` rows of 4 weights).
+    divider, recip_lut_bits, recip_bits
+        The shared divider model of both quotients (``p3_du``, ``p3_range``).
+    """
+
+    PIPELINE: ClassVar[str] = "p3"
+    SIGNAL_TABLE: ClassVar[tuple[tuple[str, str], ...]] = _SIGNAL_TABLE
+    HOST_REGISTERS: ClassVar[tuple[str, ...]] = ("p3_win", "p3_tr2", "p3_fb")
+    QUOTIENTS: ClassVar[tuple[str, ...]] = ("p3_du", "p3_range")
+    DOC: ClassVar[str] = "docs/multiscale.md"
+
+    levels: int = _G6.levels
+    warps: int = _G6.warps
+    sigma: float = _G6.sigma
+    radius: int = _G6.radius
+    threshold_g: float = _G6.threshold_g
+    threshold_r: float = _G6.threshold_r
+    coarse_px: float = _G6.coarse_px
+    max_disparity: float = 0.0
+    coarse_lag: int = _G6.coarse_lag
+    keys_bits: int = 8
+    divider: str = "reciprocal"
+    recip_lut_bits: int = 8
+    recip_bits: int = 20
+
+    def validate_design(self) -> None:
+        md = self.max_disparity
+        if isinstance(md, bool) or not isinstance(md, int | float) or not 0 <= md < math.inf:
+            raise ValueError(f"max_disparity must be a number >= 0 (0: the claim), not {md!r}")
+        try:
+            self.multiscale()
+        except TypeError as exc:
+            raise ValueError(str(exc)) from None
+        self.check_int_field("keys_bits", 1, 12)
+        self.check_choice("divider", DIVIDERS)
+        self.check_reciprocal_fields()
+        for name in ("p3_pix", "p3_pyr", "p3_win", "p3_tr2", "p3_fb", "p3_range"):
+            if self.formats[name].signed:
+                raise ValueError(f"signal {name!r} must be unsigned (it is never negative)")
+        for name in ("p3_u", "p3_keys", "p3_win", "p3_sgg"):
+            if not 0 <= self.formats[name].frac <= 40:
+                raise ValueError(f"signal {name!r} must have 0..40 fraction bits")
+        if not self.formats["p3_keys"].signed:
+            raise ValueError("signal 'p3_keys' must be signed (Keys weights are negative)")
+
+    def multiscale(self) -> MultiscaleConfig:
+        """The golden G6 settings of this config."""
+        kw = {k: getattr(self, k) for k in MULTISCALE_FIELDS}
+        kw["max_disparity"] = float(self.max_disparity) or None
+        return MultiscaleConfig(**kw)
+
+    def exact_intermediates(self) -> Iterable[tuple[str, Terms, int]]:
+        f = self.formats
+        level = f["p3_pix"] if signed_bits(f["p3_pix"]) >= signed_bits(f["p3_pyr"]) else f["p3_pyr"]
+        # the reduce: 25 products of the binomial weights (<= 36, 7 bits) with a parent pixel
+        binom = FixedFormat(False, 6, 0)
+        yield "p3_pyr", ((binom, level),) * 25, 0
+        yield "p3_grad", ((level,), (level,), (f["p3_warp"],), (f["p3_warp"],)), 1
+        yield "p3_warp", ((f["p3_keys"], level),) * 4, 0
+        yield "p3_g", ((f["p3_grad"],), (f["p3_grad"],)), 1
+        yield "p3_e", ((level,), (f["p3_warp"],)), 0
+        taps = 2 * self.radius + 1
+        win, g, e = f["p3_win"], f["p3_g"], f["p3_e"]
+        yield "p3_rgg", ((win, g, g),) * taps, 0
+        yield "p3_rge", ((win, g, e),) * taps, 0
+        yield "p3_ree", ((win, e, e),) * taps, 0
+        for row, col in (("p3_rgg", "p3_sgg"), ("p3_rge", "p3_sge"), ("p3_ree", "p3_see")):
+            yield col, ((win, f[row]),) * taps, 0
+        yield "p3_u", ((f["p3_u"],), (f["p3_du"],)), 0
+        yield "p3_u", ((f["p3_u"],),) * 4, 1  # the expand
+        yield "p3_res", ((f["p3_see"], f["p3_sgg"]), (f["p3_sge"], f["p3_sge"])), 0
+        yield "p3_res", ((f["p3_tr2"], f["p3_sgg"]),), 0
+
+    def divider_intermediates(self) -> Iterable[tuple[str, int, str]]:
+        f = self.formats
+        for out, num, den in (("p3_du", "p3_sge", "p3_sgg"), ("p3_range", "p3_fb", "p3_u")):
+            n, d, q = f[num], f[den], f[out]
+            if self.divider == "restoring":
+                need = signed_bits(n) + max(0, q.frac + 1 + d.frac - n.frac) + 1
+                need = max(need, signed_bits(d) + max(0, n.frac - q.frac - 1 - d.frac), q.word + 3)
+            else:
+                need = max(signed_bits(n) + self.recip_bits + 2, 2 * (self.recip_bits + 2))
+            yield out, need, f"{self.divider} divider"
+
+
+#: P3 signals in datapath order.
+P3_SIGNALS: tuple[str, ...] = P3Config.signals()

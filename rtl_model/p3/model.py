@@ -1,0 +1,597 @@
+"""P3: the bit-accurate, cycle-faithful multi-scale G6 datapath (SPEC §12).
+
+``docs/multiscale.md`` ("P3: the fixed-point datapath") defines every signal; this module
+is the fast implementation of that page (numba kernels on raw int64 values) and
+``tests/oracle_p3.py`` an independent slow one. Per level, coarsest first: the pyramid
+by the 5-tap binomial reduce, the start estimate expanded (bilinear, doubled) from the
+coarser level, then ``warps`` stages of Keys cubic warp of E2, central differences,
+the window sums of ``g²``, ``g e``, ``e²`` (separable: row pass, column pass), the
+divider ``du = -Σge / Σgg`` and the clipped update; at level 0 the residual test, the
+gradient test and the range divider ``z = f B / u``. Every filter replicates its
+borders, as the streaming schedule (:func:`rangefx.golden.multiscale.streaming_schedule`)
+does at the frame edges; the values do not depend on timing, the cycle stamps follow
+the schedule (:func:`tap_cycles`).
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from fractions import Fraction
+
+import numpy as np
+from numba import njit
+
+from rangefx.golden.geometry import MotionIncrement, PinholeCamera
+from rangefx.golden.multiscale import pyramid_levels, streaming_schedule
+from rangefx.golden.ranging import RangingConfig
+
+from .. import runtime
+from ..config import TimingConfig
+from ..p1.model import at_frac as _at
+from ..p1.model import cast_site as _cast
+from ..p1.model import divide_into as _divide_into
+from ..pipeline import PipelineResult
+from ..stream import input_cycles
+from .config import P3_SIGNALS, P3Config
+
+__all__ = [
+    "N_SITES",
+    "WARP_TAPS",
+    "P3Registers",
+    "buffer_bits",
+    "keys_rom",
+    "keys_weights",
+    "level_shapes",
+    "p3_registers",
+    "p3_schedule",
+    "run_p3",
+    "stage_latencies",
+    "stereo_baseline",
+    "tap_cycles",
+    "tap_names",
+    "tap_offsets",
+]
+
+_SIG = {name: k for k, name in enumerate(P3_SIGNALS)}
+PIX, PYR, GRAD, KEYS, WARP, G, E, WIN, RGG, RGE, REE = (_SIG[s] for s in P3_SIGNALS[:11])
+SGG, SGE, SEE, DU, U, RES, TR2, FB, RANGE = (_SIG[s] for s in P3_SIGNALS[11:])
+
+# cast sites (each logs its own raw min/max at one frac_in)
+S_PIX1, S_PIX2, S_PYR0, S_PYR1, S_EXPAND, S_RES, S_RTHR = range(7)
+#: Per-level sites: base + offset, base ``S_LEVEL`` at level 0 (pixels at ``p3_pix``'s
+#: fraction bits), ``S_LEVEL + 12`` at the coarser levels (``p3_pyr``'s).
+S_LEVEL = 7
+L_AX, L_WARP, L_WX, L_G, L_E, L_RGG, L_RGE, L_REE, L_SGG, L_SGE, L_SEE, L_U = range(12)
+N_SITES = S_LEVEL + 24
+
+#: Taps of one warp stage at level 0 (tap name = base + warp index, e.g. ``warp0``).
+WARP_TAPS = ("warp", "wx", "g", "err", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
+#: The 5-tap binomial of the reduce (weights / 16 per pass).
+_BINOM = np.array([1, 4, 6, 4, 1], dtype=np.int64)
+_KEYS_A = -0.5
+
+
+def tap_names(config: P3Config) -> tuple[str, ...]:
+    """Every tap of a run with taps, in pipeline order (all at level 0)."""
+    warps = tuple(f"{t}{k}" for k in range(config.warps) for t in WARP_TAPS)
+    return ("ax", "u_start", *warps, "res", "rthr", "valid", "range")
+
+
+# --------------------------------------------------------------------------------------
+# kernels: raw int64 arithmetic only
+# --------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _input_kernel(img, site, fm, st, ov, out):
+    """The input cast of one stream into ``p3_pix``."""
+    m, n = img.shape
+    for y in range(m):
+        for x in range(n):
+            out[y, x] = _cast(img[y, x], 0, PIX, site, fm, st, ov)
+
+
+@njit(cache=True, nogil=True)
+def _reduce_kernel(p, f_p, site, fm, st, ov):
+    """One pyramid step: the 5-tap binomial along the rows at even columns, then down the
+    columns at even rows (replicated borders), exact, cast once into ``p3_pyr``."""
+    m, n = p.shape
+    mc, nc = (m + 1) // 2, (n + 1) // 2
+    row = np.empty((m, nc), dtype=np.int64)
+    for y in range(m):
+        for xc in range(nc):
+            s = np.int64(0)
+            for k in range(5):
+                s += _BINOM[k] * p[y, min(max(2 * xc + k - 2, 0), n - 1)]
+            row[y, xc] = s
+    out = np.empty((mc, nc), dtype=np.int64)
+    for yc in range(mc):
+        for xc in range(nc):
+            s = np.int64(0)
+            for k in range(5):
+                s += _BINOM[k] * row[min(max(2 * yc + k - 2, 0), m - 1), xc]
+            out[yc, xc] = _cast(s, f_p + 8, PYR, site, fm, st, ov)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _expand_kernel(uc, m, n, fm, st, ov):
+    """The coarse estimate at the finer level: bilinear at (y/2, x/2), doubled, exact
+    (``2 Σ w u`` with weights 1 or ½ per axis), cast into ``p3_u``."""
+    mc, nc = uc.shape
+    f_u = fm[U, 1]
+    out = np.empty((m, n), dtype=np.int64)
+    for y in range(m):
+        y0 = y // 2
+        y1 = min(y0 + 1, mc - 1)
+        for x in range(n):
+            x0 = x // 2
+            x1 = min(x0 + 1, nc - 1)
+            if y & 1:
+                if x & 1:
+                    s = uc[y0, x0] + uc[y0, x1] + uc[y1, x0] + uc[y1, x1]
+                else:
+                    s = 2 * (uc[y0, x0] + uc[y1, x0])
+            elif x & 1:
+                s = 2 * (uc[y0, x0] + uc[y0, x1])
+            else:
+                s = 4 * uc[y0, x0]
+            out[y, x] = _cast(s, f_u + 1, U, S_EXPAND, fm, st, ov)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _window_rows(p, f_p, win, s, site, fm, st, ov):
+    """Row pass of the window: ``Σ_k w_|k| p[x + k]``, replicated borders, cast into ``s``."""
+    m, n = p.shape
+    r = win.shape[0] - 1
+    f_in = fm[WIN, 1] + f_p
+    out = np.empty((m, n), dtype=np.int64)
+    for y in range(m):
+        for x in range(n):
+            acc = np.int64(0)
+            for k in range(-r, r + 1):
+                acc += win[abs(k)] * p[y, min(max(x + k, 0), n - 1)]
+            out[y, x] = _cast(acc, f_in, s, site, fm, st, ov)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _window_cols(p, win, s_in, s, site, fm, st, ov):
+    """Column pass of the window on the row sums of signal ``s_in``, cast into ``s``."""
+    m, n = p.shape
+    r = win.shape[0] - 1
+    f_in = fm[WIN, 1] + fm[s_in, 1]
+    out = np.empty((m, n), dtype=np.int64)
+    for y in range(m):
+        for x in range(n):
+            acc = np.int64(0)
+            for k in range(-r, r + 1):
+                acc += win[abs(k)] * p[min(max(y + k, 0), m - 1), x]
+            out[y, x] = _cast(acc, f_in, s, site, fm, st, ov)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _level_kernel(
+    a, b, u, f_l, umax, rom, keys_bits, win, kind, lut, r_bits, warps, base, fm, st, dst, ov,
+    sgg, sge, see, taps, want_taps,
+):  # fmt: skip
+    """The ``warps`` stages of one level on E1 ``a``, E2 ``b`` (``f_l`` fraction bits)
+    from the start estimate ``u`` (updated in place); leaves the last stage's window
+    sums in ``sgg``, ``sge``, ``see``. Taps (level 0): ``ax``, ``u_start``, then per
+    warp the :data:`WARP_TAPS`."""
+    m, n = a.shape
+    f_u, f_grad, f_warp, f_keys = fm[U, 1], fm[GRAD, 1], fm[WARP, 1], fm[KEYS, 1]
+    f_g, f_e, f_du = fm[G, 1], fm[E, 1], fm[DU, 1]
+    f_sgg, f_sge = fm[SGG, 1], fm[SGE, 1]
+    fe = max(f_l, f_warp)
+    fu2 = max(f_u, f_du)
+    mask = (np.int64(1) << f_u) - 1
+    # the position x - u rounded to keys_bits fraction bits (half an index step added)
+    half = np.int64(1) << (f_u - keys_bits - 1) if f_u > keys_bits else np.int64(0)
+    ax = np.empty((m, n), dtype=np.int64)
+    for y in range(m):
+        for x in range(n):
+            d = a[y, min(x + 1, n - 1)] - a[y, max(x - 1, 0)]
+            ax[y, x] = _cast(d, f_l + 1, GRAD, base + L_AX, fm, st, ov)
+    if want_taps:
+        taps[0] = ax
+        taps[1] = u
+    w = np.empty((m, n), dtype=np.int64)
+    g = np.empty((m, n), dtype=np.int64)
+    e = np.empty((m, n), dtype=np.int64)
+    for k in range(warps):
+        # the warp: W(x) = E2(x - u) from the row buffer, Keys weights from the ROM
+        for y in range(m):
+            for x in range(n):
+                src = (np.int64(x) << f_u) - u[y, x] + half
+                i0 = src >> f_u
+                t = src & mask
+                idx = t >> (f_u - keys_bits) if f_u >= keys_bits else t << (keys_bits - f_u)
+                acc = np.int64(0)
+                for j in range(4):
+                    acc += rom[idx, j] * b[y, min(max(i0 - 1 + j, 0), n - 1)]
+                w[y, x] = _cast(acc, f_keys + f_l, WARP, base + L_WARP, fm, st, ov)
+        wx = np.empty((m, n), dtype=np.int64)
+        for y in range(m):
+            for x in range(n):
+                d = w[y, min(x + 1, n - 1)] - w[y, max(x - 1, 0)]
+                wx[y, x] = _cast(d, f_warp + 1, GRAD, base + L_WX, fm, st, ov)
+        for y in range(m):
+            for x in range(n):
+                g[y, x] = _cast(ax[y, x] + wx[y, x], f_grad + 1, G, base + L_G, fm, st, ov)
+                e[y, x] = _cast(_at(a[y, x], f_l, fe) - _at(w[y, x], f_warp, fe), fe, E,
+                                base + L_E, fm, st, ov)  # fmt: skip
+        rgg = _window_rows(g * g, 2 * f_g, win, RGG, base + L_RGG, fm, st, ov)
+        rge = _window_rows(g * e, f_g + f_e, win, RGE, base + L_RGE, fm, st, ov)
+        ree = _window_rows(e * e, 2 * f_e, win, REE, base + L_REE, fm, st, ov)
+        sgg[:, :] = _window_cols(rgg, win, RGG, SGG, base + L_SGG, fm, st, ov)
+        sge[:, :] = _window_cols(rge, win, RGE, SGE, base + L_SGE, fm, st, ov)
+        see[:, :] = _window_cols(ree, win, REE, SEE, base + L_SEE, fm, st, ov)
+        du = np.empty((m, n), dtype=np.int64)
+        for y in range(m):
+            for x in range(n):
+                if sgg[y, x] > 0:  # the normal equation of eq 10
+                    q, _ = _divide_into(-sge[y, x], f_sge, sgg[y, x], f_sgg, DU, kind, lut,
+                                        r_bits, fm, dst, ov)  # fmt: skip
+                else:  # no gradient in the window: the divider is fed 0 / 1
+                    q, _ = _divide_into(np.int64(0), f_sge, np.int64(1), f_sgg, DU, kind, lut,
+                                        r_bits, fm, dst, ov)  # fmt: skip
+                du[y, x] = q
+                v = _at(u[y, x], f_u, fu2) + _at(q, f_du, fu2)
+                un = _cast(v, fu2, U, base + L_U, fm, st, ov)
+                u[y, x] = min(max(un, np.int64(0)), umax)
+        if want_taps:
+            t0 = 2 + 12 * k
+            for j, arr in enumerate((w, wx, g, e, rgg, rge, ree, sgg, sge, see, du, u)):
+                taps[t0 + j] = arr
+
+
+@njit(cache=True, nogil=True)
+def _final_kernel(
+    u, sgg, sge, see, regs, kind, lut, r_bits, fm, st, dst, ov, out_range, out_valid,
+    taps, t0, want_taps,
+):  # fmt: skip
+    """Level 0: the residual and gradient tests, the match inside E2, the range divider
+    ``z = f B / u`` gated by ``u >= u_min`` (``z <= range_max``), range + valid."""
+    m, n = u.shape
+    tg2, tr2, umax, umin, fb, rmax = regs[0], regs[1], regs[2], regs[3], regs[4], regs[5]
+    f_u, f_sgg, f_sge, f_see = fm[U, 1], fm[SGG, 1], fm[SGE, 1], fm[SEE, 1]
+    f_tr2, f_fb = fm[TR2, 1], fm[FB, 1]
+    f_res = max(f_see + f_sgg, 2 * f_sge)
+    right = np.int64(n - 1) << f_u
+    for y in range(m):
+        for x in range(n):
+            gg, ge, ee, uu = sgg[y, x], sge[y, x], see[y, x], u[y, x]
+            pre = _at(ee * gg, f_see + f_sgg, f_res) - _at(ge * ge, 2 * f_sge, f_res)
+            res = _cast(pre, f_res, RES, S_RES, fm, st, ov)
+            rthr = _cast(tr2 * gg, f_tr2 + f_sgg, RES, S_RTHR, fm, st, ov)
+            src = (np.int64(x) << f_u) - uu
+            gate = uu > 0 and uu >= umin
+            if gate:
+                rq, flag = _divide_into(fb, f_fb, uu, f_u, RANGE, kind, lut, r_bits, fm, dst, ov)
+            else:
+                rq, flag = _divide_into(np.int64(0), f_fb, np.int64(1), f_u, RANGE, kind, lut,
+                                        r_bits, fm, dst, ov)  # fmt: skip
+            ok = (gg >= tg2 and res <= rthr and src >= 0 and src <= right and gate
+                  and uu <= umax and not flag and rq > 0 and rq <= rmax)  # fmt: skip
+            out_valid[y, x] = ok
+            out_range[y, x] = rq if ok else rmax
+            if want_taps:
+                taps[t0, y, x] = res
+                taps[t0 + 1, y, x] = rthr
+                taps[t0 + 2, y, x] = np.int64(ok)
+                taps[t0 + 3, y, x] = out_range[y, x]
+
+
+# --------------------------------------------------------------------------------------
+# host side
+# --------------------------------------------------------------------------------------
+def keys_weights(t: float) -> tuple[float, float, float, float]:
+    """Keys cubic (a = -½) weights of the taps at offsets -1, 0, 1, 2 for fraction ``t``
+    (exact in float64 for the ROM's dyadic fractions)."""
+    a, t2, t3 = _KEYS_A, t * t, t * t * t
+    return (
+        a * (t3 - 2 * t2 + t),
+        (a + 2) * t3 - (a + 3) * t2 + 1,
+        -(a + 2) * t3 + (2 * a + 3) * t2 - a * t,
+        -a * (t3 - t2),
+    )
+
+
+def keys_rom(config: P3Config) -> np.ndarray:
+    """The warp's weight ROM: ``2**keys_bits`` rows (fraction ``i 2**-keys_bits``) of 4
+    weights, raw codes of ``p3_keys`` (quantised with its modes)."""
+    fmt = config.formats["p3_keys"]
+    rows = 1 << config.keys_bits
+    rom = np.empty((rows, 4), dtype=np.int64)
+    for i in range(rows):
+        rom[i] = [fmt.from_float(w) for w in keys_weights(i / rows)]
+    return rom
+
+
+class P3Registers:
+    """Per-frame constants as the host writes them (raw codes in their formats)."""
+
+    def __init__(
+        self, config: P3Config, camera: PinholeCamera, baseline: float, range_max: float,
+        built: int,
+    ) -> None:  # fmt: skip
+        ms = config.multiscale()
+        rf = runtime.RegisterFile(config)
+        window = ms.window()
+        r = config.radius
+        self.window = np.array([rf.write(f"W{k}", window[r + k], "p3_win") for k in range(r + 1)],
+                               dtype=np.int64)  # fmt: skip
+        tr2_fmt = config.formats["p3_tr2"]
+        tr2_max = float(tr2_fmt.to_float(tr2_fmt.raw_max))
+        tr2 = rf.write("T_r^2", min(config.threshold_r**2, tr2_max), "p3_tr2")
+        tg2 = rf.write("T_g^2", config.threshold_g**2, "p3_sgg")
+        fb_value = float(camera.f_px * baseline)
+        fb = rf.write("fB", fb_value, "p3_fb")
+        self.umax = [
+            rf.write(f"u_max{level}", ms.disparity_limit / 2**level, "p3_u")
+            for level in range(built)
+        ]
+        u_fmt = config.formats["p3_u"]
+        need = math.ceil(Fraction(fb_value) * 2**u_fmt.frac / Fraction(range_max))
+        if need > u_fmt.raw_max:
+            rf.saturated.append("u_min")
+        umin = rf.hold("u_min", min(need, u_fmt.raw_max), "p3_u", fb_value / range_max)
+        rmax = rf.write("range_max", range_max, "p3_range")
+        self.final = np.array([tg2, tr2, self.umax[0], umin, fb, rmax], dtype=np.int64)
+        self.values = rf.values
+        self.codes = rf.codes
+        self.saturated = tuple(rf.saturated)
+
+
+def stereo_baseline(motion: MotionIncrement) -> float:
+    """The baseline ``B > 0`` of a stereo pair with the second camera on the right;
+    ``ValueError`` for anything else (P3 models stereo mode, as G6)."""
+    fwd, right, down = motion.camera_displacement
+    if right <= 0 or abs(fwd) > 1e-9 * right or abs(down) > 1e-9 * right:
+        raise ValueError(
+            "P3 needs a stereo pair with the second camera on the right (a positive lateral "
+            f"baseline, no forward or vertical displacement; got {fwd:g}, {right:g}, {down:g})"
+        )
+    if not np.allclose(motion.dT2, 0.0):
+        raise ValueError("P3 needs a stereo pair without rotation between the views")
+    return float(right)
+
+
+def p3_registers(
+    config: P3Config, camera: PinholeCamera, motion: MotionIncrement, ranging: RangingConfig,
+    shape: tuple[int, int],
+) -> P3Registers:  # fmt: skip
+    """The host's registers for a case (window taps, thresholds, fB, clips, range_max)."""
+    built = pyramid_levels(config.multiscale(), shape)
+    return P3Registers(config, camera, stereo_baseline(motion), ranging.range_max, built)
+
+
+def level_shapes(config: P3Config, shape: tuple[int, int]) -> list[tuple[int, int]]:
+    """(height, width) of every level the pyramid builds for ``shape``, finest first."""
+    m, n = shape
+    out = [(m, n)]
+    for _ in range(pyramid_levels(config.multiscale(), shape) - 1):
+        m, n = (m + 1) // 2, (n + 1) // 2
+        out.append((m, n))
+    return out
+
+
+def stage_latencies(config: P3Config) -> dict[str, int]:
+    """Declared latency in clock cycles of every pixel stage of one warp stage and of the
+    output (the line latencies are in :func:`p3_schedule`)."""
+    div = runtime.divider_latency(config.divider, config.formats["p3_du"].word)
+    rdiv = runtime.divider_latency(config.divider, config.formats["p3_range"].word)
+    return {
+        "input": 1,
+        "warp": 4,  # two taps ahead, ROM read, four products, adder tree + cast
+        "derivative": 2,  # one pixel ahead, difference + cast (Wx); g one more
+        "products": 1,
+        "window_row": config.radius + 1,
+        "window_column": 1,
+        "du_divider": div,
+        "update": 1,
+        "residual": 2,
+        "range_divider": rdiv,
+        "output": 1,
+    }
+
+
+def _warp_cycles(config: P3Config) -> int:
+    """Cycles from ``u_k`` of a pixel to ``u_k+1`` of the same pixel (one warp stage's
+    pixel latency; its line latency is the window radius)."""
+    lat = stage_latencies(config)
+    return (
+        lat["warp"] + lat["derivative"] + 1 + lat["products"] + lat["window_row"]
+        + lat["window_column"] + lat["du_divider"] + lat["update"]
+    )  # fmt: skip
+
+
+def tap_offsets(config: P3Config, shape: tuple[int, int]) -> dict[str, tuple[int, int]]:
+    """Tap -> (lines, cycles): a sample of line ``y``, column ``x`` leaves ``cycles``
+    clocks after pixel ``x`` of line ``y + lines`` arrived (flush lines after the frame)."""
+    sched = p3_schedule(config, shape)
+    d, r, p = sched["delay_lines"], config.radius, _warp_cycles(config)
+    lat = stage_latencies(config)
+    i0 = lat["input"]
+    out = {"ax": (d, i0 + lat["derivative"]), "u_start": (d, i0)}
+    row = lat["warp"] + lat["derivative"] + 1 + lat["products"] + lat["window_row"]
+    for k in range(config.warps):
+        lines, c = d + k * r, i0 + k * p
+        out[f"warp{k}"] = (lines, c + lat["warp"])
+        out[f"err{k}"] = (lines, c + lat["warp"] + 1)
+        out[f"wx{k}"] = (lines, c + lat["warp"] + lat["derivative"])
+        out[f"g{k}"] = (lines, c + lat["warp"] + lat["derivative"] + 1)
+        for t in ("rgg", "rge", "ree"):
+            out[f"{t}{k}"] = (lines, c + row)
+        for t in ("sgg", "sge", "see"):
+            out[f"{t}{k}"] = (lines + r, c + row + lat["window_column"])
+        out[f"du{k}"] = (lines + r, c + row + lat["window_column"] + lat["du_divider"])
+        out[f"u{k}"] = (lines + r, c + p)
+    lines, c = d + config.warps * r, i0 + config.warps * p
+    out["res"] = out["rthr"] = (lines, c + lat["residual"])
+    out["valid"] = out["range"] = (lines, c + lat["residual"] + lat["range_divider"] + 1)
+    return out
+
+
+def p3_schedule(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
+    """Timing facts of the schedule on ``shape`` images: levels built, level 0's latency
+    in lines and its delay lines (``streaming_schedule``), one warp stage's pixel cycles."""
+    m, n = shape
+    sched = streaming_schedule(config.multiscale(), n, m)
+    return {
+        "levels": len(sched["levels"]),
+        "latency_lines": int(sched["latency_lines"]),
+        "delay_lines": int(sched["levels"][0]["delay_lines"]),
+        "warp_cycles": _warp_cycles(config),
+    }
+
+
+def tap_cycles(tap: str, config: P3Config, in_cycles: np.ndarray, hblank: int) -> np.ndarray:
+    """Cycle of every sample of ``tap`` (shape (m, n)): :func:`tap_offsets` on the input
+    beats; a line past the frame's last is a flush line (the vertical filters replicate
+    the last line), one every ``n + hblank`` clocks after the frame's last beat."""
+    m, n = in_cycles.shape
+    if tap.rpartition(".")[2] == "pix_in":
+        return in_cycles.copy()
+    offsets = tap_offsets(config, (m, n))
+    if tap not in offsets:
+        raise ValueError(f"unknown P3 tap {tap!r}; taps: {', '.join(offsets)}")
+    lines, cycles = offsets[tap]
+    src = np.arange(m)[:, None] + lines
+    inside = np.minimum(src, m - 1)
+    cols = np.arange(n)[None, :]
+    flush = int(in_cycles[m - 1, n - 1]) + hblank + 1 + (src - m) * (n + hblank) + cols
+    return np.where(src < m, in_cycles[inside, cols], flush).astype(np.int64) + cycles
+
+
+def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
+    """Line-buffer bits of every buffer of the streaming schedule, by kind: the words of
+    :func:`~rangefx.golden.multiscale.streaming_schedule` times their formats (reduce:
+    the exact row sums, the parent's word + 4; warp row and delay lines: the level's
+    pixel word; window products: the three row-sum words; window align: E1, E2 and u;
+    expand: u)."""
+    m, n = shape
+    f = config.formats
+    sched = streaming_schedule(config.multiscale(), n, m)
+    pix = lambda level: f["p3_pix"].word if level == 0 else f["p3_pyr"].word  # noqa: E731
+    rows = f["p3_rgg"].word + f["p3_rge"].word + f["p3_ree"].word
+    u = f["p3_u"].word
+    out = dict.fromkeys(
+        ("reduce", "warp_row", "window_products", "window_align", "expand", "coarse_delay"), 0
+    )
+    for lv in sched["levels"]:
+        level, words = lv["level"], lv["buffer_words"]
+        out["reduce"] += words["reduce"] * (pix(level - 1) + 4) if level else 0
+        out["warp_row"] += words["warp_row"] * pix(level)
+        out["window_products"] += words["window_products"] // 3 * rows
+        out["window_align"] += words["window_align"] // 3 * (2 * pix(level) + u)
+        out["expand"] += words["expand"] * u
+        out["coarse_delay"] += words["coarse_delay"] * pix(level)
+    return out
+
+
+def run_p3(
+    image1: np.ndarray,
+    image2: np.ndarray,
+    camera: PinholeCamera,
+    motion: MotionIncrement,
+    config: P3Config | None = None,
+    ranging: RangingConfig | None = None,
+    *,
+    timing: TimingConfig | None = None,
+    taps: bool = True,
+    threads: int = 2,
+) -> PipelineResult:
+    """Run P3 on a registered stereo pair (E1 = ``image1`` left, E2 = ``image2``, camera 2
+    ``B > 0`` to the right), integer grey levels; only ``ranging.range_max`` is read (G6's
+    thresholds are design fields). ``threads`` = 2 builds the two pyramids at once."""
+    runtime.check_threads(threads)
+    config = config or P3Config.default()
+    if not isinstance(config, P3Config):
+        raise ValueError(f"P3 needs a P3Config, not {type(config).__name__}")
+    ranging = ranging or RangingConfig()
+    timing = timing or TimingConfig()
+    im1, im2 = runtime.check_image_pair(image1, image2, camera, pipeline="p3", min_shape=(1, 2))
+    m, n = im1.shape
+    regs = p3_registers(config, camera, motion, ranging, (m, n))
+    fm = runtime.format_table(config)
+    kind, lut = runtime.divider_setup(config)
+    rom = keys_rom(config)
+    shapes = level_shapes(config, (m, n))
+    f_pix, f_pyr = fm[PIX, 1], fm[PYR, 1]
+
+    def pyramid(img: np.ndarray, site: int) -> tuple[list[np.ndarray], runtime.SignalStats]:
+        stats = runtime.SignalStats(N_SITES, len(P3_SIGNALS))
+        st, _, ov = stats.arrays
+        level = np.empty((m, n), dtype=np.int64)
+        _input_kernel(img, site, fm, st, ov, level)
+        out = [level]
+        for k in range(1, len(shapes)):
+            frac, s = (f_pix, S_PYR0) if k == 1 else (f_pyr, S_PYR1)
+            out.append(_reduce_kernel(out[-1], frac, s, fm, st, ov))
+        return out, stats
+
+    if threads == 2:
+        with ThreadPoolExecutor(2) as pool:
+            (p1, s1), (p2, s2) = pool.map(pyramid, (im1, im2), (S_PIX1, S_PIX2))
+    else:
+        (p1, s1), (p2, s2) = pyramid(im1, S_PIX1), pyramid(im2, S_PIX2)
+    stats = runtime.SignalStats(N_SITES, len(P3_SIGNALS))
+    st, dst, ov = stats.arrays
+    names = tap_names(config)
+    tp = np.zeros((len(names), m, n) if taps else (len(names), 1, 1), dtype=np.int64)
+    u = np.zeros(shapes[-1], dtype=np.int64)
+    sums = [np.empty((m, n), dtype=np.int64) for _ in range(3)]
+    for level in range(len(shapes) - 1, -1, -1):
+        h, w = shapes[level]
+        if u.shape != (h, w):
+            u = _expand_kernel(u, h, w, fm, st, ov)
+            lag = min(config.coarse_lag, h)
+            if lag:  # the coarse estimate arrives late: line y gets that of y - lag
+                u = np.ascontiguousarray(u[np.maximum(np.arange(h) - lag, 0)])
+        sgg, sge, see = (np.empty((h, w), dtype=np.int64) for _ in range(3))
+        if level == 0:
+            sgg, sge, see = sums
+        _level_kernel(
+            p1[level], p2[level], u, f_pix if level == 0 else f_pyr, regs.umax[level], rom,
+            config.keys_bits, regs.window, kind, lut, config.recip_bits, config.warps,
+            S_LEVEL + (12 if level else 0), fm, st, dst, ov, sgg, sge, see, tp,
+            taps and level == 0,
+        )  # fmt: skip
+    out_range = np.empty((m, n), dtype=np.int64)
+    out_valid = np.empty((m, n), dtype=np.bool_)
+    _final_kernel(
+        u, *sums, regs.final, kind, lut, config.recip_bits, fm, st, dst, ov, out_range,
+        out_valid, tp, len(names) - 4, taps,
+    )  # fmt: skip
+    overflows, minmax = runtime.SignalStats.merge([s1, s2, stats], P3_SIGNALS)
+    tap_dict = {name: tp[k] for k, name in enumerate(names)} if taps else {}
+    in_cycles = input_cycles((m, n), timing)[-1]
+    out_cycles = tap_cycles("range", config, in_cycles, timing.hblank)
+    rf = config.formats["p3_range"]
+    return PipelineResult(
+        pipeline="p3",
+        range=rf.to_float(out_range),
+        valid=out_valid,
+        range_raw=out_range,
+        taps=tap_dict,
+        overflows=overflows,
+        minmax=minmax,
+        in_cycles=in_cycles,
+        out_cycles=out_cycles,
+        latency=int((out_cycles - in_cycles).max()),
+        stage_latency=stage_latencies(config),
+        line_buffer_bits=sum(buffer_bits(config, (m, n)).values()),
+        frame_store_bits=0,
+        sweep_buffer_bits=0,
+        total_cycles=int(out_cycles.max()) + 1,
+        registers=regs.values,
+        saturated_registers=regs.saturated,
+        register_codes=regs.codes,
+        mode="stereo",
+        config=config,
+        timing=timing,
+        schedule=p3_schedule(config, (m, n)),
+    )

@@ -1,0 +1,119 @@
+"""P3, the fixed-point G6 (SPEC §12, issue 16): the shipped default against its golden
+and the issue's targets, zero overflows on every pair it was sized on, the streaming
+schedule (line buffers and latency in lines) through the interface, the Keys ROM, and
+the cases it refuses. Bit-exactness against ``tests/oracle_p3.py`` is in
+``tests/test_bitexact.py`` (parametrised over every pipeline)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+from rangefx.golden.geometry import MotionIncrement
+from rangefx.golden.multiscale import streaming_schedule
+from rangefx.golden.realdata import load_motorcycle, search_range
+from rangefx.rtl_model.p3.model import buffer_bits, keys_rom, keys_weights
+from rangefx.rtl_model.pipeline import Case
+from rangefx.rtl_model.registry import PIPELINES
+from rangefx.tools import report
+from rangefx.tools.cli import main
+from rangefx.tools.studies.cases import real_pair_case, scene_case
+
+P3 = PIPELINES["p3"]
+
+
+def test_default_on_lab_meets_the_issue_targets():
+    """``lab``: 0 overflows, median |fixed - golden| / golden <= 0.5 %, valid agreement
+    >= 99 %, every object's median within 3 % of the truth, valid fraction >= 0.5."""
+    case = scene_case("lab")
+    result = P3.run(case, taps=False)
+    golden = P3.golden(case).result
+    assert result.overflow_total == 0 and result.saturated_registers == ()
+    both = result.valid & golden.valid
+    rel = np.abs(result.range[both] - golden.range[both]) / golden.range[both]
+    assert np.median(rel) <= 5e-3
+    assert np.mean(result.valid == golden.valid) >= 0.99
+    assert result.valid_fraction >= 0.5
+    scene = case.scene
+    rows = report.object_table(
+        result.range, result.valid, scene.labels1, scene.objects, scene.depth1
+    )
+    assert len(rows) == 5
+    for row in rows:
+        assert abs(row["estimated_median"] / row["actual"] - 1) <= 0.03, row["object"]
+
+
+@pytest.mark.parametrize("factor", [4, 8, 16])
+def test_no_overflow_on_the_motorcycle_pair(factor):
+    """The factors ``rangefx eval`` scores, with the search range as max_disparity (as
+    eval gives it) and with the claim: 0 overflows, P3 within 0.5 % of G6."""
+    case = real_pair_case("motorcycle", factor)
+    md = float(search_range(load_motorcycle(factor)))
+    for config in (P3.default_config(), P3.default_config(max_disparity=md)):
+        result = P3.run(case, config, taps=False)
+        golden = P3.golden(case, config).result
+        assert result.overflow_total == 0, {k: v for k, v in result.overflows.items() if v}
+        assert result.saturated_registers == ()
+        both = result.valid & golden.valid
+        rel = np.abs(result.range[both] - golden.range[both]) / golden.range[both]
+        assert np.median(rel) <= 5e-3 and np.mean(result.valid == golden.valid) >= 0.99
+
+
+def test_line_buffers_and_latency_follow_the_streaming_schedule():
+    """Every buffer of G6's schedule is counted with its formats, the output leaves
+    ``latency_lines`` lines after its input line (flush lines after the frame), and no
+    frame store."""
+    config = P3.default_config()
+    f = config.formats
+    m, n = 512, 512
+    sched = streaming_schedule(config.multiscale(), n, m)
+    bits = buffer_bits(config, (m, n))
+    lv0 = sched["levels"][0]
+    assert bits["coarse_delay"] >= lv0["buffer_words"]["coarse_delay"] * f["p3_pix"].word
+    words = sum(sum(lv["buffer_words"].values()) for lv in sched["levels"])
+    assert words == sched["buffer_words"]
+    cost = P3.cost(config, (m, n))
+    assert cost.line_buffer_bits == sum(bits.values()) and cost.frame_store_bits == 0
+    # one more bit of the pyramid word costs every line that holds a coarse level
+    wider = config.with_formats(p3_pyr=replace(f["p3_pyr"], word=f["p3_pyr"].word + 1))
+    assert P3.cost(wider, (m, n)).line_buffer_bits > cost.line_buffer_bits
+    case = scene_case("lab")
+    result = P3.run(case, taps=False)
+    assert result.schedule["latency_lines"] == sched["latency_lines"] == 148
+    assert result.line_buffer_bits == cost.line_buffer_bits
+    lines = (result.out_cycles - result.in_cycles) // n  # no blanking: n clocks per line
+    assert lines.min() == sched["latency_lines"]
+
+
+def test_keys_rom_is_the_exact_cubic_at_its_fractions():
+    config = P3.default_config()
+    rom = keys_rom(config)
+    frac = config.formats["p3_keys"].frac
+    assert rom.shape == (1 << config.keys_bits, 4)
+    for i in (0, 1, 77, 128, 255):
+        t = Fraction(i, rom.shape[0])
+        exact = keys_weights(float(t))
+        assert np.allclose(rom[i] * 2.0**-frac, exact, atol=2.0 ** -(frac + 1))
+    assert rom[0].tolist() == [0, 1 << frac, 0, 0]  # t = 0: the pixel itself
+    assert abs(int(rom.sum(axis=1).max()) - (1 << frac)) <= 2  # partition of unity
+
+
+def test_cases_p3_does_not_model_are_errors():
+    with pytest.raises(ValueError, match="P3 models stereo mode only"):
+        P3.run(scene_case("runway"))
+    case = scene_case("lab")
+    mirrored = Case(case.image1, case.image2, case.camera, MotionIncrement.stereo(-0.1))
+    with pytest.raises(ValueError, match="second camera on the right"):
+        P3.run(mirrored)
+
+
+def test_range_max_option_reaches_p3(capsys):
+    """``--range-max`` is a case option P3 reads (its only one): the register holds it."""
+    argv = ["run", "--pipeline", "p3", "--scene", "lab", "--range-max", "50", "--json"]
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["registers"]["range_max"] == [50.0, 50.0] and out["overflows"]["total"] == 0
