@@ -84,6 +84,7 @@ from .law import (
     solve_time_to_go,
 )
 from .model import (
+    Controls,
     VehicleParams,
     inverse_controls,
     state_from_position_velocity,
@@ -102,8 +103,10 @@ __all__ = [
     "AvoidPlan",
     "InfeasibleClearanceWarning",
     "limit_margins",
+    "limited_command",
     "plan_trajectory",
     "simulate_avoid",
+    "within_limits",
 ]
 
 
@@ -315,6 +318,69 @@ def limit_margins(
     )
 
 
+def within_limits(ctrl: Controls, params: VehicleParams, cfg: AvoidConfig) -> bool:
+    """Whether held controls meet the load-factor, θ and φ limits (the limits
+    themselves, not the plan's backed-off ones)."""
+    return (
+        ctrl.load_factor(params) <= cfg.max_load_factor
+        and abs(ctrl.theta) <= math.radians(cfg.max_theta_deg)
+        and abs(ctrl.phi) <= math.radians(cfg.max_phi_deg)
+    )
+
+
+def limited_command(
+    v: np.ndarray,
+    a_plan: np.ndarray,
+    a_track: np.ndarray,
+    params: VehicleParams,
+    cfg: AvoidConfig,
+    steps: int = 30,
+) -> tuple[np.ndarray, Controls, bool]:
+    """The command of one guidance update, limited so that its controls (held until the
+    next update) meet the vehicle limits: ``(a, controls, limited)``.
+
+    The plan keeps ``limit_backoff`` inside the limits, so ``a_plan + a_track`` is
+    normally within them and returned as is. Otherwise the tracking term is scaled by
+    the largest ``λ ∈ [0, 1]`` found by bisection whose controls are within; if even the
+    plan's own ``a_plan`` is not (a coarse plan between its constraint samples), the
+    command ``μ a_plan`` with the largest such ``μ ∈ [0, 1]`` (``a = 0``, unaccelerated
+    flight, needs ``θ ≈ γ`` and ``T ≈ W``: within the limits unless the path climbs
+    steeper than ``θ_max``); if that is not within either, the controls are clipped to
+    the limits (the commanded ``a`` returned is then not achieved exactly).
+    Because the controls are held constant between updates (eqs 1-6 integrated with
+    them), this makes the limits hold along the whole integrated trajectory.
+    """
+
+    def ctrl_of(a):
+        return inverse_controls(v, a, params)
+
+    full = a_plan + a_track
+    ctrl = ctrl_of(full)
+    if within_limits(ctrl, params, cfg):
+        return full, ctrl, False
+    if within_limits(ctrl_of(a_plan), params, cfg):
+        base, step = a_plan, a_track
+    else:
+        base, step = np.zeros(3), a_plan
+    lo, hi = 0.0, 1.0  # base + lo * step is within the limits, base + hi * step is not
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        if within_limits(ctrl_of(base + mid * step), params, cfg):
+            lo = mid
+        else:
+            hi = mid
+    a = base + lo * step
+    ctrl = ctrl_of(a)
+    if not within_limits(ctrl, params, cfg):  # base itself outside (a steep climb): clip
+        th, ph = math.radians(cfg.max_theta_deg), math.radians(cfg.max_phi_deg)
+        ctrl = Controls(
+            min(ctrl.thrust, cfg.max_load_factor * params.weight_lbf),
+            min(max(ctrl.theta, -th), th),
+            min(max(ctrl.phi, -ph), ph),
+        )
+    return a, ctrl, True
+
+
 def _clearances(pos: np.ndarray, boxes: tuple[ObstacleBox, ...]) -> np.ndarray:
     if not boxes:
         return np.full((len(pos), 0), np.inf)
@@ -335,6 +401,7 @@ class _Problem:
     cfg: AvoidConfig
     basis: _Basis
     t_bounds: tuple[float, float]
+    need_ft: np.ndarray  # per box: clearance + the planning margin the end points allow
 
     @property
     def min_speed(self) -> float:
@@ -392,10 +459,13 @@ class _Problem:
         xp[0] += h
         return np.concatenate([[(self.cost(xp) - self.cost(x)) / h], grad_c])
 
-    def clearance_margin(self, x) -> np.ndarray:
+    def clearances(self, x) -> np.ndarray:
+        """Signed distance of every sample to every extent, (samples, boxes)."""
         r, _, _ = self.path(x)
-        need = self.cfg.clearance_ft + self.cfg.margin_ft
-        return (_clearances(r, self.boxes) - need).ravel()
+        return _clearances(r, self.boxes)
+
+    def clearance_margin(self, x) -> np.ndarray:
+        return (self.clearances(x) - self.need_ft).ravel()
 
     def clearance_jac(self, x) -> np.ndarray:
         t_go, _ = self.unpack(x)
@@ -501,7 +571,7 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
 def _is_feasible(prob: _Problem, x: np.ndarray, tol: float = 1e-3) -> bool:
     """Within the limits and at least the required clearance (the planning margin is
     slack for the closed loop, not part of the requirement)."""
-    cm = prob.clearance_margin(x) + prob.cfg.margin_ft
+    cm = prob.clearances(x) - prob.cfg.clearance_ft
     return bool(
         np.all(np.isfinite(x))
         and (cm.size == 0 or cm.min() >= -tol)
@@ -568,9 +638,16 @@ def plan_trajectory(
     v0 = np.asarray(v0, dtype=np.float64)
     t_sing = 0.98 * FIRST_SINGULAR_SIGMA_T / float(field.sigma.max())
     hi = min(t_sing, t_go_max) if t_go_max else t_sing
+    boxes = tuple(boxes)
+    ends = np.stack([r0, bc.rf])
+    end_clear = _clearances(ends, boxes).min(axis=0)  # per box
+    # The planning margin, per box, only as far as the end points leave room for it:
+    # a touch-down point 21 ft from an extent admits a 20 ft clearance but not 20 + 1
+    # everywhere (the programme would be infeasible and SLSQP would wander).
+    need = cfg.clearance_ft + np.clip(0.5 * (end_clear - cfg.clearance_ft), 0.0, cfg.margin_ft)
     prob = _Problem(
-        r0, v0, bc, field, tuple(boxes), params, cfg,
-        _basis(cfg.n_samples, cfg.n_basis), (0.05, hi),
+        r0, v0, bc, field, boxes, params, cfg,
+        _basis(cfg.n_samples, cfg.n_basis), (0.05, hi), need,
     )  # fmt: skip
     start = time.perf_counter()
     seeds: list[np.ndarray] = []
@@ -586,8 +663,7 @@ def plan_trajectory(
     amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
     seeds += [np.concatenate([[t_rep], c.ravel()]) for c in _side_seeds(prob, t_rep, c_rep, amp)]
     best, best_res, iters = None, None, 0
-    ends = np.stack([r0, bc.rf])
-    if boxes and _clearances(ends, prob.boxes).min() < cfg.clearance_ft:
+    if boxes and end_clear.min() < cfg.clearance_ft:
         seeds = []  # the start or the touch-down point itself is within the clearance
     for k, x0 in enumerate(seeds):
         x, res = _solve(prob, x0, relaxed=False)
@@ -603,8 +679,8 @@ def plan_trajectory(
         iters += int(getattr(best_res, "nit", 0))
         feasible = _is_feasible(prob, best)  # the largest clearance may still meet it
     t_go, c = prob.unpack(best)
-    cm = prob.clearance_margin(best)
-    min_clear = float(cm.min() + cfg.clearance_ft + cfg.margin_ft) if cm.size else math.inf
+    cm = prob.clearances(best)
+    min_clear = float(cm.min()) if cm.size else math.inf
     limits_ok = bool(prob.other_margins(best).min() >= -1e-3)
     return AvoidPlan(
         t0, t_go, r0, v0, bc.rf.copy(), bc.vf.copy(), c, feasible, min_clear, limits_ok,
@@ -653,6 +729,7 @@ def simulate_avoid(
     feasible = plan.feasible
     failures = 0
     terminal_skip = 0.0
+    limited = 0
     last_plan_t = 0.0
     w, zt = av.track_omega, av.track_damping
     while True:
@@ -681,8 +758,9 @@ def simulate_avoid(
                 failures += 1  # keep following the last feasible plan
             remaining = plan.t_go - (t - plan.t0)
         rp, vp, ap = plan.evaluate(t - plan.t0)
-        a_cmd = ap[0] + w * w * (rp[0] - r) + 2.0 * zt * w * (vp[0] - v)
-        ctrl = inverse_controls(v, a_cmd, params)
+        track = w * w * (rp[0] - r) + 2.0 * zt * w * (vp[0] - v)
+        a_cmd, ctrl, was_limited = limited_command(v, ap[0], track, params, av)
+        limited += was_limited
         record_command(rec, t, a_cmd, state, ctrl, params, remaining)
         last = remaining <= 1.5 * cfg.guidance_interval
         dt = max(remaining, 1e-6) if last else cfg.guidance_interval
@@ -739,6 +817,7 @@ def simulate_avoid(
             "solve_iterations": [p.iterations for p in plans],
             "planned_min_clearance_ft": float(min(p.min_clearance_ft for p in plans)),
             "terminal_segment_skipped_s": terminal_skip,
+            "limited_updates": limited,
             "boxes": boxes,
             "config": replace(av),
         },

@@ -214,6 +214,7 @@ def guidance_metrics(
         }
         m["planned_min_clearance_ft"] = ex["planned_min_clearance_ft"]
         m["terminal_segment_skipped_s"] = ex["terminal_segment_skipped_s"]
+        m["limited_updates"] = ex["limited_updates"]
     return m
 
 
