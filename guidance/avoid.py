@@ -568,10 +568,11 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
     return res.x, res
 
 
-def _is_feasible(prob: _Problem, x: np.ndarray, tol: float = 1e-3) -> bool:
-    """Within the limits and at least the required clearance (the planning margin is
-    slack for the closed loop, not part of the requirement)."""
-    cm = prob.clearances(x) - prob.cfg.clearance_ft
+def _meets(prob: _Problem, x: np.ndarray, floor: np.ndarray, tol: float = 1e-3) -> bool:
+    """Within the limits and at least ``floor`` (per extent) from every extent: the
+    required clearance (the planning margin is slack for the closed loop, not part of
+    the requirement) or, for a best-effort plan, what the end points leave."""
+    cm = prob.clearances(x) - floor
     return bool(
         np.all(np.isfinite(x))
         and (cm.size == 0 or cm.min() >= -tol)
@@ -645,6 +646,15 @@ def plan_trajectory(
     # a touch-down point 21 ft from an extent admits a 20 ft clearance but not 20 + 1
     # everywhere (the programme would be infeasible and SLSQP would wander).
     need = cfg.clearance_ft + np.clip(0.5 * (end_clear - cfg.clearance_ft), 0.0, cfg.margin_ft)
+    # An end point within the clearance of an extent makes the layout infeasible. Best
+    # effort then still keeps the full clearance from every other extent and, from
+    # those, as much as the end point leaves (10 % and at least 0.5 ft less than its
+    # own distance, so that a path can reach it): not merely the largest smallest
+    # clearance, which lets the path brush past every extent at that one figure.
+    ends_inside = bool(boxes) and float(end_clear.min()) < cfg.clearance_ft
+    close = end_clear < cfg.clearance_ft
+    need = np.where(close, end_clear - np.maximum(0.1 * np.abs(end_clear), 0.5), need)
+    floor = need if ends_inside else np.full(len(boxes), cfg.clearance_ft)
     prob = _Problem(
         r0, v0, bc, field, boxes, params, cfg,
         _basis(cfg.n_samples, cfg.n_basis), (0.05, hi), need,
@@ -663,21 +673,20 @@ def plan_trajectory(
     amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
     seeds += [np.concatenate([[t_rep], c.ravel()]) for c in _side_seeds(prob, t_rep, c_rep, amp)]
     best, best_res, iters = None, None, 0
-    if boxes and end_clear.min() < cfg.clearance_ft:
-        seeds = []  # the start or the touch-down point itself is within the clearance
     for k, x0 in enumerate(seeds):
         x, res = _solve(prob, x0, relaxed=False)
         iters += int(getattr(res, "nit", 0))
-        if _is_feasible(prob, x):
+        if _meets(prob, x, floor):
             if best is None or prob.cost(x) < prob.cost(best):
                 best, best_res = x, res
             if k == 0 or warm is None:
-                break  # the first feasible solution from the preferred seed
-    feasible = best is not None
-    if not feasible:
+                break  # the first acceptable solution from the preferred seed
+    if best is None:  # the relaxed programme: the largest smallest clearance
         best, best_res = _solve(prob, x_rep, relaxed=True)
         iters += int(getattr(best_res, "nit", 0))
-        feasible = _is_feasible(prob, best)  # the largest clearance may still meet it
+    # Feasible: the required clearance from every extent within the limits (the
+    # largest smallest clearance may still meet it).
+    feasible = not ends_inside and _meets(prob, best, floor)
     t_go, c = prob.unpack(best)
     cm = prob.clearances(best)
     min_clear = float(cm.min()) if cm.size else math.inf
