@@ -245,7 +245,7 @@ def test_command_limiter_keeps_held_controls_within_limits():
     params, cfg = VehicleParams(), AvoidConfig()
     n_limited = 0
     for _ in range(300):
-        v = rng.normal(0, [10, 10, 4]) + [30.0, 0, 0]
+        v = np.array([30.0, 0.0, 0.0]) + rng.normal(0, [10, 10, 4])
         a_plan, a_track = rng.normal(0, 4, 3), rng.normal(0, 6, 3)
         a, ctrl, limited = limited_command(v, a_plan, a_track, params, cfg)
         assert within_limits(ctrl, params, cfg)
