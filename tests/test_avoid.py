@@ -21,7 +21,13 @@ from rangefx.guidance.avoid import (
     simulate_avoid,
     within_limits,
 )
-from rangefx.guidance.cases import fly, random_layouts, shift_grid_layouts, synthetic_case
+from rangefx.guidance.cases import (
+    fly,
+    layout_sweep,
+    random_layouts,
+    shift_grid_layouts,
+    synthetic_case,
+)
 from rangefx.guidance.extraction import (
     ExtractionConfig,
     ObstacleBox,
@@ -327,6 +333,21 @@ def test_fly_reports_infeasible_layout_in_metrics():
     assert run.metrics["feasible"] is False
     assert any("no trajectory keeps" in w for w in run.warnings)
     assert run.metrics["min_true_obstacle_distance_ft"] < 20.0
+
+
+def test_layout_sweep_names_the_infeasible_layout():
+    grid = dict(shift_grid_layouts())
+    layouts = [(n, grid[n]) for n in ("shift(+0,+0)", "shift(+10,+0)")]
+    out = layout_sweep(
+        layouts, config=SimulationConfig(guidance_interval=0.5),
+        avoid=AvoidConfig(n_samples=24, n_basis=4, replan_interval=50.0),
+    )  # fmt: skip
+    s = out["summary"]
+    assert s["layouts"] == 2 and s["feasible"] == 1 and not s["failed"]
+    assert s["fraction_feasible_keeping_clearance"] == 1.0
+    assert [r["layout"] for r in s["infeasible"]] == ["shift(+10,+0)"]
+    assert s["infeasible"][0]["touchdown_extent_clearance_ft"] < 20.0
+    assert s["worst_true_clearance_feasible_ft"] >= 20.0
 
 
 def test_layout_generators_are_seeded_and_beside_the_runway():
