@@ -332,6 +332,7 @@ def layout_sweep(
                 "max_load_factor": m["max_load_factor"],
                 "max_abs_theta_deg": m["max_abs_theta_deg"],
                 "max_abs_phi_deg": m["max_abs_phi_deg"],
+                "limited_updates": m["limited_updates"],
                 "touchdown_extent_clearance_ft": float(end_clear[1]),
                 "extraction_detected": case.scores["detected"],
                 "extraction_false": case.scores["false_obstacles"],
