@@ -52,15 +52,19 @@ At every guidance update the command is the plan's ``r''`` plus a tracking term
 (eqs 12-19) and held while eqs 1-6 are integrated (as in :func:`.simulate.simulate`).
 Every ``replan_interval`` the programme is solved again from the measured state (warm
 started from the current plan); in the last ``terminal_time`` the plan is followed
-without re-solving (as the report's law counts its time-to-go down there).
+without re-solving (as the report's law counts its time-to-go down there). Each
+command passes :func:`limited_command` before it is held, so the held controls — and
+with them the whole integrated trajectory — meet the load-factor, θ and φ limits.
 
 Infeasible layouts
 ------------------
 When no plan meets the clearance within the limits (for instance an obstacle within
-the clearance of the touch-down point), the law says so: it solves the relaxed problem
-that maximises the smallest clearance within the limits, flies that, issues
+the clearance of the touch-down point), the law says so: it issues
 :class:`InfeasibleClearanceWarning` and sets ``feasible = False`` (never a silent
-closer pass).
+closer pass). Its best effort keeps the full clearance from every extent except those
+an end point is within the clearance of, and from those as much as the end point
+leaves; failing that, the relaxed problem that maximises the smallest clearance within
+the limits.
 """
 
 from __future__ import annotations
@@ -124,7 +128,9 @@ class AvoidConfig:
         Required distance from every obstacle extent (ft).
     margin_ft
         Planning margin added to the clearance: the plan is checked at samples and the
-        closed loop holds each command for a guidance interval.
+        closed loop holds each command for a guidance interval. Per extent it is capped
+        at half of what the end points have beyond the clearance (else an end point
+        just outside the clearance makes the programme infeasible).
     max_load_factor, max_theta_deg, max_phi_deg
         Limits on ``T/W``, ``|θ|`` and ``|φ|`` (constraints of the programme).
     limit_backoff
@@ -629,9 +635,12 @@ def plan_trajectory(
 
     Seeds, in order: ``warm`` (the previous plan, resampled from ``t0``) if given, else
     the report's extremal; if the result is not feasible, that seed bent sideways by
-    ``±(clearance + half the largest obstacle)`` and the report's extremal. If none is
-    feasible, the relaxed programme (largest smallest-clearance within the limits)
-    gives the plan, with ``feasible=False``.
+    ``±(clearance + half the largest obstacle)`` and the report's extremal. If the start
+    or the touch-down point is within the clearance of an extent, the plan is a best
+    effort (``feasible=False``): the full clearance from the other extents, from those
+    the end point's own distance less 10 % (at least 0.5 ft). If no seed meets what is
+    asked, the relaxed programme (largest smallest-clearance within the limits) gives
+    the plan, with ``feasible=False`` unless it still meets the clearance.
     """
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
