@@ -26,15 +26,20 @@ cloud, e.g. the synthetic set):
    rejected: the first-order model does not support their range.
 3. **Clustering**: in the image (range map) by connectivity of the kept pixels after a
    dilation of ``link_px`` pixels; in a bare cloud by single linkage at ``link_ft``.
+   With range errors (``ε > 0``) a cluster then takes every valid pixel of its
+   dilated image region within the error bound, also those step 1 called ground: step
+   1 selects on the range error (a pixel ranged short rises along its ray, one ranged
+   long sinks into the ground), and its survivors alone are a vehicle's short tail.
 4. **Along-ray outliers**: in each cluster, points whose log range is further than
    ``along_ray_k`` robust standard deviations (1.4826 MAD, at least
-   ``min_log_spread``) from the cluster's median are set aside; if at least
-   ``min_points`` of them remain they are treated as a further cluster (an object
-   behind another in the image), else they are rejected. Clusters with fewer than
-   ``min_points`` points are isolated points, rejected; range-map clusters spanning
-   fewer than ``min_rows`` image rows (texture edges of the ground) and clusters whose
-   range scales like the ground's along their rays (a mis-ranged ground patch lies on a
-   plane above the ground) are rejected as ground.
+   ``min_log_spread`` and at least the point's own ``ε``) from the cluster's median
+   are set aside; if at least ``min_points`` of them remain and they are contiguous in
+   the image they are treated as a further cluster (an object behind another in the
+   image), else they are rejected. Clusters with fewer than ``min_points`` points are
+   isolated points, rejected; range-map clusters spanning fewer than ``min_rows`` image
+   rows (texture edges of the ground), clusters whose range scales like the ground's
+   along their rays (a mis-ranged ground patch lies on a plane above the ground) and
+   clusters not upright at their own median range are rejected as ground.
 5. **Extent**: the box axis is the horizontal direction from the camera to the
    cluster's median point; the along-ray extent spans the inliers and is grown by
    ``grow_k`` times the cluster's range uncertainty (the larger of its median ``ε``
