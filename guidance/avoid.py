@@ -52,15 +52,19 @@ At every guidance update the command is the plan's ``r''`` plus a tracking term
 (eqs 12-19) and held while eqs 1-6 are integrated (as in :func:`.simulate.simulate`).
 Every ``replan_interval`` the programme is solved again from the measured state (warm
 started from the current plan); in the last ``terminal_time`` the plan is followed
-without re-solving (as the report's law counts its time-to-go down there).
+without re-solving (as the report's law counts its time-to-go down there). Each
+command passes :func:`limited_command` before it is held, so the held controls — and
+with them the whole integrated trajectory — meet the load-factor, θ and φ limits.
 
 Infeasible layouts
 ------------------
 When no plan meets the clearance within the limits (for instance an obstacle within
-the clearance of the touch-down point), the law says so: it solves the relaxed problem
-that maximises the smallest clearance within the limits, flies that, issues
+the clearance of the touch-down point), the law says so: it issues
 :class:`InfeasibleClearanceWarning` and sets ``feasible = False`` (never a silent
-closer pass).
+closer pass). Its best effort keeps the full clearance from every extent except those
+an end point is within the clearance of, and from those as much as the end point
+leaves; failing that, the relaxed problem that maximises the smallest clearance within
+the limits.
 """
 
 from __future__ import annotations
@@ -84,6 +88,7 @@ from .law import (
     solve_time_to_go,
 )
 from .model import (
+    Controls,
     VehicleParams,
     inverse_controls,
     state_from_position_velocity,
@@ -102,8 +107,10 @@ __all__ = [
     "AvoidPlan",
     "InfeasibleClearanceWarning",
     "limit_margins",
+    "limited_command",
     "plan_trajectory",
     "simulate_avoid",
+    "within_limits",
 ]
 
 
@@ -121,7 +128,9 @@ class AvoidConfig:
         Required distance from every obstacle extent (ft).
     margin_ft
         Planning margin added to the clearance: the plan is checked at samples and the
-        closed loop holds each command for a guidance interval.
+        closed loop holds each command for a guidance interval. Per extent it is capped
+        at half of what the end points have beyond the clearance (else an end point
+        just outside the clearance makes the programme infeasible).
     max_load_factor, max_theta_deg, max_phi_deg
         Limits on ``T/W``, ``|θ|`` and ``|φ|`` (constraints of the programme).
     limit_backoff
@@ -315,6 +324,69 @@ def limit_margins(
     )
 
 
+def within_limits(ctrl: Controls, params: VehicleParams, cfg: AvoidConfig) -> bool:
+    """Whether held controls meet the load-factor, θ and φ limits (the limits
+    themselves, not the plan's backed-off ones)."""
+    return (
+        ctrl.load_factor(params) <= cfg.max_load_factor
+        and abs(ctrl.theta) <= math.radians(cfg.max_theta_deg)
+        and abs(ctrl.phi) <= math.radians(cfg.max_phi_deg)
+    )
+
+
+def limited_command(
+    v: np.ndarray,
+    a_plan: np.ndarray,
+    a_track: np.ndarray,
+    params: VehicleParams,
+    cfg: AvoidConfig,
+    steps: int = 30,
+) -> tuple[np.ndarray, Controls, bool]:
+    """The command of one guidance update, limited so that its controls (held until the
+    next update) meet the vehicle limits: ``(a, controls, limited)``.
+
+    The plan keeps ``limit_backoff`` inside the limits, so ``a_plan + a_track`` is
+    normally within them and returned as is. Otherwise the tracking term is scaled by
+    the largest ``λ ∈ [0, 1]`` found by bisection whose controls are within; if even the
+    plan's own ``a_plan`` is not (a coarse plan between its constraint samples), the
+    command ``μ a_plan`` with the largest such ``μ ∈ [0, 1]`` (``a = 0``, unaccelerated
+    flight, needs ``θ ≈ γ`` and ``T ≈ W``: within the limits unless the path climbs
+    steeper than ``θ_max``); if that is not within either, the controls are clipped to
+    the limits (the commanded ``a`` returned is then not achieved exactly).
+    Because the controls are held constant between updates (eqs 1-6 integrated with
+    them), this makes the limits hold along the whole integrated trajectory.
+    """
+
+    def ctrl_of(a):
+        return inverse_controls(v, a, params)
+
+    full = a_plan + a_track
+    ctrl = ctrl_of(full)
+    if within_limits(ctrl, params, cfg):
+        return full, ctrl, False
+    if within_limits(ctrl_of(a_plan), params, cfg):
+        base, step = a_plan, a_track
+    else:
+        base, step = np.zeros(3), a_plan
+    lo, hi = 0.0, 1.0  # base + lo * step is within the limits, base + hi * step is not
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        if within_limits(ctrl_of(base + mid * step), params, cfg):
+            lo = mid
+        else:
+            hi = mid
+    a = base + lo * step
+    ctrl = ctrl_of(a)
+    if not within_limits(ctrl, params, cfg):  # base itself outside (a steep climb): clip
+        th, ph = math.radians(cfg.max_theta_deg), math.radians(cfg.max_phi_deg)
+        ctrl = Controls(
+            min(ctrl.thrust, cfg.max_load_factor * params.weight_lbf),
+            min(max(ctrl.theta, -th), th),
+            min(max(ctrl.phi, -ph), ph),
+        )
+    return a, ctrl, True
+
+
 def _clearances(pos: np.ndarray, boxes: tuple[ObstacleBox, ...]) -> np.ndarray:
     if not boxes:
         return np.full((len(pos), 0), np.inf)
@@ -335,6 +407,7 @@ class _Problem:
     cfg: AvoidConfig
     basis: _Basis
     t_bounds: tuple[float, float]
+    need_ft: np.ndarray  # per box: clearance + the planning margin the end points allow
 
     @property
     def min_speed(self) -> float:
@@ -392,10 +465,13 @@ class _Problem:
         xp[0] += h
         return np.concatenate([[(self.cost(xp) - self.cost(x)) / h], grad_c])
 
-    def clearance_margin(self, x) -> np.ndarray:
+    def clearances(self, x) -> np.ndarray:
+        """Signed distance of every sample to every extent, (samples, boxes)."""
         r, _, _ = self.path(x)
-        need = self.cfg.clearance_ft + self.cfg.margin_ft
-        return (_clearances(r, self.boxes) - need).ravel()
+        return _clearances(r, self.boxes)
+
+    def clearance_margin(self, x) -> np.ndarray:
+        return (self.clearances(x) - self.need_ft).ravel()
 
     def clearance_jac(self, x) -> np.ndarray:
         t_go, _ = self.unpack(x)
@@ -498,10 +574,11 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
     return res.x, res
 
 
-def _is_feasible(prob: _Problem, x: np.ndarray, tol: float = 1e-3) -> bool:
-    """Within the limits and at least the required clearance (the planning margin is
-    slack for the closed loop, not part of the requirement)."""
-    cm = prob.clearance_margin(x) + prob.cfg.margin_ft
+def _meets(prob: _Problem, x: np.ndarray, floor: np.ndarray, tol: float = 1e-3) -> bool:
+    """Within the limits and at least ``floor`` (per extent) from every extent: the
+    required clearance (the planning margin is slack for the closed loop, not part of
+    the requirement) or, for a best-effort plan, what the end points leave."""
+    cm = prob.clearances(x) - floor
     return bool(
         np.all(np.isfinite(x))
         and (cm.size == 0 or cm.min() >= -tol)
@@ -558,9 +635,12 @@ def plan_trajectory(
 
     Seeds, in order: ``warm`` (the previous plan, resampled from ``t0``) if given, else
     the report's extremal; if the result is not feasible, that seed bent sideways by
-    ``±(clearance + half the largest obstacle)`` and the report's extremal. If none is
-    feasible, the relaxed programme (largest smallest-clearance within the limits)
-    gives the plan, with ``feasible=False``.
+    ``±(clearance + half the largest obstacle)`` and the report's extremal. If the start
+    or the touch-down point is within the clearance of an extent, the plan is a best
+    effort (``feasible=False``): the full clearance from the other extents, from those
+    the end point's own distance less 10 % (at least 0.5 ft). If no seed meets what is
+    asked, the relaxed programme (largest smallest-clearance within the limits) gives
+    the plan, with ``feasible=False`` unless it still meets the clearance.
     """
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
@@ -568,9 +648,25 @@ def plan_trajectory(
     v0 = np.asarray(v0, dtype=np.float64)
     t_sing = 0.98 * FIRST_SINGULAR_SIGMA_T / float(field.sigma.max())
     hi = min(t_sing, t_go_max) if t_go_max else t_sing
+    boxes = tuple(boxes)
+    ends = np.stack([r0, bc.rf])
+    end_clear = _clearances(ends, boxes).min(axis=0)  # per box
+    # The planning margin, per box, only as far as the end points leave room for it:
+    # a touch-down point 21 ft from an extent admits a 20 ft clearance but not 20 + 1
+    # everywhere (the programme would be infeasible and SLSQP would wander).
+    need = cfg.clearance_ft + np.clip(0.5 * (end_clear - cfg.clearance_ft), 0.0, cfg.margin_ft)
+    # An end point within the clearance of an extent makes the layout infeasible. Best
+    # effort then still keeps the full clearance from every other extent and, from
+    # those, as much as the end point leaves (10 % and at least 0.5 ft less than its
+    # own distance, so that a path can reach it): not merely the largest smallest
+    # clearance, which lets the path brush past every extent at that one figure.
+    ends_inside = bool(boxes) and float(end_clear.min()) < cfg.clearance_ft
+    close = end_clear < cfg.clearance_ft
+    need = np.where(close, end_clear - np.maximum(0.1 * np.abs(end_clear), 0.5), need)
+    floor = need if ends_inside else np.full(len(boxes), cfg.clearance_ft)
     prob = _Problem(
-        r0, v0, bc, field, tuple(boxes), params, cfg,
-        _basis(cfg.n_samples, cfg.n_basis), (0.05, hi),
+        r0, v0, bc, field, boxes, params, cfg,
+        _basis(cfg.n_samples, cfg.n_basis), (0.05, hi), need,
     )  # fmt: skip
     start = time.perf_counter()
     seeds: list[np.ndarray] = []
@@ -586,25 +682,23 @@ def plan_trajectory(
     amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
     seeds += [np.concatenate([[t_rep], c.ravel()]) for c in _side_seeds(prob, t_rep, c_rep, amp)]
     best, best_res, iters = None, None, 0
-    ends = np.stack([r0, bc.rf])
-    if boxes and _clearances(ends, prob.boxes).min() < cfg.clearance_ft:
-        seeds = []  # the start or the touch-down point itself is within the clearance
     for k, x0 in enumerate(seeds):
         x, res = _solve(prob, x0, relaxed=False)
         iters += int(getattr(res, "nit", 0))
-        if _is_feasible(prob, x):
+        if _meets(prob, x, floor):
             if best is None or prob.cost(x) < prob.cost(best):
                 best, best_res = x, res
             if k == 0 or warm is None:
-                break  # the first feasible solution from the preferred seed
-    feasible = best is not None
-    if not feasible:
+                break  # the first acceptable solution from the preferred seed
+    if best is None:  # the relaxed programme: the largest smallest clearance
         best, best_res = _solve(prob, x_rep, relaxed=True)
         iters += int(getattr(best_res, "nit", 0))
-        feasible = _is_feasible(prob, best)  # the largest clearance may still meet it
+    # Feasible: the required clearance from every extent within the limits (the
+    # largest smallest clearance may still meet it).
+    feasible = not ends_inside and _meets(prob, best, floor)
     t_go, c = prob.unpack(best)
-    cm = prob.clearance_margin(best)
-    min_clear = float(cm.min() + cfg.clearance_ft + cfg.margin_ft) if cm.size else math.inf
+    cm = prob.clearances(best)
+    min_clear = float(cm.min()) if cm.size else math.inf
     limits_ok = bool(prob.other_margins(best).min() >= -1e-3)
     return AvoidPlan(
         t0, t_go, r0, v0, bc.rf.copy(), bc.vf.copy(), c, feasible, min_clear, limits_ok,
@@ -653,6 +747,7 @@ def simulate_avoid(
     feasible = plan.feasible
     failures = 0
     terminal_skip = 0.0
+    limited = 0
     last_plan_t = 0.0
     w, zt = av.track_omega, av.track_damping
     while True:
@@ -681,8 +776,9 @@ def simulate_avoid(
                 failures += 1  # keep following the last feasible plan
             remaining = plan.t_go - (t - plan.t0)
         rp, vp, ap = plan.evaluate(t - plan.t0)
-        a_cmd = ap[0] + w * w * (rp[0] - r) + 2.0 * zt * w * (vp[0] - v)
-        ctrl = inverse_controls(v, a_cmd, params)
+        track = w * w * (rp[0] - r) + 2.0 * zt * w * (vp[0] - v)
+        a_cmd, ctrl, was_limited = limited_command(v, ap[0], track, params, av)
+        limited += was_limited
         record_command(rec, t, a_cmd, state, ctrl, params, remaining)
         last = remaining <= 1.5 * cfg.guidance_interval
         dt = max(remaining, 1e-6) if last else cfg.guidance_interval
@@ -739,6 +835,7 @@ def simulate_avoid(
             "solve_iterations": [p.iterations for p in plans],
             "planned_min_clearance_ft": float(min(p.min_clearance_ft for p in plans)),
             "terminal_segment_skipped_s": terminal_skip,
+            "limited_updates": limited,
             "boxes": boxes,
             "config": replace(av),
         },

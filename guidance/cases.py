@@ -214,6 +214,7 @@ def guidance_metrics(
         }
         m["planned_min_clearance_ft"] = ex["planned_min_clearance_ft"]
         m["terminal_segment_skipped_s"] = ex["terminal_segment_skipped_s"]
+        m["limited_updates"] = ex["limited_updates"]
     return m
 
 
@@ -331,6 +332,7 @@ def layout_sweep(
                 "max_load_factor": m["max_load_factor"],
                 "max_abs_theta_deg": m["max_abs_theta_deg"],
                 "max_abs_phi_deg": m["max_abs_phi_deg"],
+                "limited_updates": m["limited_updates"],
                 "touchdown_extent_clearance_ft": float(end_clear[1]),
                 "extraction_detected": case.scores["detected"],
                 "extraction_false": case.scores["false_obstacles"],

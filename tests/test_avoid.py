@@ -16,10 +16,18 @@ from rangefx.guidance.avoid import (
     AvoidConfig,
     InfeasibleClearanceWarning,
     limit_margins,
+    limited_command,
     plan_trajectory,
     simulate_avoid,
+    within_limits,
 )
-from rangefx.guidance.cases import fly, random_layouts, shift_grid_layouts, synthetic_case
+from rangefx.guidance.cases import (
+    fly,
+    layout_sweep,
+    random_layouts,
+    shift_grid_layouts,
+    synthetic_case,
+)
 from rangefx.guidance.extraction import (
     ExtractionConfig,
     ObstacleBox,
@@ -31,7 +39,7 @@ from rangefx.guidance.extraction import (
     score_extraction,
 )
 from rangefx.guidance.law import BoundaryConditions, GuidanceWeights, ObstacleField
-from rangefx.guidance.model import VehicleParams
+from rangefx.guidance.model import VehicleParams, inverse_controls
 from rangefx.guidance.obstacles import REPORT_VEHICLES, synthetic_runway_obstacles
 from rangefx.guidance.simulate import SimulationConfig, simulate
 
@@ -172,6 +180,27 @@ def test_misranged_ground_is_not_an_obstacle(small_runway):
     )
 
 
+def test_extraction_is_not_biased_short_by_its_ground_test(small_runway):
+    # Every vehicle pixel ranged 0.7x or 1/0.7x its true range (a checkerboard): the
+    # ground test alone keeps the short half (they rise along their rays, the long half
+    # sinks into the ground), which put the obstacles 30 % short -- in front of the
+    # vehicles (before this fix: 2 of 5 detected, 5 false). The cluster's range from
+    # its whole image region puts them back.
+    scene, fmap = small_runway
+    depth = np.where(np.isfinite(scene.depth1), scene.depth1, 0.0)
+    yy, xx = np.indices(depth.shape)
+    factor = np.where((yy + xx) % 2 == 0, 0.7, 1 / 0.7)
+    depth = np.where(scene.labels1 > 0, depth * factor, depth)
+    valid = np.isfinite(scene.depth1) & (depth < 2000)
+    images = (scene.image1, scene.image2)
+    ex = extract_obstacles(depth, valid, scene.camera, scene.motion, images=images, frame_map=fmap)
+    sc = score_extraction(ex.obstacles, scene_truth_boxes("runway", fmap))
+    assert sc["false_obstacles"] == 0, sc["false_obstacle_names"]
+    assert sc["detected"] >= 4  # vehicle 5 (470 ft) has too few pixels at 256 x 256
+    assert sc["max_centre_error_ft"] < 40.0
+    assert ex.counts["region_added"] > 0
+
+
 def test_bad_extraction_config():
     with pytest.raises(ValueError, match="min_height"):
         ExtractionConfig(min_height=5.0, max_height=2.0)
@@ -217,6 +246,48 @@ def test_closed_loop_reaches_final_state_within_limits(blocked):
     assert np.degrees(np.abs(res.phi)).max() < FAST.max_phi_deg
 
 
+def test_command_limiter_keeps_held_controls_within_limits():
+    rng = np.random.default_rng(11)
+    params, cfg = VehicleParams(), AvoidConfig()
+    n_limited = 0
+    for _ in range(300):
+        v = np.array([30.0, 0.0, 0.0]) + rng.normal(0, [10, 10, 4])
+        a_plan, a_track = rng.normal(0, 4, 3), rng.normal(0, 6, 3)
+        a, ctrl, limited = limited_command(v, a_plan, a_track, params, cfg)
+        assert within_limits(ctrl, params, cfg)
+        full = inverse_controls(v, a_plan + a_track, params)
+        if within_limits(full, params, cfg):
+            assert not limited and np.array_equal(a, a_plan + a_track)
+        else:
+            n_limited += 1
+            assert limited
+            if inverse_controls(v, a, params) != ctrl:  # clipped: only when even a = 0
+                assert not within_limits(inverse_controls(v, np.zeros(3), params), params, cfg)
+    assert 30 < n_limited < 270  # both branches exercised
+
+
+def test_limits_hold_on_the_integrated_trajectory_with_a_coarse_programme(blocked):
+    # No back-off in the plan, few constraint samples, a long hold: the tracking term
+    # and the held commands would exceed the limits; the limiter keeps every held
+    # control (constant between updates, so along the whole integrated trajectory)
+    # within them.
+    boxes, _, _ = blocked
+    tight = AvoidConfig(
+        n_samples=12, n_basis=5, replan_interval=2.0, limit_backoff=0.0,
+        max_load_factor=1.05, max_theta_deg=12.0, max_phi_deg=15.0,
+    )  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = simulate_avoid(
+            BC, _field(boxes), boxes, config=SimulationConfig(guidance_interval=0.5), avoid=tight
+        )
+    assert res.extras["limited_updates"] > 0
+    assert res.thrust.max() / res.params.weight_lbf <= tight.max_load_factor + 1e-12
+    assert np.degrees(np.abs(res.theta)).max() <= tight.max_theta_deg + 1e-9
+    assert np.degrees(np.abs(res.phi)).max() <= tight.max_phi_deg + 1e-9
+    assert np.linalg.norm(res.positions[-1] - BC.rf) < 1.0
+
+
 def test_vehicle_on_the_straight_path_is_avoided(blocked):
     boxes, avoid, report = blocked
     # The report's law flies straight through (its obstacle term sees the centroid only).
@@ -235,6 +306,20 @@ def test_impossible_layout_is_flagged_not_flown_silently():
     assert res.extras["planned_min_clearance_ft"] < FAST.clearance_ft
 
 
+def test_best_effort_keeps_the_full_clearance_from_the_other_extents():
+    # The touch-down point is 10 ft from one box (infeasible: flagged), a truck stands
+    # across the straight path: best effort keeps 20 ft from the truck and as much as
+    # the end point leaves from the other, on the integrated trajectory.
+    near = _box(300.0, 16.0, half_u=4.0, half_v=2.0)  # 10 ft from (300, 0, 5)
+    truck = _box(150.0, 2.0, half_u=4.0, half_v=10.0)
+    boxes = (near, truck)
+    with pytest.warns(InfeasibleClearanceWarning):
+        res = simulate_avoid(BC, _field(boxes), boxes, config=SIM, avoid=FAST)
+    assert res.extras["feasible"] is False
+    assert _dist(res.positions, (truck,)).min() >= FAST.clearance_ft
+    assert _dist(res.positions, (near,)).min() >= 8.0
+
+
 def test_fly_reports_infeasible_layout_in_metrics():
     vehicles = tuple(
         v.__class__(v.name, (v.centre[0] + 12.0, v.centre[1]), v.size, v.n_points)
@@ -248,6 +333,21 @@ def test_fly_reports_infeasible_layout_in_metrics():
     assert run.metrics["feasible"] is False
     assert any("no trajectory keeps" in w for w in run.warnings)
     assert run.metrics["min_true_obstacle_distance_ft"] < 20.0
+
+
+def test_layout_sweep_names_the_infeasible_layout():
+    grid = dict(shift_grid_layouts())
+    layouts = [(n, grid[n]) for n in ("shift(+0,+0)", "shift(+10,+0)")]
+    out = layout_sweep(
+        layouts, config=SimulationConfig(guidance_interval=0.5),
+        avoid=AvoidConfig(n_samples=24, n_basis=4, replan_interval=50.0),
+    )  # fmt: skip
+    s = out["summary"]
+    assert s["layouts"] == 2 and s["feasible"] == 1 and not s["failed"]
+    assert s["fraction_feasible_keeping_clearance"] == 1.0
+    assert [r["layout"] for r in s["infeasible"]] == ["shift(+10,+0)"]
+    assert s["infeasible"][0]["touchdown_extent_clearance_ft"] < 20.0
+    assert s["worst_true_clearance_feasible_ft"] >= 20.0
 
 
 def test_layout_generators_are_seeded_and_beside_the_runway():

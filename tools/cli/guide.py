@@ -269,10 +269,8 @@ def sweep_into(
     from rangefx.guidance.avoid import AvoidConfig
 
     try:
-        # Coarser programme than a single flight (32 samples, 100 iterations): 29 flights.
-        avoid = AvoidConfig(
-            clearance_ft=clearance_ft, replan_interval=replan_interval, n_samples=32, maxiter=100
-        )
+        # The same programme as a single flight: the sweep measures what `guide` flies.
+        avoid = AvoidConfig(clearance_ft=clearance_ft, replan_interval=replan_interval)
     except ValueError as exc:
         raise UserError(f"--clearance / --replan-interval: {exc}") from None
     layouts = shift_grid_layouts() + random_layouts(n_random)
