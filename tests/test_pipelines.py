@@ -236,7 +236,6 @@ def _error(capsys, argv) -> str:
         (["--pipeline", "p2", "--bias", "nan"], "--bias does not apply to pipeline p2"),
         (["--pipeline", "p2", "--threshold-g", "2"], "--threshold-g does not apply to pipeline p2"),
         (["--pipeline", "p3", "--threshold-g", "2"], "--threshold-g does not apply to pipeline p3"),
-        (["--pipeline", "p3", "--pole", "0.3"], "--pole does not apply to pipeline p3"),
         (["--pipeline", "p1", "--bias", "nan"], "bias must be a finite non-negative number"),
         (["--pipeline", "p1", "--method", "g3_paper"], "--method applies to --pipeline golden"),
         (["--hblank", "3"], "--hblank applies to the fixed-point pipelines only"),
