@@ -1,0 +1,198 @@
+// p1_top: rangefx P1 streams into the range stage, AXI4-Stream video in and out
+// (TVALID, TDATA, TUSER = start of frame, TLAST = end of line; no back-pressure: P1
+// takes one pixel per clock), one pixel per clock.
+//
+// MOTION = 0 (stereo): two synchronised inputs, s0_axis = E1 (left), s1_axis = E2
+// (right), each through its own p1_frontend (fe0, fe1). Both must carry their beats in
+// the same cycles (synchronised cameras, as the model assumes); a cycle where their
+// TVALID, TUSER or TLAST differ sets the sticky `align_error`.
+// MOTION = 1: one input s0_axis carrying consecutive frames through fe0; E1 is the
+// previous frame's E_hat, ex, ey from the frame store (MAX_PIXELS words; read one cycle
+// before the current pixel's front-end outputs leave, written with them: read before
+// write), E2 the current frame's. The range stage's inputs are valid from the second
+// frame on. A frame larger than MAX_PIXELS sets `frame_too_big` (extra pixels unstored).
+//
+// Range stage hook: the wires rs_* below are the range stage's inputs, leaving at the
+// front end's latency (FE_LAT: t+7 consistent, t+9+DIV_LAT paper, after the input beat
+// at t). Until p1_range is instantiated on them, m_axis carries them as they are:
+// TDATA = {e2_ey, e2_ex, e2_e, e1_ey, e1_ex, e1_e} (LSB first: E1's E_hat).
+`timescale 1ns / 1ps
+module p1_top #(
+    parameter integer MOTION = 0,
+    parameter integer MAX_WIDTH = 1024,
+    parameter integer ADDR_W = 11,
+    parameter integer MAX_PIXELS = 1024,
+    parameter integer PADDR_W = 11,
+    parameter integer CONSISTENT = 0,
+    parameter integer INIT_FIRST = 1,
+    parameter integer DIVIDER = 1,
+    parameter integer RECIP_L = 8,
+    parameter integer RECIP_R = 20,
+    parameter ROM_FILE = "recip_rom.mem",
+    parameter integer PIX_W = 8,   parameter integer PIX_F = 0,  parameter integer PIX_S = 0,
+    parameter integer PIX_Q = 0,   parameter integer PIX_O = 1,
+    parameter integer BREG_W = 8,  parameter integer BREG_F = 2, parameter integer BREG_S = 0,
+    parameter integer POLE_W = 17, parameter integer POLE_F = 16, parameter integer POLE_S = 0,
+    parameter integer B_W = 10,    parameter integer B_F = 1,    parameter integer B_S = 0,
+    parameter integer B_Q = 0,     parameter integer B_O = 1,
+    parameter integer P_W = 20,    parameter integer P_F = 11,   parameter integer P_S = 0,
+    parameter integer P_Q = 2,     parameter integer P_O = 1,
+    parameter integer R1_W = 20,   parameter integer R1_F = 11,  parameter integer R1_S = 0,
+    parameter integer R1_Q = 2,    parameter integer R1_O = 1,
+    parameter integer R2_W = 20,   parameter integer R2_F = 10,  parameter integer R2_S = 1,
+    parameter integer R2_Q = 2,    parameter integer R2_O = 1,
+    parameter integer Q_W = 22,    parameter integer Q_F = 13,   parameter integer Q_S = 0,
+    parameter integer Q_Q = 2,     parameter integer Q_O = 1,
+    parameter integer S1_W = 20,   parameter integer S1_F = 11,  parameter integer S1_S = 0,
+    parameter integer S1_Q = 2,    parameter integer S1_O = 1,
+    parameter integer S2_W = 21,   parameter integer S2_F = 11,  parameter integer S2_S = 1,
+    parameter integer S2_Q = 2,    parameter integer S2_O = 1,
+    parameter integer Q2_W = 23,   parameter integer Q2_F = 13,  parameter integer Q2_S = 1,
+    parameter integer Q2_Q = 2,    parameter integer Q2_O = 1,
+    parameter integer X2_W = 23,   parameter integer X2_F = 13,  parameter integer X2_S = 1,
+    parameter integer X2_Q = 2,    parameter integer X2_O = 1,
+    parameter integer DQ_W = 24,   parameter integer DQ_F = 12,  parameter integer DQ_S = 1,
+    parameter integer DQ_Q = 2,    parameter integer DQ_O = 1,
+    parameter integer EX_W = CONSISTENT ? X2_W : DQ_W,
+    parameter integer DIV_LAT = DIVIDER ? 8 : DQ_W + 4,
+    parameter integer FE_LAT = CONSISTENT ? 7 : 9 + DIV_LAT,
+    parameter integer SW = S1_W + EX_W + S2_W       // one stream's outputs
+) (
+    input  wire              clk,
+    input  wire              rst,
+    input  wire [POLE_W-1:0] pole_raw,
+    input  wire [BREG_W-1:0] bias_raw,
+    input  wire              s0_axis_tvalid,
+    input  wire [PIX_W-1:0]  s0_axis_tdata,
+    input  wire              s0_axis_tuser,
+    input  wire              s0_axis_tlast,
+    input  wire              s1_axis_tvalid,
+    input  wire [PIX_W-1:0]  s1_axis_tdata,
+    input  wire              s1_axis_tuser,
+    input  wire              s1_axis_tlast,
+    output wire              m_axis_tvalid,
+    output wire [2*SW-1:0]   m_axis_tdata,
+    output wire              m_axis_tuser,
+    output wire              m_axis_tlast,
+    output reg               align_error,
+    output reg               frame_too_big,
+    output wire              line_too_long
+);
+    // E1 / E2 outputs of the front end(s), valid at FE_LAT
+    wire              o0_valid, o0_sof, o0_eol;
+    wire [S1_W-1:0]   o0_e;
+    wire [EX_W-1:0]   o0_ex;
+    wire [S2_W-1:0]   o0_ey;
+    wire              ltl0, ltl1;
+
+`define P1_FE_PARAMS \
+        .MAX_WIDTH(MAX_WIDTH), .ADDR_W(ADDR_W), .CONSISTENT(CONSISTENT), \
+        .INIT_FIRST(INIT_FIRST), .DIVIDER(DIVIDER), .RECIP_L(RECIP_L), .RECIP_R(RECIP_R), \
+        .ROM_FILE(ROM_FILE), \
+        .PIX_W(PIX_W), .PIX_F(PIX_F), .PIX_S(PIX_S), .PIX_Q(PIX_Q), .PIX_O(PIX_O), \
+        .BREG_W(BREG_W), .BREG_F(BREG_F), .BREG_S(BREG_S), \
+        .POLE_W(POLE_W), .POLE_F(POLE_F), .POLE_S(POLE_S), \
+        .B_W(B_W), .B_F(B_F), .B_S(B_S), .B_Q(B_Q), .B_O(B_O), \
+        .P_W(P_W), .P_F(P_F), .P_S(P_S), .P_Q(P_Q), .P_O(P_O), \
+        .R1_W(R1_W), .R1_F(R1_F), .R1_S(R1_S), .R1_Q(R1_Q), .R1_O(R1_O), \
+        .R2_W(R2_W), .R2_F(R2_F), .R2_S(R2_S), .R2_Q(R2_Q), .R2_O(R2_O), \
+        .Q_W(Q_W), .Q_F(Q_F), .Q_S(Q_S), .Q_Q(Q_Q), .Q_O(Q_O), \
+        .S1_W(S1_W), .S1_F(S1_F), .S1_S(S1_S), .S1_Q(S1_Q), .S1_O(S1_O), \
+        .S2_W(S2_W), .S2_F(S2_F), .S2_S(S2_S), .S2_Q(S2_Q), .S2_O(S2_O), \
+        .Q2_W(Q2_W), .Q2_F(Q2_F), .Q2_S(Q2_S), .Q2_Q(Q2_Q), .Q2_O(Q2_O), \
+        .X2_W(X2_W), .X2_F(X2_F), .X2_S(X2_S), .X2_Q(X2_Q), .X2_O(X2_O), \
+        .DQ_W(DQ_W), .DQ_F(DQ_F), .DQ_S(DQ_S), .DQ_Q(DQ_Q), .DQ_O(DQ_O)
+
+    p1_frontend #(`P1_FE_PARAMS) fe0 (
+        .clk(clk), .rst(rst), .pole_raw(pole_raw), .bias_raw(bias_raw),
+        .s_valid(s0_axis_tvalid), .s_data(s0_axis_tdata), .s_sof(s0_axis_tuser),
+        .s_eol(s0_axis_tlast),
+        .out_valid(o0_valid), .out_sof(o0_sof), .out_eol(o0_eol),
+        .out_e(o0_e), .out_ex(o0_ex), .out_ey(o0_ey), .line_too_long(ltl0));
+
+    // the range stage's inputs
+    wire              rs_valid, rs_sof, rs_eol;
+    wire [S1_W-1:0]   rs_e1, rs_e2;
+    wire [EX_W-1:0]   rs_ex1, rs_ex2;
+    wire [S2_W-1:0]   rs_ey1, rs_ey2;
+
+    generate
+        if (MOTION == 0) begin : g_stereo
+            wire o1_valid, o1_sof, o1_eol;
+            p1_frontend #(`P1_FE_PARAMS) fe1 (
+                .clk(clk), .rst(rst), .pole_raw(pole_raw), .bias_raw(bias_raw),
+                .s_valid(s1_axis_tvalid), .s_data(s1_axis_tdata), .s_sof(s1_axis_tuser),
+                .s_eol(s1_axis_tlast),
+                .out_valid(o1_valid), .out_sof(o1_sof), .out_eol(o1_eol),
+                .out_e(rs_e2), .out_ex(rs_ex2), .out_ey(rs_ey2), .line_too_long(ltl1));
+            always @(posedge clk) begin
+                if (rst) align_error <= 1'b0;
+                else if (s0_axis_tvalid != s1_axis_tvalid
+                         || (s0_axis_tvalid && (s0_axis_tuser != s1_axis_tuser
+                                                || s0_axis_tlast != s1_axis_tlast)))
+                    align_error <= 1'b1;
+                frame_too_big <= 1'b0;
+            end
+            assign rs_valid = o0_valid;
+            assign rs_sof = o0_sof;
+            assign rs_eol = o0_eol;
+            assign rs_e1 = o0_e;
+            assign rs_ex1 = o0_ex;
+            assign rs_ey1 = o0_ey;
+        end else begin : g_motion
+            // pixel address of each input beat, delayed to one cycle before its outputs
+            reg  [PADDR_W:0] pix_cnt;
+            wire [PADDR_W:0] addr_in = s0_axis_tuser ? {(PADDR_W + 1){1'b0}} : pix_cnt;
+            reg  [PADDR_W:0] addr_d [0:FE_LAT-1];
+            integer k;
+            always @(posedge clk) begin
+                if (rst) begin
+                    pix_cnt <= {(PADDR_W + 1){1'b0}};
+                    frame_too_big <= 1'b0;
+                end else if (s0_axis_tvalid) begin
+                    pix_cnt <= (addr_in < MAX_PIXELS) ? addr_in + 1'b1 : addr_in;
+                    if (addr_in >= MAX_PIXELS) frame_too_big <= 1'b1;
+                end
+                addr_d[0] <= addr_in;
+                for (k = 1; k < FE_LAT; k = k + 1) addr_d[k] <= addr_d[k-1];
+                align_error <= 1'b0;
+            end
+            // the frame store: {ey, ex, E_hat} per pixel
+            reg [SW-1:0] store [0:MAX_PIXELS-1];
+            reg [SW-1:0] prev;
+            wire [PADDR_W:0] rd_addr = addr_d[FE_LAT-2];
+            wire [PADDR_W:0] wr_addr = addr_d[FE_LAT-1];
+            always @(posedge clk) begin
+                if (rd_addr < MAX_PIXELS) prev <= store[rd_addr];
+                if (o0_valid && wr_addr < MAX_PIXELS) store[wr_addr] <= {o0_ey, o0_ex, o0_e};
+            end
+            // the range stage sees a pixel once a previous frame was stored
+            reg seen_frame, has_prev;
+            always @(posedge clk) begin
+                if (rst) begin
+                    seen_frame <= 1'b0;
+                    has_prev <= 1'b0;
+                end else if (o0_valid && o0_sof) begin
+                    seen_frame <= 1'b1;
+                    has_prev <= seen_frame;
+                end
+            end
+            assign ltl1 = 1'b0;
+            assign rs_valid = o0_valid && (o0_sof ? seen_frame : has_prev);
+            assign rs_sof = o0_sof;
+            assign rs_eol = o0_eol;
+            assign {rs_ey1, rs_ex1, rs_e1} = prev;
+            assign rs_e2 = o0_e;
+            assign rs_ex2 = o0_ex;
+            assign rs_ey2 = o0_ey;
+        end
+    endgenerate
+`undef P1_FE_PARAMS
+
+    assign line_too_long = ltl0 | ltl1;
+    // ---- range stage: p1_range plugs in here, on rs_* --------------------------------------
+    assign m_axis_tvalid = rs_valid;
+    assign m_axis_tuser = rs_sof;
+    assign m_axis_tlast = rs_eol;
+    assign m_axis_tdata = {rs_ey2, rs_ex2, rs_e2, rs_ey1, rs_ex1, rs_e1};
+endmodule

@@ -1,0 +1,239 @@
+"""Replay a P1 vector directory through the Verilog (``hdl/``) and check every front-end
+tap value for value and cycle for cycle (``rangefx hdl replay``, docs/hdl.md).
+
+:func:`simulate` builds ``hdl/p1_top.v`` with the directory's parameters
+(:func:`rangefx.vectors.hdl.top_parameters`) under Icarus or Verilator through
+``cocotb_tools.runner`` and runs the bench ``hdl/test_p1_top.py`` into a dump directory;
+:func:`compare` checks the dump against the vectors: per tap the samples, value
+mismatches, cycle mismatches (a sample's cycle against the manifest's: its input beat
+plus the declared latency) and the first mismatch; the AXI4-Stream output against the
+stream taps; the overflow counters against the manifest's counts.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import formats as fmt_io
+from .generate import load_manifest, read_tap, tap_cycles
+from .hdl import HDL_DIR, HDL_SOURCES, OVERFLOW_SIGNALS, TOPLEVEL, top_parameters
+
+__all__ = ["SIMULATORS", "ReplayReport", "SimulatorMissing", "compare", "simulate"]
+
+#: Simulators the replay runs on, and the executable each needs.
+SIMULATORS = {"icarus": "iverilog", "verilator": "verilator"}
+_BENCH = "test_p1_top"
+
+
+class SimulatorMissing(RuntimeError):
+    """The simulator (or cocotb) is not installed."""
+
+
+def _stream_taps(manifest: Mapping) -> list[str]:
+    return [e["tap"] for e in manifest["files"]
+            if e["kind"] == "stream_tap" and e["path"].endswith(".mem")]  # fmt: skip
+
+
+def simulate(
+    directory: str | Path, work: str | Path, sim: str = "icarus", **overrides: int
+) -> dict:
+    """Build and run the bench on ``directory``; the dump goes to ``work/dump``.
+
+    ``overrides`` replace Verilog parameters (a mutation test compiles ``R2_Q=0``, say).
+    Returns ``{"sim_s", "build_s", "dump", "status"}``.
+
+    Raises
+    ------
+    SimulatorMissing
+        ``sim``'s executable or cocotb is not installed.
+    ValueError
+        The directory is not P1 vectors; the simulation failed (its log is named).
+    """
+    if sim not in SIMULATORS:
+        raise ValueError(f"unknown simulator {sim!r}; choose from {', '.join(SIMULATORS)}")
+    if shutil.which(SIMULATORS[sim]) is None:
+        raise SimulatorMissing(f"{sim}: '{SIMULATORS[sim]}' is not installed (not on PATH)")
+    try:
+        from cocotb_tools.runner import get_results, get_runner
+    except ImportError:
+        raise SimulatorMissing("cocotb is not installed (pip install 'rangefx[hdl]')") from None
+    vec = Path(directory).resolve()
+    manifest = load_manifest(vec)
+    rom = vec / "recip_rom.mem"
+    params = top_parameters(manifest, rom if rom.exists() else None) | overrides
+    work = Path(work).resolve()
+    build = work / f"build_{sim}"
+    dump = work / "dump"
+    runner = get_runner(sim)
+    extra = {"build_args": ["-Wno-fatal", "-Wno-WIDTH"]} if sim == "verilator" else {}
+    t0 = time.perf_counter()
+    log = work / "build.log"
+    runner.build(
+        sources=[HDL_DIR / s for s in HDL_SOURCES],
+        hdl_toplevel=TOPLEVEL,
+        parameters=params,
+        build_dir=build,
+        always=True,
+        log_file=log,
+        **extra,
+    )
+    t1 = time.perf_counter()
+    env = {
+        "RANGEFX_VECTORS": str(vec),
+        "RANGEFX_DUMP": str(dump),
+        "PYTHONPATH": os.pathsep.join([str(HDL_DIR), *sys.path]),
+    }
+    results = runner.test(
+        hdl_toplevel=TOPLEVEL,
+        test_module=_BENCH,
+        test_dir=HDL_DIR,
+        build_dir=build,
+        extra_env=env,
+        log_file=work / "sim.log",
+    )
+    t2 = time.perf_counter()
+    tests, fails = get_results(results)
+    if (tests, fails) != (1, 0) or not (dump / "status.json").exists():
+        raise ValueError(f"the {sim} simulation failed; see {work / 'sim.log'}")
+    status = json.loads((dump / "status.json").read_text())
+    return {"build_s": t1 - t0, "sim_s": t2 - t1, "dump": dump, "status": status}
+
+
+@dataclass
+class ReplayReport:
+    """Outcome of :func:`compare`: per-tap counts, the first mismatch, the totals."""
+
+    taps: dict[str, dict] = field(default_factory=dict)
+    first_mismatch: dict | None = None
+    overflows: dict[str, dict] = field(default_factory=dict)
+    m_axis: dict = field(default_factory=dict)
+    flags: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def value_mismatches(self) -> int:
+        return sum(t["value_mismatches"] for t in self.taps.values())
+
+    @property
+    def cycle_mismatches(self) -> int:
+        return sum(t["cycle_mismatches"] for t in self.taps.values())
+
+    @property
+    def overflow_mismatches(self) -> int:
+        return sum(o["rtl"] != o["model"] for o in self.overflows.values())
+
+    @property
+    def ok(self) -> bool:
+        return (
+            self.value_mismatches == 0
+            and self.cycle_mismatches == 0
+            and self.overflow_mismatches == 0
+            and self.m_axis.get("mismatches", 0) == 0
+            and not any(self.flags.values())
+        )
+
+    def as_dict(self) -> dict:
+        return {
+            "ok": self.ok,
+            "value_mismatches": self.value_mismatches,
+            "cycle_mismatches": self.cycle_mismatches,
+            "overflow_mismatches": self.overflow_mismatches,
+            "first_mismatch": self.first_mismatch,
+            "taps": self.taps,
+            "overflows": self.overflows,
+            "m_axis": self.m_axis,
+            "flags": self.flags,
+        }
+
+
+def compare(directory: str | Path, dump: str | Path) -> ReplayReport:
+    """Check a bench dump (:func:`simulate`) against the vectors of ``directory``."""
+    vec, dump = Path(directory), Path(dump)
+    manifest = load_manifest(vec)
+    m, n = manifest["shape"]
+    got = np.load(dump / "taps.npz")
+    status = json.loads((dump / "status.json").read_text())
+    report = ReplayReport()
+    firsts = []
+    for tap in _stream_taps(manifest):
+        entry = next(e for e in manifest["files"] if e["tap"] == tap and e["path"].endswith(".mem"))
+        word = int(entry["word"])
+        exp_v = fmt_io.to_unsigned(read_tap(vec, tap, manifest), word).astype(np.int64)
+        exp_c = tap_cycles(vec, manifest, tap, int(entry["first_valid_cycle"]))
+        g_v = got[f"{tap}.value"] if f"{tap}.value" in got else np.zeros(0, np.int64)
+        g_c = got[f"{tap}.cycle"] if f"{tap}.cycle" in got else np.zeros(0, np.int64)
+        k = min(exp_v.size, g_v.size)
+        bad_v = g_v[:k] != exp_v[:k]
+        bad_c = g_c[:k] != exp_c[:k]
+        extra = abs(exp_v.size - g_v.size)
+        row = {
+            "samples": int(exp_v.size),
+            "got_samples": int(g_v.size),
+            "value_mismatches": int(np.count_nonzero(bad_v)) + extra,
+            "cycle_mismatches": int(np.count_nonzero(bad_c)) + extra,
+            "first_mismatch": None,
+        }
+        bad = np.flatnonzero(bad_v | bad_c)
+        if bad.size or extra:
+            i = int(bad[0]) if bad.size else k
+            first = {
+                "tap": tap,
+                "index": i,
+                "row": (i // n) % m,
+                "col": i % n,
+                "cycle": int(exp_c[i]) if i < exp_c.size else None,
+                "got_cycle": int(g_c[i]) if i < g_c.size else None,
+                "expected": _signed(exp_v, i, word, entry["signed"]),
+                "got": _signed(g_v, i, word, entry["signed"]),
+            }
+            row["first_mismatch"] = first
+            firsts.append(first)
+        report.taps[tap] = row
+    if firsts:
+        report.first_mismatch = min(firsts, key=lambda f: (f["cycle"] is None, f["cycle"] or 0))
+    model = manifest.get("overflows", {})
+    for signal in OVERFLOW_SIGNALS:
+        rtl = int(status["overflows"][signal])
+        report.overflows[signal] = {"rtl": rtl, "model": int(model.get(signal, 0))}
+    report.m_axis = _check_m_axis(vec, manifest, dump)
+    report.flags = {k: int(status[k]) for k in ("line_too_long", "align_error", "frame_too_big")}
+    return report
+
+
+def _signed(codes: np.ndarray, i: int, word: int, signed: bool) -> int | None:
+    if i >= codes.size or codes[i] < 0:
+        return None
+    return int(fmt_io.to_signed(codes[i : i + 1].astype(np.uint64), word, signed)[0])
+
+
+def _check_m_axis(vec: Path, manifest: Mapping, dump: Path) -> dict:
+    """The AXI4-Stream output words against the stream taps: per pixel
+    ``{e2_ey, e2_ex, e2_e, e1_ey, e1_ex, e1_e}`` (``hdl/p1_top.v``), one line per frame."""
+    m, n = manifest["shape"]
+    out = np.load(dump / "m_axis.npz")
+    words = [int(w) for w in out["words"]]
+    expected = [0] * (m * n)
+    shift = 0
+    for stream in ("e1", "e2"):
+        for tap in ("col_s1", "ex", "col_s2"):
+            name = f"{stream}.{tap}"
+            entry = next(e for e in manifest["files"] if e["tap"] == name)
+            codes = fmt_io.to_unsigned(read_tap(vec, name, manifest), int(entry["word"]))
+            for i, c in enumerate(codes.tolist()):
+                expected[i] |= int(c) << shift
+            shift += int(entry["word"])
+    k = min(len(words), len(expected))
+    bad = sum(words[i] != expected[i] for i in range(k)) + abs(len(words) - len(expected))
+    lines = out["line_lengths"].tolist()
+    tuser = out["first_tuser"].tolist()
+    framing = lines == [n] * m and tuser == [1] + [0] * (m - 1)
+    return {"words": len(words), "mismatches": int(bad) + (0 if framing else 1),
+            "lines": len(lines), "framing_ok": framing}  # fmt: skip
