@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import subprocess
 import sys
 import time
 from collections.abc import Mapping
@@ -25,7 +26,16 @@ import numpy as np
 
 from . import formats as fmt_io
 from .generate import load_manifest, read_tap, tap_cycles
-from .hdl import HDL_DIR, HDL_SOURCES, OVERFLOW_SIGNALS, TOPLEVEL, top_parameters
+from .hdl import (
+    HDL_DIR,
+    HDL_SOURCES,
+    OVERFLOW_SIGNALS,
+    TOPLEVEL,
+    bench_header,
+    frontend_instances,
+    top_parameters,
+    write_dump,
+)
 
 __all__ = ["SIMULATORS", "ReplayReport", "SimulatorMissing", "compare", "simulate"]
 
@@ -62,50 +72,145 @@ def simulate(
         raise ValueError(f"unknown simulator {sim!r}; choose from {', '.join(SIMULATORS)}")
     if shutil.which(SIMULATORS[sim]) is None:
         raise SimulatorMissing(f"{sim}: '{SIMULATORS[sim]}' is not installed (not on PATH)")
+    vec = Path(directory).resolve()
+    manifest = load_manifest(vec)
+    rom = vec / "recip_rom.mem"
+    rom_file = rom if rom.exists() else None
+    work = Path(work).resolve()
+    dump = work / "dump"
+    if sim == "verilator":
+        timings = _run_verilator(vec, manifest, rom_file, work, dump, overrides)
+    else:
+        timings = _run_cocotb(vec, manifest, rom_file, work, dump, sim, overrides)
+    if not (dump / "status.json").exists():
+        raise ValueError(f"the {sim} simulation wrote no dump; see {work / 'sim.log'}")
+    status = json.loads((dump / "status.json").read_text())
+    return {**timings, "dump": dump, "status": status}
+
+
+def _run_cocotb(
+    vec: Path, manifest: Mapping, rom_file: Path | None, work: Path, dump: Path, sim: str,
+    overrides: Mapping[str, int],
+) -> dict:  # fmt: skip
+    """The cocotb bench (``hdl/test_p1_top.py``, cocotbext-axi) through cocotb's runner."""
     try:
         from cocotb_tools.runner import get_results, get_runner
     except ImportError:
         raise SimulatorMissing("cocotb is not installed (pip install 'rangefx[hdl]')") from None
-    vec = Path(directory).resolve()
-    manifest = load_manifest(vec)
-    rom = vec / "recip_rom.mem"
-    params = top_parameters(manifest, rom if rom.exists() else None) | overrides
-    work = Path(work).resolve()
+    params = top_parameters(manifest, rom_file) | dict(overrides)
     build = work / f"build_{sim}"
-    dump = work / "dump"
     runner = get_runner(sim)
-    extra = {"build_args": ["-Wno-fatal", "-Wno-WIDTH"]} if sim == "verilator" else {}
     t0 = time.perf_counter()
-    log = work / "build.log"
-    runner.build(
-        sources=[HDL_DIR / s for s in HDL_SOURCES],
-        hdl_toplevel=TOPLEVEL,
-        parameters=params,
-        build_dir=build,
-        always=True,
-        log_file=log,
-        **extra,
-    )
+    try:
+        runner.build(
+            sources=[HDL_DIR / s for s in HDL_SOURCES],
+            hdl_toplevel=TOPLEVEL,
+            parameters=params,
+            build_dir=build,
+            always=True,
+            log_file=work / "build.log",
+        )
+    except RuntimeError:
+        raise ValueError(f"building the RTL with {sim} failed; see {work / 'build.log'}") from None
     t1 = time.perf_counter()
     env = {
         "RANGEFX_VECTORS": str(vec),
         "RANGEFX_DUMP": str(dump),
         "PYTHONPATH": os.pathsep.join([str(HDL_DIR), *sys.path]),
     }
-    results = runner.test(
-        hdl_toplevel=TOPLEVEL,
-        test_module=_BENCH,
-        test_dir=HDL_DIR,
-        build_dir=build,
-        extra_env=env,
-        log_file=work / "sim.log",
-    )
+    try:
+        results = runner.test(
+            hdl_toplevel=TOPLEVEL,
+            test_module=_BENCH,
+            test_dir=HDL_DIR,
+            build_dir=build,
+            extra_env=env,
+            log_file=work / "sim.log",
+        )
+    except RuntimeError:
+        raise ValueError(f"the {sim} simulation failed; see {work / 'sim.log'}") from None
     t2 = time.perf_counter()
-    tests, fails = get_results(results)
-    if (tests, fails) != (1, 0) or not (dump / "status.json").exists():
+    if get_results(results) != (1, 0):
         raise ValueError(f"the {sim} simulation failed; see {work / 'sim.log'}")
-    status = json.loads((dump / "status.json").read_text())
-    return {"build_s": t1 - t0, "sim_s": t2 - t1, "dump": dump, "status": status}
+    return {"build_s": t1 - t0, "sim_s": t2 - t1}
+
+
+#: Idle cycles the Verilog bench drives before the streams (reset inside them).
+_LEAD = 8
+
+
+def _run_verilator(
+    vec: Path, manifest: Mapping, rom_file: Path | None, work: Path, dump: Path,
+    overrides: Mapping[str, int],
+) -> dict:  # fmt: skip
+    """The Verilog bench ``hdl/tb_p1_top.v`` built with ``verilator --binary`` (cocotb 2.1
+    needs Verilator >= 5.036; this one drives any Verilator 5)."""
+    build = work / "build_verilator"
+    build.mkdir(parents=True, exist_ok=True)
+    header = bench_header(manifest, rom_file, _LEAD, overrides)
+    (build / "p1_bench.vh").write_text(header)
+    cmd = [
+        "verilator", "--binary", "-O3", "-j", "2", "-Wno-fatal", "-Wno-lint", "-Wno-style",
+        "--top-module", "tb_p1_top", f"-I{build}", f"-I{HDL_DIR}", "--Mdir", str(build / "obj"),
+        "-o", "tb", *(str(HDL_DIR / s) for s in HDL_SOURCES), str(HDL_DIR / "tb_p1_top.v"),
+    ]  # fmt: skip
+    t0 = time.perf_counter()
+    with open(work / "build.log", "w") as log:
+        rc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=build).returncode
+    if rc != 0:
+        raise ValueError(f"building the RTL with verilator failed; see {work / 'build.log'}")
+    t1 = time.perf_counter()
+    streams = sorted((e for e in manifest["files"]
+                      if e["kind"] == "stream" and e["path"].endswith(".mem")),
+                     key=lambda e: e["tap"])  # fmt: skip
+    out = work / "tb_out.txt"
+    args = [f"+STREAM{k}={vec / e['path']}" for k, e in enumerate(streams)] + [f"+OUT={out}"]
+    with open(work / "sim.log", "w") as log:
+        rc = subprocess.run([str(build / "obj" / "tb"), *args], stdout=log,
+                            stderr=subprocess.STDOUT, cwd=build).returncode  # fmt: skip
+    t2 = time.perf_counter()
+    if rc != 0 or not out.exists():
+        raise ValueError(f"the verilator simulation failed; see {work / 'sim.log'}")
+    dump.mkdir(parents=True, exist_ok=True)
+    _dump_from_text(out, vec, manifest, dump)
+    return {"build_s": t1 - t0, "sim_s": t2 - t1}
+
+
+def _dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None:
+    """Parse the Verilog bench's lines (``hdl/tb_p1_top.v``) into the dump."""
+    streams = list(frontend_instances(manifest))
+    samples: dict[str, list[tuple[int, int | None]]] = {}
+    inputs: list[int] = []
+    lines: list[tuple[list[int], int]] = []
+    overflows = dict.fromkeys(OVERFLOW_SIGNALS, 0)
+    flags: dict[str, int] = {}
+    current: list[int] = []
+    first_tuser = 0
+    cycles = 0
+    with open(out) as f:
+        for text in f:
+            part = text.split()
+            kind = part[0]
+            if kind == "T":
+                value = None if any(c in "xXzZ" for c in part[4]) else int(part[4], 16)
+                name = f"{streams[int(part[1])]}.{part[2]}"
+                samples.setdefault(name, []).append((int(part[3]), value))
+                cycles = max(cycles, int(part[3]) + 1)
+            elif kind == "I":
+                inputs.append(int(part[1]))
+            elif kind == "M":
+                if not current:
+                    first_tuser = int(part[2])
+                known = not any(c in "xXzZ" for c in part[1])
+                current.append(int(part[1], 16) if known else -1)
+                if part[3] == "1":
+                    lines.append((current, first_tuser))
+                    current = []
+            elif kind == "O":
+                overflows[part[2]] += int(part[3])
+            elif kind == "F":
+                flags[part[1]] = int(part[2])
+    write_dump(dump, vec, manifest, samples, inputs, lines, overflows, flags, cycles)
 
 
 @dataclass
