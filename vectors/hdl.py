@@ -209,7 +209,8 @@ def write_dump(
     flags: Mapping[str, int],
     cycles: int,
 ) -> None:
-    """Write a bench's observations on the vectors ``vec`` as the dump :func:`rangefx.vectors.replay.compare` reads.
+    """Write a bench's observations on the vectors ``vec`` as the dump that
+    :func:`rangefx.vectors.replay.compare` reads.
 
     ``samples``: ``"<stream>.<tap>"`` -> (cycle, code or None for x/z) per sample, the
     stream being ``e1``, ``e2`` or, in motion mode, ``e1+e2`` (frame 1 is E1, frame 2 E2);
