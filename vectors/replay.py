@@ -37,7 +37,14 @@ from .hdl import (
     write_dump,
 )
 
-__all__ = ["SIMULATORS", "ReplayReport", "SimulatorMissing", "compare", "simulate"]
+__all__ = [
+    "OVERFLOW_SIGNALS",
+    "SIMULATORS",
+    "ReplayReport",
+    "SimulatorMissing",
+    "compare",
+    "simulate",
+]
 
 #: Simulators the replay runs on, and the executable each needs.
 SIMULATORS = {"icarus": "iverilog", "verilator": "verilator"}
