@@ -167,3 +167,31 @@ def test_range_stage_replays_bit_and_cycle_exact(scene, variant, divider, format
     assert assert_replay_exact(vec, dump) == len(RANGE_TAPS) * m * n
     if formats == "modes":  # the narrowed formats do overflow: the counts are not all 0
         assert sum(rtl_overflows(dump).values()) > 0
+
+
+def test_rounding_mutant_is_caught_at_the_first_differing_pixel(tmp_path):
+    """``gv`` rounds (RND) in the default config; the mutant RTL truncates (``GV_Q`` = TRN).
+    ``vectors diff`` must name the first pixel (row, col, cycle) where the model under TRN
+    differs, with the same count; the taps before ``gv`` still match."""
+    config = P1Config.default()
+    vec = _vectors(tmp_path, "lab", config)
+    dump = replay_range(vec, config, tmp_path, GV_Q=int(Quant.TRN))
+    gv_fmt = config.fmt("gv")
+    mutant = config.with_formats(gv=_fmt(str(gv_fmt), Quant.TRN, gv_fmt.overflow))
+    case = crop_case(_scene("lab"), CROPS["lab"])
+    runs = [
+        build_vectors("p1", case, c, TIMING).result.taps["gv"].ravel() for c in (config, mutant)
+    ]
+    differ = np.flatnonzero(runs[0] != runs[1])
+    assert differ.size > 0
+    k = int(differ[0])
+    report = diff_dump(vec, dump / "gv.mem")
+    assert not report.ok
+    assert report.mismatches == differ.size
+    n = load_manifest(vec)["shape"][1]
+    first = report.first
+    assert (first["index"], first["row"], first["col"]) == (k, k // n, k % n)
+    assert first["cycle"] == int(expected_cycles(vec, "gv")[k])
+    assert (first["expected"], first["got"]) == (int(runs[0][k]), int(runs[1][k]))
+    for tap in RANGE_TAPS[: RANGE_TAPS.index("gv")]:
+        assert diff_dump(vec, dump / f"{tap}.mem").ok, tap
