@@ -1,80 +1,139 @@
-// fx_cast_sized: quantise-then-overflow cast of an exact fixed-point value, every
-// datapath width sized to the two formats (rangefx docs/p1_datapath.md `cast(v, S)`,
-// rtl_model/fixedpoint.py; Vitis HLS ap_fixed names and meanings).
+// Casts sized to their formats: quantise, then overflow (docs/p1_datapath.md "cast").
 //
-// The exact value x * 2^-IN_F (x an IN_W-bit word, two's complement if IN_S) is rounded
-// to a multiple of 2^-OUT_F with the quantisation mode QUANT, then brought into the
-// OUT_W-bit range with the overflow mode OVF:
+// rangefx: the same modes and meanings as hdl/fx_cast.v (Vitis HLS ap_fixed names):
 //   QUANT: 0 TRN, 1 TRN_ZERO, 2 RND, 3 RND_ZERO, 4 RND_INF, 5 RND_MIN_INF, 6 RND_CONV
 //   OVF:   0 WRAP, 1 SAT, 2 SAT_ZERO, 3 SAT_SYM
-// `ovf` is high when the overflow mode had to act (for SAT_SYM also on -2^(OUT_W-1)),
-// as the model counts it. Combinational. Any IN_F - OUT_F (dropping or adding bits).
-// Unlike a generic 64-bit cast, the quotient, remainder and range comparisons are only
-// as wide as the formats need, so synthesis sees the real cost of each signal's width.
+// but every internal word is as wide as the input word and the output format need, not
+// 64 bits: the input is an IN_W-bit two's complement exact value, the quantised value is
+// carried in max(input bits kept, OUT_W + 1) + 1 bits.
+//
+//   fx_round_sat : the rounding carry and the overflow mode, shared by both casts below
+//   fx_cast_sized: a cast whose shift IN_F - OUT_F is a parameter (any sign)
+//   fx_cast_var  : a right shift that varies per sample (the reciprocal divider's
+//                  normalisation), 0 <= sh < 2^SH_W
+// All combinational.
 `timescale 1ns / 1ps
+
+// Rounding carry from (floor q, remainder class) and overflow into OUT_W bits.
+module fx_round_sat #(
+    parameter integer QW    = 8,   // bits of the floor q (two's complement)
+    parameter integer OUT_W = 8,
+    parameter integer OUT_S = 0,
+    parameter integer QUANT = 0,
+    parameter integer OVF   = 0
+) (
+    input  wire signed [QW-1:0]    q,        // floor(x / 2^sh)
+    input  wire                    above,    // remainder > 1/2 LSB
+    input  wire                    tie,      // remainder == 1/2 LSB (and sh > 0)
+    input  wire                    nonzero,  // remainder != 0
+    output reg         [OUT_W-1:0] y,
+    output reg                     ovf
+);
+    localparam integer CW = ((QW > OUT_W + 1) ? QW : OUT_W + 1) + 1;
+    localparam [CW-1:0] ONE = {{(CW-1){1'b0}}, 1'b1};
+    // the largest and smallest codes of the output format
+    localparam [CW-1:0] HI = OUT_S ? (ONE << (OUT_W - 1)) - ONE : (ONE << OUT_W) - ONE;
+    localparam [CW-1:0] LO_SAT = OUT_S ? ~HI : {CW{1'b0}};
+    // SAT_SYM never gives -2^(W-1); for W = 1 ap_fixed keeps -1 (as SAT)
+    localparam [CW-1:0] LO = (OUT_S && OVF == 3 && OUT_W > 1) ? ~HI + ONE : LO_SAT;
+
+    wire neg = q[QW-1];  // floor(x / 2^sh) < 0 exactly when x < 0
+    reg  up;
+    reg  signed [CW-1:0] qr;
+    always @* begin
+        case (QUANT)
+            0: up = 1'b0;                       // TRN: toward -inf
+            1: up = neg & nonzero;              // TRN_ZERO: toward zero
+            2: up = above | tie;                // RND: ties toward +inf
+            3: up = above | (tie & neg);        // RND_ZERO: ties toward zero
+            4: up = above | (tie & ~neg);       // RND_INF: ties away from zero
+            5: up = above;                      // RND_MIN_INF: ties toward -inf
+            6: up = above | (tie & q[0]);       // RND_CONV: ties to even
+            default: up = 1'b0;
+        endcase
+        qr = q;  // sign-extended to CW bits
+        qr = qr + $signed({{(CW-1){1'b0}}, up});
+        if (qr >= $signed(LO) && qr <= $signed(HI)) begin
+            y   = qr[OUT_W-1:0];
+            ovf = 1'b0;
+        end else begin
+            ovf = 1'b1;
+            case (OVF)
+                0: y = qr[OUT_W-1:0];                                 // WRAP
+                2: y = {OUT_W{1'b0}};                                 // SAT_ZERO
+                default: y = (qr > $signed(HI)) ? HI[OUT_W-1:0] : LO[OUT_W-1:0];
+            endcase
+        end
+    end
+endmodule
+
+// x * 2^-IN_F (IN_W-bit two's complement) cast into (OUT_S, OUT_W, OUT_F).
 module fx_cast_sized #(
     parameter integer IN_W  = 16,
     parameter integer IN_F  = 0,
-    parameter integer IN_S  = 1,
     parameter integer OUT_W = 8,
     parameter integer OUT_F = 0,
     parameter integer OUT_S = 0,
     parameter integer QUANT = 0,
     parameter integer OVF   = 0
 ) (
-    input  wire [IN_W-1:0]  x,
-    output reg  [OUT_W-1:0] y,
-    output reg              ovf
+    input  wire signed [IN_W-1:0]  x,
+    output wire        [OUT_W-1:0] y,
+    output wire                    ovf
 );
-    localparam integer SH   = IN_F - OUT_F;
-    localparam integer DROP = (SH > 0) ? SH : 0;              // LSBs dropped
-    localparam integer SHL  = (SH < 0) ? -SH : 0;             // LSBs added
-    localparam integer DRW  = (DROP > 0) ? DROP : 1;          // width of the remainder
-    localparam integer XW   = ((IN_W > DROP) ? IN_W : DROP) + 1;  // signed, holds x and rem
-    localparam integer FLW  = XW - DROP;                      // signed floor quotient
-    localparam integer QB   = FLW + SHL;                      // ... with the bits added
-    localparam integer QW   = ((QB > OUT_W) ? QB : OUT_W) + 2;    // + rounding carry, + sign
+    localparam integer SH = IN_F - OUT_F;
+    localparam integer SHP = (SH > 0) ? SH : 1;
+    localparam integer SHL = (SH < 0) ? -SH : 0;
+    // a right shift of SH >= IN_W bits leaves 0 or -1: extend x so the remainder is exact
+    localparam integer XW = (SH > 0) ? ((IN_W > SHP) ? IN_W : SHP + 1) : IN_W + SHL;
+    localparam integer QW = (SH > 0) ? XW - SHP + 1 : XW;
 
-    wire neg = (IN_S != 0) && x[IN_W-1];
-    wire signed [XW-1:0] xe = {{(XW-IN_W){neg}}, x};
-    wire signed [XW-1:0] fl = xe >>> DROP;                    // floor(x / 2^DROP)
-    wire [DRW-1:0] rem = (DROP > 0) ? xe[DRW-1:0] : {DRW{1'b0}};
-    wire [DRW-1:0] lsb = 1;
-    wire [DRW-1:0] half = lsb << (DRW - 1);
-    wire above = (DROP > 0) && (rem > half);
-    wire tie   = (DROP > 0) && (rem == half);
-    wire inexact = (DROP > 0) && (rem != {DRW{1'b0}});
-    reg up;
-    always @* begin
-        case (QUANT)
-            1: up = neg & inexact;                            // TRN_ZERO: toward zero
-            2: up = above | tie;                              // RND: ties toward +inf
-            3: up = above | (tie & neg);                      // RND_ZERO: ties toward zero
-            4: up = above | (tie & ~neg);                     // RND_INF: ties away from zero
-            5: up = above;                                    // RND_MIN_INF: ties toward -inf
-            6: up = above | (tie & fl[0]);                    // RND_CONV: ties to even
-            default: up = 1'b0;                               // TRN: toward -inf
-        endcase
-    end
-    wire signed [QW-1:0] q = ($signed({{(QW-FLW){fl[FLW-1]}}, fl[FLW-1:0]}) <<< SHL)
-                             + $signed({{(QW-1){1'b0}}, up});
-    // range of the output format
-    wire signed [QW-1:0] one = {{(QW-1){1'b0}}, 1'b1};
-    wire signed [QW-1:0] hi = (OUT_S != 0) ? (one <<< (OUT_W - 1)) - one : (one <<< OUT_W) - one;
-    // SAT_SYM never gives -2^(W-1); for W = 1 ap_fixed keeps -1 (as SAT)
-    wire signed [QW-1:0] lo = (OUT_S == 0) ? {QW{1'b0}}
-                              : ((OVF == 3 && OUT_W > 1) ? -hi : -hi - one);
-    always @* begin
-        if (q >= lo && q <= hi) begin
-            y   = q[OUT_W-1:0];
-            ovf = 1'b0;
-        end else begin
-            ovf = 1'b1;
-            case (OVF)
-                0: y = q[OUT_W-1:0];                          // WRAP: low W bits
-                2: y = {OUT_W{1'b0}};                         // SAT_ZERO
-                default: y = (q > hi) ? hi[OUT_W-1:0] : lo[OUT_W-1:0];  // SAT, SAT_SYM
-            endcase
+    wire signed [QW-1:0] q;
+    wire above, tie, nonzero;
+    generate
+        if (SH > 0) begin : g_drop
+            wire signed [XW-1:0]  xe = x;
+            wire        [SHP-1:0] rem = xe[SHP-1:0];
+            wire        [SHP-1:0] half = ({SHP{1'b0}} | 1'b1) << (SHP - 1);
+            assign q = xe >>> SHP;
+            assign above = rem > half;
+            assign tie = rem == half;
+            assign nonzero = |rem;
+        end else begin : g_keep
+            wire signed [XW-1:0] xe = x;
+            assign q = xe <<< SHL;
+            assign above = 1'b0;
+            assign tie = 1'b0;
+            assign nonzero = 1'b0;
         end
-    end
+    endgenerate
+    fx_round_sat #(QW, OUT_W, OUT_S, QUANT, OVF) u_rs (
+        .q(q), .above(above), .tie(tie), .nonzero(nonzero), .y(y), .ovf(ovf));
+endmodule
+
+// x >> sh with rounding (sh per sample, 0 <= sh < 2^SH_W), into (OUT_S, OUT_W).
+module fx_cast_var #(
+    parameter integer IN_W  = 16,
+    parameter integer SH_W  = 5,
+    parameter integer SH_MAX = 31,  // the largest sh that occurs
+    parameter integer OUT_W = 8,
+    parameter integer OUT_S = 0,
+    parameter integer QUANT = 0,
+    parameter integer OVF   = 0
+) (
+    input  wire signed [IN_W-1:0]  x,
+    input  wire        [SH_W-1:0]  sh,
+    output wire        [OUT_W-1:0] y,
+    output wire                    ovf
+);
+    localparam integer XW = (IN_W > SH_MAX + 1) ? IN_W : SH_MAX + 1;
+    localparam [XW-1:0] ONE = {{(XW-1){1'b0}}, 1'b1};
+    wire signed [XW-1:0] xe = x;
+    wire        [XW-1:0] mask = (ONE << sh) - ONE;
+    wire        [XW-1:0] rem = xe & mask;
+    wire        [XW-1:0] half = (ONE << sh) >> 1;  // 0 when sh = 0: no tie
+    wire signed [XW-1:0] q = xe >>> sh;
+    fx_round_sat #(XW, OUT_W, OUT_S, QUANT, OVF) u_rs (
+        .q(q), .above(rem > half), .tie((sh != 0) && (rem == half)), .nonzero(|rem),
+        .y(y), .ovf(ovf));
 endmodule

@@ -69,13 +69,13 @@ module p1_colfilt #(
     end
 
     // ---- cycle c+1: state (or its first-row init) and the exact product ----------------
+    wire signed [R_W:0]  r_s = {(R_S != 0) & r1_d[R_W-1], r1_d};
     wire [ST_W-1:0] q_init;
     wire            ovf_init;
-    fx_cast_sized #(R_W, R_F, R_S, ST_W, ST_F, ST_S, ST_Q, ST_O) c_init (
-        .x(r1_d), .y(q_init), .ovf(ovf_init));
+    fx_cast_sized #(R_W + 1, R_F, ST_W, ST_F, ST_S, ST_Q, ST_O) c_init (
+        .x(r_s), .y(q_init), .ovf(ovf_init));
     wire [ST_W-1:0] q_cur = first1 ? (INIT_FIRST ? q_init : {ST_W{1'b0}}) : lb_rd;
     wire signed [ST_W:0] q_s = {(ST_S != 0) & q_cur[ST_W-1], q_cur};
-    wire signed [R_W:0]  r_s = {(R_S != 0) & r1_d[R_W-1], r1_d};
     wire signed [DW-1:0] r_al = r_s;
     wire signed [DW-1:0] q_al = q_s;
     wire signed [DW-1:0] diff = (r_al <<< (FE - R_F)) - (q_al <<< (FE - ST_F));
@@ -100,19 +100,19 @@ module p1_colfilt #(
     wire [S1_W-1:0] s1n;
     wire [S2_W-1:0] s2n;
     wire            ovf_qn, ovf_s1n, ovf_s2n;
-    fx_cast_sized #(SW, FS, 1, ST_W, ST_F, ST_S, ST_Q, ST_O) c_next (
+    fx_cast_sized #(SW, FS, ST_W, ST_F, ST_S, ST_Q, ST_O) c_next (
         .x(pre), .y(qn), .ovf(ovf_qn));
-    fx_cast_sized #(PW, FP, 1, S2_W, S2_F, S2_S, S2_Q, S2_O) c_s2 (
+    fx_cast_sized #(PW, FP, S2_W, S2_F, S2_S, S2_Q, S2_O) c_s2 (
         .x(prod2), .y(s2n), .ovf(ovf_s2n));
     wire signed [ST_W:0]   qn_s = {(ST_S != 0) & qn[ST_W-1], qn};
     wire signed [ST_W+1:0] qsum = q2_s + qn_s;
     generate
         if (CENTRED != 0) begin : g_centred
-            fx_cast_sized #(ST_W + 2, ST_F + 1, 1, S1_W, S1_F, S1_S, S1_Q, S1_O) c_s1 (
+            fx_cast_sized #(ST_W + 2, ST_F + 1, S1_W, S1_F, S1_S, S1_Q, S1_O) c_s1 (
                 .x(qsum), .y(s1n), .ovf(ovf_s1n));
         end else begin : g_paper
-            fx_cast_sized #(ST_W, ST_F, ST_S, S1_W, S1_F, S1_S, S1_Q, S1_O) c_s1 (
-                .x(q2), .y(s1n), .ovf(ovf_s1n));
+            fx_cast_sized #(ST_W + 1, ST_F, S1_W, S1_F, S1_S, S1_Q, S1_O) c_s1 (
+                .x(q2_s), .y(s1n), .ovf(ovf_s1n));
         end
     endgenerate
     always @(posedge clk) begin

@@ -126,8 +126,8 @@ module p1_frontend #(
     wire            row0_in = s_sof ? 1'b1 : in_first_row;
     wire [PIX_W-1:0] x_next;
     wire             ovf_x;
-    fx_cast_sized #(PIX_W, 0, PIX_S, PIX_W, PIX_F, PIX_S, PIX_Q, PIX_O) c_pix (
-        .x(s_data), .y(x_next), .ovf(ovf_x));
+    fx_cast_sized #(PIX_W + 1, 0, PIX_W, PIX_F, PIX_S, PIX_Q, PIX_O) c_pix (
+        .x({(PIX_S != 0) & s_data[PIX_W-1], s_data}), .y(x_next), .ovf(ovf_x));
     reg [PIX_W-1:0]  x1;
     reg              v1, sof1, eol1, first1, ovfx1;
     reg [ADDR_W:0]   col1;
@@ -162,7 +162,7 @@ module p1_frontend #(
     wire signed [XB-1:0]   xb = (x_al <<< (FX - PIX_F)) + (breg_al <<< (FX - BREG_F));
     wire [B_W-1:0] b_next;
     wire           ovf_b;
-    fx_cast_sized #(XB, FX, 1, B_W, B_F, B_S, B_Q, B_O) c_bias (
+    fx_cast_sized #(XB, FX, B_W, B_F, B_S, B_Q, B_O) c_bias (
         .x(xb), .y(b_next), .ovf(ovf_b));
     reg [ADDR_W:0] col2;
     reg            v2, sof2, eol2, first2;
@@ -181,12 +181,12 @@ module p1_frontend #(
     reg  [P_W-1:0] p_reg;
     wire [P_W-1:0] p_init;
     wire           ovf_pinit;
-    fx_cast_sized #(B_W, B_F, B_S, P_W, P_F, P_S, P_Q, P_O) c_pinit (
-        .x(bias_in), .y(p_init), .ovf(ovf_pinit));
+    wire signed [B_W:0]  b_s = {(B_S != 0) & bias_in[B_W-1], bias_in};
+    fx_cast_sized #(B_W + 1, B_F, P_W, P_F, P_S, P_Q, P_O) c_pinit (
+        .x(b_s), .y(p_init), .ovf(ovf_pinit));
     wire           col0 = col2 == {(ADDR_W + 1){1'b0}};
     wire [P_W-1:0] p_cur = col0 ? (INIT_FIRST ? p_init : {P_W{1'b0}}) : p_reg;
     wire signed [P_W:0]  p_s = {(P_S != 0) & p_cur[P_W-1], p_cur};
-    wire signed [B_W:0]  b_s = {(B_S != 0) & bias_in[B_W-1], bias_in};
     wire signed [DW-1:0] b_al = b_s;
     wire signed [DW-1:0] p_al = p_s;
     wire signed [PW-1:0] prod = pole * ((b_al <<< (FE - B_F)) - (p_al <<< (FE - P_F)));
@@ -195,7 +195,7 @@ module p1_frontend #(
     wire signed [SW-1:0] pre = (p_w <<< (FS - P_F)) + (prod_w <<< (FS - FP));
     wire [P_W-1:0] p_next;
     wire           ovf_pnext;
-    fx_cast_sized #(SW, FS, 1, P_W, P_F, P_S, P_Q, P_O) c_pnext (
+    fx_cast_sized #(SW, FS, P_W, P_F, P_S, P_Q, P_O) c_pnext (
         .x(pre), .y(p_next), .ovf(ovf_pnext));
     reg signed [PW-1:0] prod3;
     reg [P_W-1:0]  p3, pn3;
@@ -219,18 +219,18 @@ module p1_frontend #(
     wire [R2_W-1:0] r2_next;
     wire [R1_W-1:0] r1_next;
     wire            ovf_r1, ovf_r2;
-    fx_cast_sized #(PW, FP, 1, R2_W, R2_F, R2_S, R2_Q, R2_O) c_r2 (
+    fx_cast_sized #(PW, FP, R2_W, R2_F, R2_S, R2_Q, R2_O) c_r2 (
         .x(prod3), .y(r2_next), .ovf(ovf_r2));
     wire signed [P_W:0]   p3_s = {(P_S != 0) & p3[P_W-1], p3};
     wire signed [P_W:0]   pn3_s = {(P_S != 0) & pn3[P_W-1], pn3};
     wire signed [P_W+1:0] psum = p3_s + pn3_s;
     generate
         if (CONSISTENT != 0) begin : g_r1_centred
-            fx_cast_sized #(P_W + 2, P_F + 1, 1, R1_W, R1_F, R1_S, R1_Q, R1_O) c_r1 (
+            fx_cast_sized #(P_W + 2, P_F + 1, R1_W, R1_F, R1_S, R1_Q, R1_O) c_r1 (
                 .x(psum), .y(r1_next), .ovf(ovf_r1));
         end else begin : g_r1_paper
-            fx_cast_sized #(P_W, P_F, P_S, R1_W, R1_F, R1_S, R1_Q, R1_O) c_r1 (
-                .x(p3), .y(r1_next), .ovf(ovf_r1));
+            fx_cast_sized #(P_W + 1, P_F, R1_W, R1_F, R1_S, R1_Q, R1_O) c_r1 (
+                .x(p3_s), .y(r1_next), .ovf(ovf_r1));
         end
     endgenerate
     reg [ADDR_W:0] col4;
@@ -312,17 +312,19 @@ module p1_frontend #(
                 n8 <= nprod; n9 <= n8;
                 d8 <= r1_d[2]; d9 <= d8;
             end
+            // the divider takes two's complement operands: D = r1 with its sign bit
+            wire signed [R1_W:0] d9_s = {(R1_S != 0) & d9[R1_W-1], d9};
             if (DIVIDER != 0) begin : g_recip
-                p1_div_recip #(
-                    .N_W(NW), .N_F(S1_F + R2_F), .N_S(1), .D_W(R1_W), .D_F(R1_F), .D_S(R1_S),
-                    .Q_W(DQ_W), .Q_F(DQ_F), .Q_S(DQ_S), .Q_Q(DQ_Q), .Q_O(DQ_O),
+                fx_div_reciprocal #(
+                    .N_W(NW), .N_F(S1_F + R2_F), .D_W(R1_W + 1), .D_F(R1_F),
+                    .OUT_W(DQ_W), .OUT_F(DQ_F), .OUT_S(DQ_S), .QUANT(DQ_Q), .OVF(DQ_O),
                     .L(RECIP_L), .R(RECIP_R), .ROM_FILE(ROM_FILE)
-                ) u_div (.clk(clk), .n(n9), .d(d9), .q(ex_w), .ovf(ovf_dq_w));
+                ) u_div (.clk(clk), .n(n9), .d(d9_s), .y(ex_w), .ovf(ovf_dq_w));
             end else begin : g_restoring
-                p1_div_restoring #(
-                    .N_W(NW), .N_F(S1_F + R2_F), .N_S(1), .D_W(R1_W), .D_F(R1_F), .D_S(R1_S),
-                    .Q_W(DQ_W), .Q_F(DQ_F), .Q_S(DQ_S), .Q_Q(DQ_Q), .Q_O(DQ_O)
-                ) u_div (.clk(clk), .n(n9), .d(d9), .q(ex_w), .ovf(ovf_dq_w));
+                fx_div_restoring #(
+                    .N_W(NW), .N_F(S1_F + R2_F), .D_W(R1_W + 1), .D_F(R1_F),
+                    .OUT_W(DQ_W), .OUT_F(DQ_F), .OUT_S(DQ_S), .QUANT(DQ_Q), .OVF(DQ_O)
+                ) u_div (.clk(clk), .n(n9), .d(d9_s), .y(ex_w), .ovf(ovf_dq_w));
             end
         end else begin : g_no_div
             assign ovf_dq_w = 1'b0;

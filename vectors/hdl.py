@@ -14,36 +14,46 @@ import json
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .formats import read_stream_bin_valid, write_mem
 
+if TYPE_CHECKING:  # the simulator process imports this module: keep numba out of it
+    from rangefx.rtl_model.p1.config import P1Config
+
 __all__ = [
+    "FRONTEND_SOURCES",
     "FRONTEND_TAPS",
     "HDL_DIR",
     "HDL_SOURCES",
     "OVERFLOW_CODES",
     "OVERFLOW_SIGNALS",
     "QUANT_CODES",
+    "RANGE_INPUTS",
+    "RANGE_REGISTER_PORTS",
+    "RANGE_SOURCES",
+    "RANGE_TAP_GROUPS",
+    "ROWCOL_SOURCES",
     "TOPLEVEL",
     "bench_header",
     "frontend_instances",
+    "frontend_parameters",
+    "range_parameters",
+    "range_registers",
     "register_codes",
+    "rowcol_parameters",
     "top_parameters",
     "write_dump",
+    "write_recip_rom",
 ]
 
 #: ``hdl/`` of the source checkout (the Verilog is not installed with the package).
 HDL_DIR = Path(__file__).resolve().parent.parent / "hdl"
-HDL_SOURCES = (
-    "fx_cast_sized.v",
-    "p1_colfilt.v",
-    "p1_div_restoring.v",
-    "p1_div_recip.v",
-    "p1_frontend.v",
-    "p1_top.v",
-)
+#: One stream's front end (p1_frontend), and with the top (p1_top).
+FRONTEND_SOURCES = ("fx_cast_sized.v", "fx_divide.v", "p1_colfilt.v", "p1_frontend.v")
+HDL_SOURCES = (*FRONTEND_SOURCES, "p1_top.v")
 TOPLEVEL = "p1_top"
 
 #: Tap (without ``e1.``/``e2.``) -> (output port, its stage's valid port) of p1_frontend.
@@ -136,6 +146,40 @@ def top_parameters(manifest: Mapping, rom_file: str | Path | None = None) -> dic
     if rom_file is not None:
         params["ROM_FILE"] = f'"{Path(rom_file).resolve()}"'
     return params
+
+
+#: Parameters of p1_top that p1_frontend does not have.
+_TOP_ONLY = ("MOTION", "MAX_PIXELS", "PADDR_W")
+
+
+def frontend_parameters(config: P1Config, width: int, rom_file: str | Path = "") -> dict:
+    """Verilog parameters of one ``p1_frontend`` for ``config`` and lines of ``width``
+    pixels (the synthesis of one stream); ``rom_file`` as in :func:`top_parameters`."""
+    import tomllib
+
+    manifest = {
+        "pipeline": "p1",
+        "mode": "stereo",
+        "shape": [1, int(width)],
+        "config": {"parsed": tomllib.loads(config.to_toml())},
+    }
+    params = top_parameters(manifest, rom_file or None)
+    return {k: v for k, v in params.items() if k not in _TOP_ONLY}
+
+
+#: ``hdl/p1_rowcol.v`` (bias, row and column filter of one stream, the generic 64-bit
+#: ``fx_cast.v``): the stage ``rangefx hdl synth`` synthesises as ``rowcol``; the replay
+#: runs ``p1_frontend``, which computes the same signals with sized casts.
+ROWCOL_SOURCES = ("fx_cast.v", "p1_rowcol.v")
+_ROWCOL_PREFIXES = ("PIX", "BREG", "POLE", "B", "P", "R1", "R2", "Q", "S1", "S2")
+
+
+def rowcol_parameters(config: P1Config, width: int) -> dict:
+    """Verilog parameters of ``p1_rowcol`` for ``config`` and lines of ``width`` pixels."""
+    params = frontend_parameters(config, width)
+    keep = {"MAX_WIDTH", "ADDR_W", "CONSISTENT", "INIT_FIRST"}
+    keep |= {f"{p}_{x}" for p in _ROWCOL_PREFIXES for x in "WFSQO"}
+    return {k: v for k, v in params.items() if k in keep}
 
 
 def register_codes(manifest: Mapping) -> dict[str, int]:
@@ -268,3 +312,113 @@ def _mem_text(tap: str, rows: Sequence[tuple[int, int | None]], word: int) -> st
         if v is None:
             lines[k + 1] = "x" * ((word + 3) // 4)
     return "\n".join(lines) + "\n"
+
+
+# -- the range stage (hdl/p1_range.v) ---------------------------------------------------
+RANGE_SOURCES = ("fx_cast_sized.v", "fx_divide.v", "p1_range.v")
+
+#: Tap groups of ``p1_range`` in the order of their overflow-flag bits (``ovf_c``,
+#: ``ovf_p``, ``ovf_q``), each with its valid port; the port of a tap is its name.
+RANGE_TAP_GROUPS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "ovf_c": (
+        "c_valid",
+        ("xp", "yp", "c1", "a1", "b1", "k0", "k1", "k2", "vx", "vy", "wx", "wy", "w0"),
+    ),
+    "ovf_p": ("p_valid", ("gv", "num", "den", "v_sq", "g_sq", "g_thr")),
+    "ovf_q": ("q_valid", ("range_q",)),
+    "": ("m_valid", ("valid", "range")),
+}
+
+#: Stream inputs of ``p1_range`` (per stream ``e1_``/``e2_``) -> the front-end tap feeding it.
+RANGE_INPUTS = {"s1": "col_s1", "ex": "ex", "s2": "col_s2"}
+
+_RANGE_PREFIX = {
+    "col_s1": "S1",
+    "col_s2": "S2",
+    "f_reg": "FR",
+    "k_t_reg": "KT",
+    "k_m_reg": "KM",
+    "tg2_reg": "TG2",
+    "coord": "CO",
+    "c1": "C1",
+    "grad_a": "GA",
+    "grad_b": "GB",
+    "k_rot": "KR",
+    "geom_v": "V",
+    "geom_w": "W",
+    "gv": "GV",
+    "num": "NUM",
+    "den": "DEN",
+    "range": "RNG",
+    "v_sq": "VSQ",
+    "grad_sq": "GSQ",
+}
+#: Signals of ``p1_range`` that are only read (stream inputs, host registers): no modes.
+_RANGE_READ_ONLY = ("col_s1", "col_s2", "f_reg", "k_t_reg", "k_m_reg", "tg2_reg")
+
+#: Register port of ``p1_range`` -> the manifest's register names (``FrameRegisters``);
+#: ``m_raw`` packs the nine rotation terms, ``R00`` in the low bits.
+RANGE_REGISTER_PORTS: dict[str, tuple[str, ...]] = {
+    "cx_raw": ("cx",),
+    "cy_raw": ("cy",),
+    "f_raw": ("f",),
+    "k3_raw": ("k3",),
+    "k4_raw": ("k4",),
+    "k5_raw": ("k5",),
+    "m_raw": tuple(f"R{i}{c}" for i in range(3) for c in range(3)),
+    "te_raw": ("T_E",),
+    "tg2_raw": ("T_g^2",),
+    "dmin_raw": ("min_denominator",),
+    "rmax_raw": ("range_max",),
+}
+
+
+def range_parameters(config: P1Config, width: int, height: int, rom_file: str = "") -> dict:
+    """Verilog parameters of ``p1_range`` for ``config`` and frames of ``width`` x ``height``
+    pixels; ``rom_file``: the reciprocal seed ROM (``recip_rom.mem`` of a vector directory,
+    or :func:`write_recip_rom`), needed by the reciprocal divider only."""
+    params: dict = {
+        "X_W": max(1, (int(width) - 1).bit_length()),
+        "Y_W": max(1, (int(height) - 1).bit_length()),
+        "DIVIDER": int(config.divider == "reciprocal"),
+        "RECIP_L": config.recip_lut_bits,
+        "RECIP_R": config.recip_bits,
+    }
+    if config.divider == "reciprocal":
+        if not rom_file:
+            raise ValueError("the reciprocal divider needs its seed ROM file (rom_file)")
+        params["ROM_FILE"] = f'"{rom_file}"'
+    ex = config.fmt(config.ex_signal)
+    params |= {"EX_W": ex.word, "EX_F": ex.frac, "EX_S": int(ex.signed)}
+    for signal, p in _RANGE_PREFIX.items():
+        f = config.fmt(signal)
+        params |= {f"{p}_W": f.word, f"{p}_F": f.frac, f"{p}_S": int(f.signed)}
+        if signal not in _RANGE_READ_ONLY:
+            params |= {f"{p}_Q": int(f.quant), f"{p}_O": int(f.overflow)}
+    return params
+
+
+def range_registers(config: P1Config, registers: dict) -> dict[str, int]:
+    """Port values (unsigned words) of ``p1_range``'s host registers from a manifest's
+    ``registers`` (name -> ``{"signal", "raw", ...}``: the raw codes the model used)."""
+    out = {}
+    for port, names in RANGE_REGISTER_PORTS.items():
+        value = 0
+        for k, name in enumerate(names):
+            reg = registers[name]
+            word = config.fmt(reg["signal"]).word
+            value |= (int(reg["raw"]) & ((1 << word) - 1)) << (k * word)
+        out[port] = value
+    return out
+
+
+def write_recip_rom(config: P1Config, path: str | Path) -> Path:
+    """Write the reciprocal divider's seed ROM of ``config`` as ``$readmemh`` words (the
+    table of ``rangefx.rtl_model.runtime.reciprocal_lut``, as the vectors' ``recip_rom``)."""
+    from rangefx.rtl_model.runtime import reciprocal_lut
+
+    words = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
+    digits = max(1, (int(words.max()).bit_length() + 3) // 4)
+    p = Path(path)
+    p.write_text("".join(f"{int(w):0{digits}x}\n" for w in words))
+    return p

@@ -4,9 +4,11 @@
   input streams under Icarus or Verilator (cocotb + cocotbext-axi) and check every
   front-end tap value for value and cycle for cycle, the AXI4-Stream output and the
   overflow counters against the manifest (exit 0 when all match, 1 otherwise).
+* ``synth``: Yosys area (LUT, FF, carry, DSP, BRAM) of each stage and of the whole P1 as
+  instantiated, for a word-length config and a target (:mod:`rangefx.tools.studies.synth`).
 
-One function per subcommand adds its parser (``add_replay_parser``); ``add_parser``
-registers the group.
+One function per subcommand adds its parser (``add_replay_parser``, ``add_synth_parser``);
+``add_parser`` registers the group.
 """
 
 from __future__ import annotations
@@ -18,20 +20,25 @@ import tempfile
 import time
 from pathlib import Path
 
+from rangefx.rtl_model.registry import get_pipeline
 from rangefx.vectors.generate import case_from_manifest, load_manifest
 from rangefx.vectors.replay import SIMULATORS, SimulatorMissing, compare, simulate
 
 from ..errors import UserError
 from ..report import atomic_output_dir
+from ..studies.runner import load_config
+from ..studies.synth import AREA_KEYS, STAGES, TARGETS, synth_p1
+from .options import add_design_args, design_from_args, int_at_least
 
-__all__ = ["add_parser", "add_replay_parser", "cmd_replay"]
+__all__ = ["add_parser", "add_replay_parser", "add_synth_parser", "cmd_replay", "cmd_synth"]
 
 
 def add_parser(sub) -> None:
     """Register ``rangefx hdl`` and its subcommands on ``sub``."""
-    p = sub.add_parser("hdl", help="the Verilog of P1: replay test vectors (docs/hdl.md)")
+    p = sub.add_parser("hdl", help="the Verilog of P1: vector replay, synthesis area")
     hs = p.add_subparsers(dest="hdl_command", required=True)
     add_replay_parser(hs)
+    add_synth_parser(hs)
 
 
 def add_replay_parser(hs) -> None:
@@ -133,3 +140,43 @@ def _text(r: dict) -> str:
         f"mismatches: {'OK' if r['ok'] else 'FAIL'}"
     )
     return "\n".join(lines)
+
+
+def cmd_synth(args: argparse.Namespace) -> int:
+    pipeline = get_pipeline("p1")
+    config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
+    stages = tuple(STAGES) if args.stage == "all" else (args.stage,)
+    shape = (args.height, args.width)
+    report = synth_p1(config, args.target, shape, args.mode, stages, use_cache=not args.no_cache)
+    report = {"config": config.name, **report}
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    print(f"P1 {args.mode} {shape[0]}x{shape[1]}, config {config.name}, Yosys {args.target}:")
+    print(f"  {'stage':<8} {'inst':>4} " + " ".join(f"{k:>6}" for k in AREA_KEYS) + "  cached")
+    for stage, a in report["stages"].items():
+        cells = " ".join(f"{a[k]:>6}" for k in AREA_KEYS)
+        print(f"  {stage:<8} {a['instances']:>4} {cells}  {'yes' if a['cached'] else 'no'}")
+    print(f"  {'total':<8} {'':>4} " + " ".join(f"{report[k]:>6}" for k in AREA_KEYS))
+    return 0
+
+
+def add_synth_parser(hs) -> None:
+    """``hdl synth``: added to the ``hdl`` group's subparsers ``hs``."""
+    s = hs.add_parser("synth", help="Yosys area of the P1 RTL per stage and in all")
+    add_design_args(s, estimator=False)
+    s.add_argument("--target", choices=tuple(TARGETS), default="xcup",
+                   help="Yosys flow: synth_xilinx -family xc7|xcup, synth_ecp5, synth_ice40 "
+                   "(default xcup)")  # fmt: skip
+    s.add_argument("--stage", choices=(*STAGES, "all"), default="all",
+                   help="rowcol (one stream's bias/row/column filter), range, or all")  # fmt: skip
+    s.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
+                   help="stereo: two rowcol stages, motion: one (default stereo)")  # fmt: skip
+    s.add_argument("--width", type=int_at_least(2, "--width"), default=512,
+                   help="line width the line buffers and counters are sized for (512)")  # fmt: skip
+    s.add_argument("--height", type=int_at_least(2, "--height"), default=512,
+                   help="frame height the row counter is sized for (512)")  # fmt: skip
+    s.add_argument("--no-cache", action="store_true",
+                   help="synthesise again even when the cache holds the result")  # fmt: skip
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_synth)
