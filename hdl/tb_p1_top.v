@@ -6,10 +6,11 @@
 // file with `verilator --binary --timing`. The bench reads the input streams'
 // `*.stream.mem` words {sof, eol, valid, data} ($readmemh), drives one word per clock
 // (cycle k of the file in cycle k of the bench), and writes every front-end tap sample
-// while its stage's valid is high, every AXI4-Stream output beat, and at the end the
-// overflow counters and flags, as text lines to +OUT=<file>:
-//   T <stream> <tap> <cycle> <hex value>   I <cycle>   M <hex tdata> <tuser> <tlast>
-//   O <stream> <signal> <count>            F <flag> <value>
+// and range-stage tap sample while its stage's valid is high (with the range stage's
+// overflow flags), every AXI4-Stream output beat, and at the end the front ends'
+// overflow counters and the flags, as text lines to +OUT=<file>:
+//   T <stream|R> <tap> <cycle> <hex value>   G <ovf group> <hex flags>   I <cycle>
+//   M <hex tdata> <tuser> <tlast>   O <stream> <signal> <count>   F <flag> <value>
 `timescale 1ns / 1ps
 `include "p1_bench.vh"
 module tb_p1_top;
@@ -23,7 +24,7 @@ module tb_p1_top;
     wire [`P1_OUT_W-1:0] m_tdata;
     wire m_tvalid, m_tuser, m_tlast, align_error, frame_too_big, line_too_long;
     p1_top #(`P1_PARAMS) dut (
-        .clk(clk), .rst(rst), .pole_raw(`P1_POLE_RAW), .bias_raw(`P1_BIAS_RAW),
+        .clk(clk), .rst(rst), `P1_REGISTERS,
         .s0_axis_tvalid(in0[PW-3]), .s0_axis_tdata(in0[PW-4:0]), .s0_axis_tuser(in0[PW-1]),
         .s0_axis_tlast(in0[PW-2]),
         .s1_axis_tvalid(in1[PW-3]), .s1_axis_tdata(in1[PW-4:0]), .s1_axis_tuser(in1[PW-1]),

@@ -34,6 +34,7 @@ from rangefx.vectors.formats import read_stream_bin
 from rangefx.vectors.hdl import (
     FRONTEND_TAPS,
     OVERFLOW_SIGNALS,
+    RANGE_TAP_GROUPS,
     frontend_instances,
     register_codes,
     write_dump,
@@ -106,6 +107,18 @@ async def replay(dut) -> None:
     valids = {key: getattr(instances[key.split("|")[0]], key.split("|")[1]) for key in groups}
     samples: dict[str, list[tuple[int, int | None]]] = {}
     inputs: list[int] = []
+    # the range stage: its tap groups, each with a valid and a vector of overflow flags
+    # (bit k: the k-th tap's cast), counted per signal as the model counts them
+    signal_of = {e["tap"]: e["signal"] for e in manifest["files"]}
+    overflows = dict.fromkeys(OVERFLOW_SIGNALS, 0)
+    ranges = []
+    for ovf, (vport, names) in RANGE_TAP_GROUPS.items():
+        flags_h = getattr(dut.u_range, ovf) if ovf else None
+        handles = [(t, getattr(dut.u_range, t)) for t in names]
+        ranges.append((getattr(dut.u_range, vport), flags_h, handles))
+        for t in names:
+            if ovf:
+                overflows.setdefault(signal_of[t], 0)
 
     async def sample() -> None:
         cycle = 0
@@ -119,6 +132,13 @@ async def replay(dut) -> None:
                     stream = key.split("|")[0]
                     for tap, h in groups[key]:
                         samples.setdefault(f"{stream}.{tap}", []).append((cycle, _read(h)))
+            for valid, flags_h, handles in ranges:
+                if valid.value == 1:
+                    bits = int(flags_h.value) if flags_h is not None else 0
+                    for k, (tap, h) in enumerate(handles):
+                        samples.setdefault(tap, []).append((cycle, _read(h)))
+                        if flags_h is not None:
+                            overflows[signal_of[tap]] += (bits >> k) & 1
             cycle += 1
 
     await ClockCycles(dut.clk, 2)
@@ -133,7 +153,6 @@ async def replay(dut) -> None:
     while not sink.empty():
         frame = sink.recv_nowait()
         lines.append((list(frame.tdata), _first(frame.tuser)))
-    overflows = dict.fromkeys(OVERFLOW_SIGNALS, 0)
     for inst in instances.values():
         for signal in OVERFLOW_SIGNALS:
             overflows[signal] += int(getattr(inst, f"ovf_{signal}").value)

@@ -1,11 +1,12 @@
-"""HDL replay of the P1 front end (``hdl/``, ``rangefx hdl replay``, docs/hdl.md).
+"""HDL replay of the whole P1 (``hdl/``, ``rangefx hdl replay``, docs/hdl.md).
 
 Vectors of small lab crops (blanking and input gaps) are replayed through
 ``hdl/p1_top.v`` (cocotb + cocotbext-axi under Icarus; Verilator through the Verilog
-bench when installed) and every front-end tap is checked value for value and cycle for
-cycle against the manifest, for each variant x divider x mode, under the default and a
-mixed-modes narrowed config; overflow counts equal the model's on a config that
-overflows; a rounding mutant is reported at the first differing sample with its count.
+bench when installed) and every tap of both front ends and of the range stage is checked
+value for value and cycle for cycle against the manifest, for each variant x divider x
+mode, under the default and a mixed-modes narrowed config; overflow counts equal the
+model's on a config that overflows; a rounding mutant is reported at the first differing
+sample with its count.
 Skips when iverilog, cocotb or cocotbext-axi is absent (``.ci/run`` installs them).
 """
 
@@ -21,6 +22,7 @@ import pytest
 
 from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p1 import RANGE_TAPS
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.tools.cli import main
 from rangefx.tools.cli.vectors import crop_case
@@ -94,9 +96,9 @@ def _replay(vec, tmp_path, sim: str = "icarus", **overrides) -> replay.ReplayRep
     return replay.compare(vec, run["dump"])
 
 
-def _stream_taps(config: P1Config) -> set[str]:
+def _rtl_taps(config: P1Config) -> set[str]:
     names = {t for t in FRONTEND_TAPS if t != "col2_state" or config.variant == "consistent"}
-    return {f"{s}.{t}" for s in ("e1", "e2") for t in names}
+    return {f"{s}.{t}" for s in ("e1", "e2") for t in names} | set(RANGE_TAPS)
 
 
 @pytest.mark.parametrize("mode", ["stereo", "motion"])
@@ -110,7 +112,7 @@ def test_front_end_replays_value_and_cycle_exact(config_name, design, mode, tmp_
         config = modes_config(variant, divider)
     vec, _vs = _vectors(tmp_path, config, mode)
     report = _replay(vec, tmp_path)
-    assert set(report.taps) == _stream_taps(config)
+    assert set(report.taps) == _rtl_taps(config)
     m, n = CROP[1] - CROP[0], CROP[3] - CROP[2]
     for tap, row in report.taps.items():
         assert (row["samples"], row["got_samples"]) == (m * n, m * n), tap
@@ -123,12 +125,12 @@ def test_front_end_replays_value_and_cycle_exact(config_name, design, mode, tmp_
 def test_overflow_counts_equal_the_manifest(design, tmp_path):
     config = overflowing_config(*design)
     vec, vs = _vectors(tmp_path, config)
-    counted = {s for s, c in vs.manifest["overflows"].items() if c and s in replay.OVERFLOW_SIGNALS}
+    counted = {s for s, c in vs.manifest["overflows"].items() if c}
     assert len(counted) >= 3, vs.manifest["overflows"]  # the config overflows somewhere
     report = _replay(vec, tmp_path)
-    assert {s: o["rtl"] for s, o in report.overflows.items()} == {
-        s: vs.manifest["overflows"].get(s, 0) for s in replay.OVERFLOW_SIGNALS
-    }
+    rtl = {s: o["rtl"] for s, o in report.overflows.items() if o["rtl"]}
+    assert rtl == vs.manifest["overflows"]
+    assert set(report.overflows) >= set(replay.OVERFLOW_SIGNALS) | {"range", "gv", "den"}
     assert report.ok
 
 
@@ -197,7 +199,7 @@ def test_verilator_replays_value_and_cycle_exact(tmp_path):
     vec, _vs = _vectors(tmp_path, modes_config("paper", "reciprocal"), "motion")
     report = _replay(vec, tmp_path, "verilator")
     assert report.ok, report.first_mismatch
-    assert len(report.taps) == 16
+    assert len(report.taps) == 16 + len(RANGE_TAPS)
 
 
 def test_mode_codes_are_the_model_enums():

@@ -1,5 +1,6 @@
-"""Replay a P1 vector directory through the Verilog (``hdl/``) and check every front-end
-tap value for value and cycle for cycle (``rangefx hdl replay``, docs/hdl.md).
+"""Replay a P1 vector directory through the Verilog (``hdl/``) and check every tap of the
+RTL (both front ends, the range stage) value for value and cycle for cycle
+(``rangefx hdl replay``, docs/hdl.md).
 
 :func:`simulate` builds ``hdl/p1_top.v`` with the directory's parameters
 (:func:`rangefx.vectors.hdl.top_parameters`) under Icarus or Verilator through
@@ -7,7 +8,7 @@ tap value for value and cycle for cycle (``rangefx hdl replay``, docs/hdl.md).
 :func:`compare` checks the dump against the vectors: per tap the samples, value
 mismatches, cycle mismatches (a sample's cycle against the manifest's: its input beat
 plus the declared latency) and the first mismatch; the AXI4-Stream output against the
-stream taps; the overflow counters against the manifest's counts.
+``valid`` and ``range`` taps; the overflow counters against the manifest's counts.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from .hdl import (
     HDL_DIR,
     HDL_SOURCES,
     OVERFLOW_SIGNALS,
+    RANGE_TAP_GROUPS,
     TOPLEVEL,
     bench_header,
     frontend_instances,
@@ -55,9 +57,10 @@ class SimulatorMissing(RuntimeError):
     """The simulator (or cocotb) is not installed."""
 
 
-def _stream_taps(manifest: Mapping) -> list[str]:
+def _rtl_taps(manifest: Mapping) -> list[str]:
+    """The taps the RTL emits: both streams' front-end taps and the range stage's."""
     return [e["tap"] for e in manifest["files"]
-            if e["kind"] == "stream_tap" and e["path"].endswith(".mem")]  # fmt: skip
+            if e["kind"] in ("stream_tap", "range") and e["path"].endswith(".mem")]  # fmt: skip
 
 
 def simulate(
@@ -186,6 +189,7 @@ def _run_verilator(
 def _dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None:
     """Parse the Verilog bench's lines (``hdl/tb_p1_top.v``) into the dump."""
     streams = list(frontend_instances(manifest))
+    signal_of = {e["tap"]: e["signal"] for e in manifest["files"]}
     samples: dict[str, list[tuple[int, int | None]]] = {}
     inputs: list[int] = []
     lines: list[tuple[list[int], int]] = []
@@ -200,7 +204,7 @@ def _dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None
             kind = part[0]
             if kind == "T":
                 value = None if any(c in "xXzZ" for c in part[4]) else int(part[4], 16)
-                name = f"{streams[int(part[1])]}.{part[2]}"
+                name = part[2] if part[1] == "R" else f"{streams[int(part[1])]}.{part[2]}"
                 samples.setdefault(name, []).append((int(part[3]), value))
                 cycles = max(cycles, int(part[3]) + 1)
             elif kind == "I":
@@ -213,6 +217,10 @@ def _dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None
                 if part[3] == "1":
                     lines.append((current, first_tuser))
                     current = []
+            elif kind == "G":  # a range tap group's overflow flags, bit k = its k-th tap
+                bits = int(part[2], 16)
+                for k, tap in enumerate(RANGE_TAP_GROUPS[part[1]][1]):
+                    overflows[signal_of[tap]] = overflows.get(signal_of[tap], 0) + (bits >> k & 1)
             elif kind == "O":
                 overflows[part[2]] += int(part[3])
             elif kind == "F":
@@ -275,7 +283,7 @@ def compare(directory: str | Path, dump: str | Path) -> ReplayReport:
     status = json.loads((dump / "status.json").read_text())
     report = ReplayReport()
     firsts = []
-    for tap in _stream_taps(manifest):
+    for tap in _rtl_taps(manifest):
         entry = next(e for e in manifest["files"] if e["tap"] == tap and e["path"].endswith(".mem"))
         word = int(entry["word"])
         exp_v = fmt_io.to_unsigned(read_tap(vec, tap, manifest), word).astype(np.int64)
@@ -312,8 +320,8 @@ def compare(directory: str | Path, dump: str | Path) -> ReplayReport:
     if firsts:
         report.first_mismatch = min(firsts, key=lambda f: (f["cycle"] is None, f["cycle"] or 0))
     model = manifest.get("overflows", {})
-    for signal in OVERFLOW_SIGNALS:
-        rtl = int(status["overflows"][signal])
+    for signal in sorted(set(status["overflows"]) | set(model)):
+        rtl = int(status["overflows"].get(signal, 0))
         report.overflows[signal] = {"rtl": rtl, "model": int(model.get(signal, 0))}
     report.m_axis = _check_m_axis(vec, manifest, dump)
     report.flags = {k: int(status[k]) for k in ("line_too_long", "align_error", "frame_too_big")}
@@ -327,21 +335,15 @@ def _signed(codes: np.ndarray, i: int, word: int, signed: bool) -> int | None:
 
 
 def _check_m_axis(vec: Path, manifest: Mapping, dump: Path) -> dict:
-    """The AXI4-Stream output words against the stream taps: per pixel
-    ``{e2_ey, e2_ex, e2_e, e1_ey, e1_ex, e1_e}`` (``hdl/p1_top.v``), one line per frame."""
+    """The AXI4-Stream output words against the vectors: per pixel ``{valid, range}``
+    (``hdl/p1_top.v``), one line per image line, TUSER on the frame's first pixel."""
     m, n = manifest["shape"]
     out = np.load(dump / "m_axis.npz")
     words = [int(w) for w in out["words"]]
-    expected = [0] * (m * n)
-    shift = 0
-    for stream in ("e1", "e2"):
-        for tap in ("col_s1", "ex", "col_s2"):
-            name = f"{stream}.{tap}"
-            entry = next(e for e in manifest["files"] if e["tap"] == name)
-            codes = fmt_io.to_unsigned(read_tap(vec, name, manifest), int(entry["word"]))
-            for i, c in enumerate(codes.tolist()):
-                expected[i] |= int(c) << shift
-            shift += int(entry["word"])
+    entry = next(e for e in manifest["files"] if e["tap"] == "range")
+    rng = fmt_io.to_unsigned(read_tap(vec, "range", manifest), int(entry["word"]))
+    valid = read_tap(vec, "valid", manifest)
+    expected = [(int(v) << int(entry["word"])) | int(r) for v, r in zip(valid, rng, strict=True)]
     k = min(len(words), len(expected))
     bad = sum(words[i] != expected[i] for i in range(k)) + abs(len(words) - len(expected))
     lines = out["line_lengths"].tolist()
