@@ -115,6 +115,7 @@ def _run_cocotb(
         runner.build(
             sources=[HDL_DIR / s for s in HDL_SOURCES],
             hdl_toplevel=TOPLEVEL,
+            includes=[HDL_DIR],
             parameters=params,
             build_dir=build,
             always=True,
