@@ -50,6 +50,7 @@ __all__ = [
     "proxy_area",
     "proxy_ratios",
     "synth_p1",
+    "synth_record",
     "synth_stage",
     "yosys_version",
 ]
@@ -214,9 +215,17 @@ def _key(stage: str, target: str, params: Mapping, version: str) -> str:
     return h.hexdigest()[:32]
 
 
+def _verilog_constant(value: object) -> str:
+    """A parameter value as ``chparam`` reads it: a negative integer as a signed 32-bit
+    literal (``chparam`` cannot decode ``-4``), strings as they are (quoted)."""
+    if isinstance(value, int) and value < 0:
+        return f"32'sh{value & 0xFFFFFFFF:08X}"
+    return str(value)
+
+
 def _yosys_script(top: str, sources: tuple[str, ...], params: Mapping, target: str) -> str:
     lines = ["read_verilog -defer " + " ".join(str(HDL_DIR / s) for s in sources)]
-    sets = " ".join(f"-set {k} {v}" for k, v in params.items())
+    sets = " ".join(f"-set {k} {_verilog_constant(v)}" for k, v in params.items())
     lines += [f"chparam {sets} {top}", f"hierarchy -top {top}", TARGETS[target].command,
               "tee -q -o stat.json stat -json"]  # fmt: skip
     return "\n".join(lines) + "\n"
@@ -388,3 +397,15 @@ def proxy_ratios(proxy: Mapping[str, int], area: Mapping[str, int]) -> dict[str,
         "bram": ratio(proxy["bram18"], area["bram"]),
         "lut": None,
     }
+
+
+def synth_record(
+    config: P1Config, shape: tuple[int, int], mode: str, target: str = "xcup"
+) -> dict[str, int]:
+    """A sweep point's synthesis figures (the whole P1, :func:`synth_p1`): ``synth_lut``,
+    ``synth_ff``, ``synth_carry``, ``synth_dsp``, ``synth_bram`` and the cost the studies
+    minimise, ``synth_cost`` = LUT + FF."""
+    area = synth_p1(config, target, shape, mode)
+    rec = {f"synth_{k}": area[k] for k in AREA_KEYS}
+    rec["synth_cost"] = area["lut"] + area["ff"]
+    return rec
