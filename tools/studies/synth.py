@@ -28,6 +28,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from rangefx.rtl_model.p1.config import P1Config
+from rangefx.rtl_model.p1.pipeline import FRONTEND_SIGNALS
+from rangefx.rtl_model.registry import get_pipeline
 from rangefx.vectors.hdl import (
     HDL_DIR,
     HDL_SOURCES,
@@ -321,41 +323,24 @@ def synth_p1(
             "proxy_ratio": proxy_ratios(proxy_total, totals)}  # fmt: skip
 
 
+#: The x-derivative's signals: in no stage of ``hdl/`` here (nor is the frame store).
+_X_DERIVATIVE = ("div_quot", "col2_state", "col2_out")
 #: Signals whose registers each stage of ``hdl/`` holds (``rtl_model/p1/cost.py``
-#: ``REGISTER_INSTANCES``): ``rowcol`` per stream, ``range`` once (with the host registers
-#: it reads). The x-derivative (``div_quot``; ``col2_state``, ``col2_out``) and the frame
-#: store are in no stage here.
+#: ``REGISTER_INSTANCES``): ``rowcol`` per stream (with the pole and bias registers),
+#: ``range`` once (with the host registers it reads); from the pipeline's signal groups.
 STAGE_SIGNALS: dict[str, tuple[str, ...]] = {
     "rowcol": (
         "pix_in",
-        "bias_in",
-        "row_state",
-        "row_r1",
-        "row_r2",
-        "col_state",
-        "col_s1",
-        "col_s2",
         "bias_reg",
         "pole_coef",
+        *(s for s in FRONTEND_SIGNALS if s not in _X_DERIVATIVE),
     ),
     "range": (
-        "c1",
-        "grad_a",
-        "grad_b",
-        "coord",
+        *get_pipeline("p1").signal_groups["range_stage"],
         "f_reg",
         "k_t_reg",
         "k_m_reg",
-        "k_rot",
-        "geom_v",
-        "geom_w",
-        "gv",
-        "num",
-        "den",
-        "range",
-        "v_sq",
         "tg2_reg",
-        "grad_sq",
     ),
 }
 #: Multipliers of the proxy (``rtl_model/p1/cost.py multipliers``) by stage, by name prefix.
