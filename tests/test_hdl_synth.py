@@ -95,3 +95,16 @@ def test_optimiser_keeps_only_narrowings_that_lower_the_measured_cost():
     assert dropped and {s["signal"] for s in dropped} == {"col_s1"}
     assert all(s["cost_to"] > s["cost_from"] for s in dropped)
     assert all(s["cost_to"] <= s["cost_from"] for s in res.steps if s["kept"])
+
+
+def test_sweep_synth_metrics_make_lut_plus_ff_the_pareto_cost():
+    from rangefx.tools.errors import UserError
+    from rangefx.tools.studies.sweep import parse_sweep
+
+    head = '[sweep]\nname = "s"\nscenes = ["lab"]\nmetrics = ["golden", "synth"]\n'
+    axis = '[[axis]]\nsignals = "row_r2"\nparam = "frac"\nvalues = [8, 10]\n'
+    assert parse_sweep(head + axis).cost_key == "synth_cost"
+    assert parse_sweep(head.replace(', "synth"', "") + axis).cost_key == "cost_bits"
+    p2 = head + 'pipeline = "p2"\n' + axis.replace("row_r2", "p2_a")
+    with pytest.raises(UserError, match="only P1 has it"):
+        parse_sweep(p2)
