@@ -35,10 +35,13 @@ module fx_round_sat #(
     localparam [CW-1:0] HI = OUT_S ? (ONE << (OUT_W - 1)) - ONE : (ONE << OUT_W) - ONE;
     localparam [CW-1:0] LO_SAT = OUT_S ? ~HI : {CW{1'b0}};
     // SAT_SYM never gives -2^(W-1); for W = 1 ap_fixed keeps -1 (as SAT)
-    localparam [CW-1:0] LO = (OUT_S && OVF == 3 && OUT_W > 1) ? ~HI + ONE : LO_SAT;
+    localparam integer SYM = (OUT_S && OVF == 3 && OUT_W > 1) ? 1 : 0;
+    localparam [CW-1:0] LO = SYM ? ~HI + ONE : LO_SAT;
+    // the bits above the output word (from its sign bit when signed) must repeat the sign
+    localparam integer TOP = OUT_S ? OUT_W - 1 : OUT_W;
 
     wire neg = q[QW-1];  // floor(x / 2^sh) < 0 exactly when x < 0
-    reg  up;
+    reg  up, above_hi, below_lo;
     reg  signed [CW-1:0] qr;
     always @* begin
         case (QUANT)
@@ -53,17 +56,16 @@ module fx_round_sat #(
         endcase
         qr = q;  // sign-extended to CW bits
         qr = qr + $signed({{(CW-1){1'b0}}, up});
-        if (qr >= $signed(LO) && qr <= $signed(HI)) begin
-            y   = qr[OUT_W-1:0];
-            ovf = 1'b0;
-        end else begin
-            ovf = 1'b1;
-            case (OVF)
-                0: y = qr[OUT_W-1:0];                                 // WRAP
-                2: y = {OUT_W{1'b0}};                                 // SAT_ZERO
-                default: y = (qr > $signed(HI)) ? HI[OUT_W-1:0] : LO[OUT_W-1:0];
-            endcase
-        end
+        // range checks on the top bits, not CW-bit comparisons
+        above_hi = ~qr[CW-1] & (|qr[CW-2:TOP]);
+        below_lo = qr[CW-1] & (OUT_S ? ~(&qr[CW-2:TOP]) : 1'b1);
+        if (SYM) below_lo = below_lo | (qr == $signed(LO_SAT));
+        ovf = above_hi | below_lo;
+        case (OVF)
+            0: y = qr[OUT_W-1:0];                                     // WRAP
+            2: y = ovf ? {OUT_W{1'b0}} : qr[OUT_W-1:0];               // SAT_ZERO
+            default: y = above_hi ? HI[OUT_W-1:0] : (below_lo ? LO[OUT_W-1:0] : qr[OUT_W-1:0]);
+        endcase
     end
 endmodule
 

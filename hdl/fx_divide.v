@@ -22,8 +22,8 @@ module fx_div_restoring #(
     input  wire                    clk,
     input  wire signed [N_W-1:0]   n,
     input  wire signed [D_W-1:0]   d,
-    output wire        [OUT_W-1:0] y,
-    output wire                    ovf
+    output reg         [OUT_W-1:0] y,
+    output reg                     ovf
 );
     // T = |N| 2^SH and DD = |D| 2^-SH (whichever exponent is >= 0): q = floor(T / DD) has
     // one guard bit below the LSB of S; q >= 2^QB overflows S in every mode, so only QB
@@ -102,14 +102,7 @@ module fx_div_restoring #(
     wire             ovf_c;
     fx_cast_sized #(MW + 1, OUT_F + 2, OUT_W, OUT_F, OUT_S, QUANT, OVF) u_cast (
         .x(raw), .y(y_c), .ovf(ovf_c));
-    reg [OUT_W-1:0] y_r;
-    reg             ovf_r;
-    always @(posedge clk) begin
-        y_r <= y_c;
-        ovf_r <= ovf_c;
-    end
-    assign y = y_r;
-    assign ovf = ovf_r;
+    always @(posedge clk) {y, ovf} <= {y_c, ovf_c};
 endmodule
 
 module fx_div_reciprocal #(
@@ -124,8 +117,8 @@ module fx_div_reciprocal #(
     input  wire                    clk,
     input  wire signed [N_W-1:0]   n,
     input  wire signed [D_W-1:0]   d,
-    output wire        [OUT_W-1:0] y,
-    output wire                    ovf
+    output reg         [OUT_W-1:0] y,
+    output reg                     ovf
 );
     localparam integer YW = R + 1;      // y0 < 2^R
     localparam integer EW = R + 2;      // e = 2^(R+1) - t in (0, 2^(R+1)]
@@ -212,12 +205,5 @@ module fx_div_reciprocal #(
     wire             ovf_c;
     fx_cast_var #(XW, SH_W, SH_MAX, OUT_W, OUT_S, QUANT, OVF) u_cast (
         .x(x_7), .sh(sh_7), .y(y_c), .ovf(ovf_c));
-    reg [OUT_W-1:0] y_r;
-    reg             ovf_r;
-    always @(posedge clk) begin
-        y_r <= y_c;
-        ovf_r <= ovf_c;
-    end
-    assign y = y_r;
-    assign ovf = ovf_r;
+    always @(posedge clk) {y, ovf} <= {y_c, ovf_c};
 endmodule

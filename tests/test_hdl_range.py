@@ -145,8 +145,13 @@ def assert_replay_exact(vec: Path, dump: Path) -> int:
     return samples
 
 
+#: The shipped lab-optimised config: words of 1-2 bits and negative fraction bits
+#: (``coord`` s1.-11, ``v_sq`` u1.-12, ``k_rot`` s1.-3, ...).
+OPTIMISED = HDL_DIR.parent / "tools" / "studies" / "sweeps" / "p1_lab_optimised_1pct.toml"
+
 CASES = [
     ("lab", "paper", "reciprocal", "default"),
+    ("lab", "paper", "reciprocal", "optimised"),
     ("lab", "consistent", "restoring", "modes"),
     ("runway", "paper", "restoring", "default"),
     ("runway", "consistent", "reciprocal", "modes"),
@@ -157,6 +162,8 @@ CASES = [
 def test_range_stage_replays_bit_and_cycle_exact(scene, variant, divider, formats, tmp_path):
     if formats == "default":
         config = P1Config.default(variant=variant, divider=divider)
+    elif formats == "optimised":
+        config = P1Config.load(str(OPTIMISED)).with_(variant=variant, divider=divider)
     else:
         config = range_modes_config(variant, divider)
     vec = _vectors(tmp_path, scene, config)

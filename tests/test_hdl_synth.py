@@ -63,10 +63,11 @@ def test_yosys_area_of_the_rowcol_stage_is_cached_and_follows_the_formats(
     assert main(argv) == 0
     again = json.loads(capsys.readouterr().out)
     assert again["stages"]["rowcol"]["cached"] and again["total"] == first["total"]
-    # four fewer bits of row_r1 and row_r2: fewer flip-flops in the synthesised stage
+    # 12 fewer fraction bits of row_r1 and row_r2 (row_r2 s8.-2: a negative parameter
+    # value, which chparam reads as a signed literal): fewer flip-flops
     cfg = P1Config.default()
     narrow = cfg.with_formats(**{
-        s: FixedFormat(f.signed, f.word - 4, f.frac - 4, f.quant, f.overflow)
+        s: FixedFormat(f.signed, f.word - 12, f.frac - 12, f.quant, f.overflow)
         for s, f in ((s, cfg.formats[s]) for s in ("row_r1", "row_r2"))
     })  # fmt: skip
     toml = tmp_path / "narrow.toml"
@@ -94,3 +95,16 @@ def test_optimiser_keeps_only_narrowings_that_lower_the_measured_cost():
     assert dropped and {s["signal"] for s in dropped} == {"col_s1"}
     assert all(s["cost_to"] > s["cost_from"] for s in dropped)
     assert all(s["cost_to"] <= s["cost_from"] for s in res.steps if s["kept"])
+
+
+def test_sweep_synth_metrics_make_lut_plus_ff_the_pareto_cost():
+    from rangefx.tools.errors import UserError
+    from rangefx.tools.studies.sweep import parse_sweep
+
+    head = '[sweep]\nname = "s"\nscenes = ["lab"]\nmetrics = ["golden", "synth"]\n'
+    axis = '[[axis]]\nsignals = "row_r2"\nparam = "frac"\nvalues = [8, 10]\n'
+    assert parse_sweep(head + axis).cost_key == "synth_cost"
+    assert parse_sweep(head.replace(', "synth"', "") + axis).cost_key == "cost_bits"
+    p2 = head + 'pipeline = "p2"\n' + axis.replace("row_r2", "p2_a")
+    with pytest.raises(UserError, match="only P1 has it"):
+        parse_sweep(p2)

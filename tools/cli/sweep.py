@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import hashlib
 import json
 import sys
@@ -102,6 +103,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if not args.definition or not args.out:
         raise UserError("sweep needs a definition file and --out DIR (or --example)")
     defn = load_sweep(args.definition)
+    if args.cost == "synth" and "synth" not in defn.metrics:
+        try:
+            defn = dataclasses.replace(defn, metrics=(*defn.metrics, "synth"))
+        except ValueError as exc:
+            raise UserError(f"--cost synth: {exc}") from None
+    if "synth" in defn.metrics:
+        from ..studies.synth import yosys_version
+
+        yosys_version()  # one error line now if yosys is missing, not one per point
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UserError(f"output path {str(out)!r} exists and is not a directory")
@@ -450,6 +460,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", help="address of a dask.distributed scheduler")
     p.add_argument("--workers", type=_positive_int, default=2, help="local threads (default 2)")
     p.add_argument("--example", action="store_true", help="print the example definition's path")
+    p.add_argument("--cost", choices=("proxy", "synth"), default="proxy",
+                   help="cost axis of the Pareto fronts: proxy (cost_bits, default) or synth "
+                   "(Yosys xcup LUT + FF of the P1 RTL per point, cached; adds the synth "
+                   "metrics)")  # fmt: skip
     p.add_argument(
         "--restart", action="store_true",
         help="delete the results of an earlier sweep in --out (another definition) and start over",

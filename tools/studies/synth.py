@@ -28,6 +28,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from rangefx.rtl_model.p1.config import P1Config
+from rangefx.rtl_model.p1.pipeline import FRONTEND_SIGNALS
+from rangefx.rtl_model.registry import get_pipeline
 from rangefx.vectors.hdl import (
     HDL_DIR,
     RANGE_SOURCES,
@@ -50,6 +52,7 @@ __all__ = [
     "proxy_area",
     "proxy_ratios",
     "synth_p1",
+    "synth_record",
     "synth_stage",
     "yosys_version",
 ]
@@ -214,9 +217,17 @@ def _key(stage: str, target: str, params: Mapping, version: str) -> str:
     return h.hexdigest()[:32]
 
 
+def _verilog_constant(value: object) -> str:
+    """A parameter value as ``chparam`` reads it: a negative integer as a signed 32-bit
+    literal (``chparam`` cannot decode ``-4``), strings as they are (quoted)."""
+    if isinstance(value, int) and value < 0:
+        return f"32'sh{value & 0xFFFFFFFF:08X}"
+    return str(value)
+
+
 def _yosys_script(top: str, sources: tuple[str, ...], params: Mapping, target: str) -> str:
     lines = ["read_verilog -defer " + " ".join(str(HDL_DIR / s) for s in sources)]
-    sets = " ".join(f"-set {k} {v}" for k, v in params.items())
+    sets = " ".join(f"-set {k} {_verilog_constant(v)}" for k, v in params.items())
     lines += [f"chparam {sets} {top}", f"hierarchy -top {top}", TARGETS[target].command,
               "tee -q -o stat.json stat -json"]  # fmt: skip
     return "\n".join(lines) + "\n"
@@ -312,41 +323,24 @@ def synth_p1(
             "proxy_ratio": proxy_ratios(proxy_total, totals)}  # fmt: skip
 
 
+#: The x-derivative's signals: in no stage of ``hdl/`` here (nor is the frame store).
+_X_DERIVATIVE = ("div_quot", "col2_state", "col2_out")
 #: Signals whose registers each stage of ``hdl/`` holds (``rtl_model/p1/cost.py``
-#: ``REGISTER_INSTANCES``): ``rowcol`` per stream, ``range`` once (with the host registers
-#: it reads). The x-derivative (``div_quot``; ``col2_state``, ``col2_out``) and the frame
-#: store are in no stage here.
+#: ``REGISTER_INSTANCES``): ``rowcol`` per stream (with the pole and bias registers),
+#: ``range`` once (with the host registers it reads); from the pipeline's signal groups.
 STAGE_SIGNALS: dict[str, tuple[str, ...]] = {
     "rowcol": (
         "pix_in",
-        "bias_in",
-        "row_state",
-        "row_r1",
-        "row_r2",
-        "col_state",
-        "col_s1",
-        "col_s2",
         "bias_reg",
         "pole_coef",
+        *(s for s in FRONTEND_SIGNALS if s not in _X_DERIVATIVE),
     ),
     "range": (
-        "c1",
-        "grad_a",
-        "grad_b",
-        "coord",
+        *get_pipeline("p1").signal_groups["range_stage"],
         "f_reg",
         "k_t_reg",
         "k_m_reg",
-        "k_rot",
-        "geom_v",
-        "geom_w",
-        "gv",
-        "num",
-        "den",
-        "range",
-        "v_sq",
         "tg2_reg",
-        "grad_sq",
     ),
 }
 #: Multipliers of the proxy (``rtl_model/p1/cost.py multipliers``) by stage, by name prefix.
@@ -388,3 +382,15 @@ def proxy_ratios(proxy: Mapping[str, int], area: Mapping[str, int]) -> dict[str,
         "bram": ratio(proxy["bram18"], area["bram"]),
         "lut": None,
     }
+
+
+def synth_record(
+    config: P1Config, shape: tuple[int, int], mode: str, target: str = "xcup"
+) -> dict[str, int]:
+    """A sweep point's synthesis figures (the whole P1, :func:`synth_p1`): ``synth_lut``,
+    ``synth_ff``, ``synth_carry``, ``synth_dsp``, ``synth_bram`` and the cost the studies
+    minimise, ``synth_cost`` = LUT + FF."""
+    area = synth_p1(config, target, shape, mode)
+    rec = {f"synth_{k}": area[k] for k in AREA_KEYS}
+    rec["synth_cost"] = area["lut"] + area["ff"]
+    return rec
