@@ -1,68 +1,79 @@
-"""Icarus Verilog replay of the P1 row + column filter stage (issue 6, ``hdl/``).
+"""HDL replay of the whole P1 (``hdl/``, ``rangefx hdl replay``, docs/hdl.md).
 
-The vectors of a case are generated in-process (``rangefx vectors gen`` for the lab
-crop, :func:`build_vectors` for random images), ``hdl/p1_rowcol.v`` is compiled with the
-config's formats and modes, the input stream is replayed through it under cocotb, and
-every dumped tap is compared bit for bit with ``rangefx vectors diff``. A mutant compiled
-with truncation where rounding is configured must fail at the right pixel.
-Skips when iverilog or cocotb is absent (``.ci/run`` installs both).
+Vectors of small lab crops (blanking and input gaps) are replayed through
+``hdl/p1_top.v`` (cocotb + cocotbext-axi under Icarus; Verilator through the Verilog
+bench when installed) and every tap of both front ends and of the range stage is checked
+value for value and cycle for cycle against the manifest, for each variant x divider x
+mode, under the default and a mixed-modes narrowed config; overflow counts equal the
+model's on a config that overflows; a rounding mutant is reported at the first differing
+sample with its count.
+Skips when iverilog, cocotb or cocotbext-axi is absent (``.ci/run`` installs them).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
-import os
 import shutil
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p1 import RANGE_TAPS
 from rangefx.rtl_model.p1.config import P1Config
-from rangefx.rtl_model.pipeline import Case
 from rangefx.tools.cli import main
 from rangefx.tools.cli.vectors import crop_case
 from rangefx.tools.studies.cases import scene_case
-from rangefx.vectors.generate import build_vectors, diff_dump, write_vectors
-from rangefx.vectors.hdl import (
-    HDL_DIR,
-    HDL_SOURCES,
-    ROWCOL_TAPS,
-    rowcol_parameters,
-    rowcol_registers,
-)
+from rangefx.vectors import replay
+from rangefx.vectors.generate import build_vectors, write_vectors
+from rangefx.vectors.hdl import FRONTEND_TAPS, OVERFLOW_CODES, QUANT_CODES
 
 if shutil.which("iverilog") is None or shutil.which("vvp") is None:
     pytest.skip("Icarus Verilog (iverilog) is not installed", allow_module_level=True)
-cocotb_tools_runner = pytest.importorskip(
-    "cocotb_tools.runner", reason="cocotb is not installed (pip install cocotb)"
-)
+pytest.importorskip("cocotb_tools.runner", reason="cocotb is not installed (pip install cocotb)")
+pytest.importorskip("cocotbext.axi", reason="cocotbext-axi is not installed")
+
+CROP = (240, 248, 100, 116)  # 8 x 16 pixels of the lab scene, across an edge
+TIMING = TimingConfig(hblank=3, vblank=5, gap_prob=0.2, seed=4)
+DESIGNS = [("paper", "reciprocal"), ("paper", "restoring"), ("consistent", "reciprocal")]
 
 
 def _fmt(text: str, quant: Quant, overflow: Overflow = Overflow.SAT) -> FixedFormat:
     return FixedFormat.from_string(text, quant, overflow)
 
 
-def modes_config() -> P1Config:
-    """Consistent variant with a different rounding or overflow mode on every stage signal
-    (TRN, TRN_ZERO, RND_CONV, RND_ZERO, RND_INF, RND_MIN_INF; WRAP and SAT_SYM), and a
-    narrow ``col_s2`` that wraps on strong edges."""
-    d = P1Config.default(variant="consistent")
+def modes_config(variant: str, divider: str) -> P1Config:
+    """A different rounding or overflow mode on every front-end signal (TRN, TRN_ZERO,
+    RND_CONV, RND_ZERO, RND_INF, RND_MIN_INF; WRAP, SAT_SYM), narrower words."""
+    d = P1Config.default(variant=variant, divider=divider)
     return d.with_formats(
         bias_in=_fmt("u10.1", Quant.TRN),
-        row_state=_fmt("u20.11", Quant.RND_CONV),
-        row_r1=_fmt("u20.11", Quant.RND_CONV),
-        row_r2=_fmt("s20.10", Quant.TRN, Overflow.WRAP),
-        col_state=_fmt("u22.13", Quant.RND_ZERO),
+        row_state=_fmt("u19.10", Quant.RND_CONV),
+        row_r1=_fmt("u19.10", Quant.RND_CONV),
+        row_r2=_fmt("s18.9", Quant.TRN, Overflow.WRAP),
+        col_state=_fmt("u20.11", Quant.RND_ZERO),
         col_s1=_fmt("u19.10", Quant.RND_INF),
-        col_s2=_fmt("s15.11", Quant.RND_MIN_INF, Overflow.WRAP),
-        col2_state=_fmt("s23.13", Quant.TRN_ZERO, Overflow.SAT_SYM),
+        col_s2=_fmt("s16.10", Quant.RND_MIN_INF, Overflow.WRAP),
+        col2_state=_fmt("s21.12", Quant.TRN_ZERO, Overflow.SAT_SYM),
+        col2_out=_fmt("s20.11", Quant.RND_CONV, Overflow.SAT_SYM),
+        div_quot=_fmt("s20.10", Quant.RND_ZERO, Overflow.SAT_SYM),
     ).with_(name="modes")
+
+
+def overflowing_config(variant: str, divider: str) -> P1Config:
+    """Words too narrow for the crop's edge: bias, row and column outputs and the
+    x-derivative overflow (SAT, WRAP, SAT_SYM, SAT_ZERO)."""
+    d = P1Config.default(variant=variant, divider=divider)
+    return d.with_formats(
+        bias_in=_fmt("u8.1", Quant.TRN),
+        row_r2=_fmt("s12.10", Quant.RND, Overflow.WRAP),
+        col_s2=_fmt("s12.10", Quant.RND, Overflow.SAT_SYM),
+        col2_out=_fmt("s10.10", Quant.RND, Overflow.SAT_ZERO),
+        div_quot=_fmt("s14.12", Quant.RND, Overflow.SAT),
+    ).with_(name="overflowing")
 
 
 @functools.cache
@@ -70,117 +81,127 @@ def _lab():
     return scene_case("lab")
 
 
-def _replay(vec: Path, config: P1Config, work: Path, stream: str = "e1", **over) -> Path:
-    """Build p1_rowcol for ``config`` (parameters ``over`` overridden) and replay ``vec``."""
-    _m, n = json.loads((vec / "manifest.json").read_text())["shape"]
-    params = rowcol_parameters(config, n) | over
-    runner = cocotb_tools_runner.get_runner("icarus")
-    build = work / "build"
-    runner.build(
-        sources=[HDL_DIR / s for s in HDL_SOURCES],
-        hdl_toplevel="p1_rowcol",
-        parameters=params,
-        build_dir=build,
-        always=True,
-    )
-    dump = work / "dump"
-    regs = rowcol_registers(config)
-    env = {
-        "RANGEFX_VECTORS": str(vec),
-        "RANGEFX_DUMP": str(dump),
-        "RANGEFX_STREAM": stream,
-        "RANGEFX_POLE": str(regs["pole_raw"]),
-        "RANGEFX_BIAS": str(regs["bias_raw"]),
-        "PYTHONPATH": os.pathsep.join([str(HDL_DIR), *sys.path]),
-    }
-    results = runner.test(
-        hdl_toplevel="p1_rowcol",
-        test_module="test_p1_rowcol",
-        test_dir=HDL_DIR,
-        build_dir=build,
-        extra_env=env,
-    )
-    from cocotb_tools.runner import get_results
-
-    tests, fails = get_results(results)
-    assert (tests, fails) == (1, 0)
-    return dump
-
-
-def _assert_all_match(vec: Path, dump: Path, stream: str = "e1") -> int:
-    total = 0
-    for tap in ROWCOL_TAPS:
-        for suffix in (".mem", ".csv"):
-            report = diff_dump(vec, dump / f"{stream}.{tap}{suffix}")
-            assert report.ok, report.text()
-            total += report.expected_count
-    return total
-
-
-@pytest.fixture
-def cached_scene(monkeypatch):
-    _lab()
-
-
-@pytest.mark.parametrize("config_name", ["default", "modes"])
-def test_lab_crop_replays_bit_exact(config_name, tmp_path, cached_scene):
-    config = P1Config.default() if config_name == "default" else modes_config()
-    toml = tmp_path / "config.toml"
-    config.save(toml)
-    vec = tmp_path / "vec"
-    argv = ["vectors", "gen", "--scene", "lab", "--crop", "240", "256", "100", "124"]
-    argv += ["--out", str(vec), "--config", str(toml), "--hblank", "4", "--gap-prob", "0.2"]
-    assert main(argv) == 0
-    dump = _replay(vec, config, tmp_path)
-    assert _assert_all_match(vec, dump) == 2 * 7 * 16 * 24
-
-
-@pytest.mark.parametrize("config_name", ["default", "modes"])
-def test_random_scene_replays_bit_exact(config_name, tmp_path):
-    config = P1Config.default() if config_name == "default" else modes_config()
-    rng = np.random.default_rng(6)
-    m, n = 12, 40
-    im1 = rng.integers(0, 256, (m, n))
-    im2 = np.clip(np.roll(im1, 1, axis=1) + rng.integers(-3, 4, (m, n)), 0, 255)
-    case = Case(im1, im2, PinholeCamera(n, m, 50.0), MotionIncrement.stereo(0.1))
-    vs = build_vectors(
-        "p1",
-        case,
-        config,
-        TimingConfig(hblank=2, vblank=5, gap_prob=0.3, seed=3),
-        description={"source": "random", "seed": 6},
-    )
+def _vectors(tmp_path, config: P1Config, mode: str = "stereo", timing: TimingConfig = TIMING):
+    case = crop_case(_lab(), list(CROP))
+    case = dataclasses.replace(case, mode=mode)
+    vs = build_vectors("p1", case, config, timing, description={"scene": "lab", "crop": CROP})
     vec = tmp_path / "vec"
     vec.mkdir()
     write_vectors(vec, vs)
-    dump = _replay(vec, config, tmp_path, stream="e2")
-    assert _assert_all_match(vec, dump, stream="e2") == 2 * 7 * m * n
+    return vec, vs
 
 
-def test_truncating_mutant_is_caught_at_the_first_differing_pixel(tmp_path, cached_scene):
-    """row_r2 is RND in the default config; the mutant truncates (TRN). The first pixel
-    where the model's TRN and RND row_r2 differ is where ``vectors diff`` must point."""
+def _replay(vec, tmp_path, sim: str = "icarus", **overrides) -> replay.ReplayReport:
+    run = replay.simulate(vec, tmp_path / f"work_{sim}", sim, **overrides)
+    return replay.compare(vec, run["dump"])
+
+
+def _rtl_taps(config: P1Config) -> set[str]:
+    names = {t for t in FRONTEND_TAPS if t != "col2_state" or config.variant == "consistent"}
+    return {f"{s}.{t}" for s in ("e1", "e2") for t in names} | set(RANGE_TAPS)
+
+
+@pytest.mark.parametrize("mode", ["stereo", "motion"])
+@pytest.mark.parametrize("design", DESIGNS, ids=["-".join(d) for d in DESIGNS])
+@pytest.mark.parametrize("config_name", ["default", "modes"])
+def test_front_end_replays_value_and_cycle_exact(config_name, design, mode, tmp_path):
+    variant, divider = design
+    if config_name == "default":
+        config = P1Config.default(variant=variant, divider=divider)
+    else:
+        config = modes_config(variant, divider)
+    vec, _vs = _vectors(tmp_path, config, mode)
+    report = _replay(vec, tmp_path)
+    assert set(report.taps) == _rtl_taps(config)
+    m, n = CROP[1] - CROP[0], CROP[3] - CROP[2]
+    for tap, row in report.taps.items():
+        assert (row["samples"], row["got_samples"]) == (m * n, m * n), tap
+    assert report.value_mismatches == 0 and report.cycle_mismatches == 0, report.first_mismatch
+    assert report.m_axis == {"words": m * n, "mismatches": 0, "lines": m, "framing_ok": True}
+    assert report.ok, report.as_dict()
+
+
+@pytest.mark.parametrize("design", [DESIGNS[1], DESIGNS[2]], ids=["paper", "consistent"])
+def test_overflow_counts_equal_the_manifest(design, tmp_path):
+    config = overflowing_config(*design)
+    vec, vs = _vectors(tmp_path, config)
+    counted = {s for s, c in vs.manifest["overflows"].items() if c}
+    assert len(counted) >= 3, vs.manifest["overflows"]  # the config overflows somewhere
+    report = _replay(vec, tmp_path)
+    rtl = {s: o["rtl"] for s, o in report.overflows.items() if o["rtl"]}
+    assert rtl == vs.manifest["overflows"]
+    assert set(report.overflows) >= set(replay.OVERFLOW_SIGNALS) | {"range", "gv", "den"}
+    assert report.ok
+
+
+def test_rounding_mutant_is_reported_at_the_first_differing_sample(tmp_path):
+    """row_r2 rounds (RND) in the default config; the mutant truncates (R2_Q = TRN). The
+    replay must name the first sample where the model's TRN and RND row_r2 differ (tap,
+    cycle, row, column, both codes) and count every differing sample, cycles all exact."""
     config = P1Config.default()
-    vec = tmp_path / "vec"
-    argv = ["vectors", "gen", "--scene", "lab", "--crop", "240", "256", "100", "124"]
-    assert main([*argv, "--out", str(vec), "--hblank", "3"]) == 0
-    dump = _replay(vec, config, tmp_path, R2_Q=int(Quant.TRN))
+    vec, vs = _vectors(tmp_path, config)
     mutant = config.with_formats(row_r2=_fmt("s20.10", Quant.TRN))
-    case = crop_case(_lab(), [240, 256, 100, 124])
-    runs = [build_vectors("p1", case, c, TimingConfig(hblank=3)).result for c in (config, mutant)]
-    differ = np.flatnonzero(runs[0].taps["e1.row_r2"].ravel() != runs[1].taps["e1.row_r2"].ravel())
-    assert differ.size > 0
-    k = int(differ[0])
-    report = diff_dump(vec, dump / "e1.row_r2.mem")
+    case = dataclasses.replace(crop_case(_lab(), list(CROP)))
+    other = build_vectors("p1", case, mutant, TIMING).result.taps
+    report = _replay(vec, tmp_path, R2_Q=QUANT_CODES["TRN"])
+    n = CROP[3] - CROP[2]
+    firsts = []
+    for s in ("e1", "e2"):
+        exp = vs.result.taps[f"{s}.row_r2"].ravel()
+        got = other[f"{s}.row_r2"].ravel()
+        differ = np.flatnonzero(exp != got)
+        assert differ.size > 0
+        row = report.taps[f"{s}.row_r2"]
+        assert (row["value_mismatches"], row["cycle_mismatches"]) == (differ.size, 0)
+        k = int(differ[0])
+        cycle = int(vs.result.in_cycles.ravel()[k]) + 4  # input 1, bias 1, row filter 2
+        firsts.append((k, s, cycle, int(exp[k]), int(got[k])))
+    k, s, cycle, expected, got = min(firsts)
+    first = report.first_mismatch
+    assert (first["tap"], first["row"], first["col"]) == (f"{s}.row_r2", k // n, k % n)
+    assert (first["cycle"], first["got_cycle"]) == (cycle, cycle)
+    assert (first["expected"], first["got"]) == (expected, got)
+    assert report.cycle_mismatches == 0
     assert not report.ok
-    assert report.mismatches == differ.size
-    first = report.first
-    assert (first["row"], first["col"]) == (k // 24, k % 24)
-    lat = 1 + 1 + 2  # input, bias, row filter
-    assert first["cycle"] == (k // 24) * (24 + 3) + k % 24 + lat
-    assert first["expected"] == int(runs[0].taps["e1.row_r2"].ravel()[k])
-    assert first["got"] == int(runs[1].taps["e1.row_r2"].ravel()[k])
-    # the other taps do not depend on row_r2 in the paper variant: still bit exact
-    for tap in ("bias_in", "row_state", "row_r1", "col_state", "col_s1", "col_s2"):
-        assert diff_dump(vec, dump / f"e1.{tap}.mem").ok
-    assert main(["vectors", "diff", str(vec), str(dump / "e1.row_r2.mem"), "--json"]) == 1
+    for tap in ("bias_in", "row_r1", "row_state", "col_s1", "col_s2", "col_state"):
+        assert report.taps[f"e1.{tap}"]["value_mismatches"] == 0  # r2 feeds only ex
+
+
+def test_a_line_longer_than_max_width_raises_its_flag(tmp_path):
+    vec, _vs = _vectors(tmp_path, P1Config.default(variant="consistent"))
+    report = _replay(vec, tmp_path, MAX_WIDTH=12, ADDR_W=4)
+    assert report.flags["line_too_long"] == 1
+    assert not report.ok
+
+
+def test_cli_replay_json_and_exit_status(tmp_path, capsys):
+    vec, _vs = _vectors(tmp_path, P1Config.default(divider="restoring"), "motion")
+    dump = tmp_path / "dump"
+    assert main(["hdl", "replay", str(vec), "--json", "--dump", str(dump)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["value_mismatches"], out["cycle_mismatches"], out["ok"]) == (0, 0, True)
+    assert out["taps"]["e2.ex"]["samples"] == 128 and out["mode"] == "motion"
+    assert (dump / "e1.ex.mem").exists() and (dump / "status.json").exists()
+    # the dumps are what `rangefx vectors diff` reads
+    assert main(["vectors", "diff", str(vec), str(dump / "e2.col_s1.mem")]) == 0
+
+
+def test_cli_names_a_missing_simulator(tmp_path, capsys, monkeypatch):
+    vec, _vs = _vectors(tmp_path, P1Config.default())
+    monkeypatch.setattr(replay.shutil, "which", lambda exe: None)
+    assert main(["hdl", "replay", str(vec), "--sim", "verilator"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rangefx: error: verilator:")
+
+
+@pytest.mark.skipif(shutil.which("verilator") is None, reason="verilator is not installed")
+def test_verilator_replays_value_and_cycle_exact(tmp_path):
+    vec, _vs = _vectors(tmp_path, modes_config("paper", "reciprocal"), "motion")
+    report = _replay(vec, tmp_path, "verilator")
+    assert report.ok, report.first_mismatch
+    assert len(report.taps) == 16 + len(RANGE_TAPS)
+
+
+def test_mode_codes_are_the_model_enums():
+    assert QUANT_CODES == {q.name: int(q) for q in Quant}
+    assert OVERFLOW_CODES == {o.name: int(o) for o in Overflow}

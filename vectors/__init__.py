@@ -1,7 +1,7 @@
 """Test vectors of the pipelines for hardware benches (SPEC §5): :mod:`.generate` (build,
 write, check, diff, manifest), :mod:`.formats` (``.mem``/``.coe``/``.mif``/``.csv``, packed
 stream words), :mod:`.export` (HLS and VHDL types of a config), :mod:`.hdl` and
-:mod:`.cocotb_axis` (the HDL replay). Names below are exported lazily."""
+:mod:`.replay` (the HDL replay, ``rangefx hdl replay``). Names below are exported lazily."""
 
 from __future__ import annotations
 

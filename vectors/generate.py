@@ -48,6 +48,7 @@ __all__ = [
     "load_manifest",
     "read_tap",
     "stream_memory_bytes",
+    "tap_cycles",
     "write_vectors",
 ]
 
@@ -611,7 +612,7 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
         digits = fmt_io.hex_digits(word)
         base = int(entry["first_valid_cycle"])
         # cycle of sample idx: the tap's cycles are the input cycles plus a fixed latency
-        cycles = _tap_cycles(d, manifest, tap, base)
+        cycles = tap_cycles(d, manifest, tap, base)
         exp_raw = (
             int(fmt_io.to_signed(expected[idx : idx + 1], word, signed)[0]) if idx < n_exp else None
         )
@@ -667,7 +668,7 @@ def dump_code(value: int | None, word: int, signed: bool) -> int | None:
     return None
 
 
-def _tap_cycles(d: Path, manifest: Mapping, tap: str, first: int) -> np.ndarray:
+def tap_cycles(d: Path, manifest: Mapping, tap: str, first: int) -> np.ndarray:
     """Cycle of every sample of ``tap``, from the input streams' valid beats: a tap with
     a fixed latency is its stream's beats shifted to ``first``; a scheduled tap (P2's
     sweep) takes the pipeline's schedule on those beats."""

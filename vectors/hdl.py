@@ -1,38 +1,88 @@
-"""Parameters of the Verilog row + column filter stage (``hdl/p1_rowcol.v``) from a config.
+"""What the Verilog of P1 (``hdl/``) needs from a vector directory, read from it alone.
 
-:func:`rowcol_parameters` turns a :class:`~rangefx.rtl_model.config.P1Config`
-into the module's Verilog parameters (word, fraction bits, sign, quantisation and
-overflow mode of each implemented signal); :func:`rowcol_registers` gives the raw codes
-of the host registers ``pole_raw`` and ``bias_raw``. ``HDL_DIR`` locates the sources
-in a source checkout. Importing this module is cheap (no numba), so the cocotb test
-module that runs inside the simulator can use :data:`ROWCOL_TAPS`.
+:func:`top_parameters` turns a vector directory's manifest (its config's formats and
+design, shape and mode) into the Verilog parameters of ``hdl/p1_top.v``;
+:func:`register_codes` gives the raw codes of the host registers the front end reads,
+from the manifest's ``registers``. Neither imports the model (no numba): the cocotb bench
+that runs inside the simulator (``hdl/test_p1_top.py``) uses this module, and a user's
+bench needs nothing but the directory. ``HDL_DIR`` locates the sources in a checkout.
 """
 
 from __future__ import annotations
 
+import json
+import re
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .formats import read_stream_bin_valid, write_mem
 
 if TYPE_CHECKING:  # the simulator process imports this module: keep numba out of it
     from rangefx.rtl_model.p1.config import P1Config
 
-__all__ = ["HDL_DIR", "HDL_SOURCES", "ROWCOL_TAPS", "rowcol_parameters", "rowcol_registers"]
+__all__ = [
+    "FRONTEND_SOURCES",
+    "FRONTEND_TAPS",
+    "HDL_DIR",
+    "HDL_SOURCES",
+    "OVERFLOW_CODES",
+    "OVERFLOW_SIGNALS",
+    "QUANT_CODES",
+    "RANGE_INPUTS",
+    "RANGE_REGISTER_PORTS",
+    "RANGE_SOURCES",
+    "RANGE_TAP_GROUPS",
+    "ROWCOL_SOURCES",
+    "TOPLEVEL",
+    "bench_header",
+    "frontend_instances",
+    "frontend_parameters",
+    "range_parameters",
+    "range_registers",
+    "register_codes",
+    "rowcol_parameters",
+    "top_parameters",
+    "write_dump",
+    "write_recip_rom",
+]
 
 #: ``hdl/`` of the source checkout (the Verilog is not installed with the package).
 HDL_DIR = Path(__file__).resolve().parent.parent / "hdl"
-HDL_SOURCES = ("fx_cast.v", "p1_rowcol.v")
+#: One stream's front end (p1_frontend), and with the top (p1_top).
+FRONTEND_SOURCES = ("fx_cast_sized.v", "fx_divide.v", "p1_colfilt.v", "p1_frontend.v")
+HDL_SOURCES = (*FRONTEND_SOURCES, "p1_range.v", "p1_top.v")
+TOPLEVEL = "p1_top"
 
-#: Tap (without ``e1.``/``e2.``) -> output port of ``p1_rowcol``.
-ROWCOL_TAPS = {
-    "bias_in": "bias_in",
-    "row_state": "row_state",
-    "row_r1": "row_r1",
-    "row_r2": "row_r2",
-    "col_state": "col_state",
-    "col_s1": "col_s1",
-    "col_s2": "col_s2",
+#: Tap (without ``e1.``/``e2.``) -> (output port, its stage's valid port) of p1_frontend.
+FRONTEND_TAPS: Mapping[str, tuple[str, str]] = {
+    "bias_in": ("bias_in", "bias_v"),
+    "row_r1": ("row_r1", "row_v"),
+    "row_r2": ("row_r2", "row_v"),
+    "row_state": ("row_state", "row_v"),
+    "col_s1": ("col_s1", "col_v"),
+    "col_s2": ("col_s2", "col_v"),
+    "col_state": ("col_state", "col_v"),
+    "ex": ("ex", "ex_v"),
+    "col2_state": ("col2_state", "col_v"),
 }
+#: Signals whose overflows p1_frontend counts (output ``ovf_<signal>``).
+OVERFLOW_SIGNALS = (
+    "pix_in", "bias_in", "row_state", "row_r1", "row_r2", "col_state", "col_s1", "col_s2",
+    "col2_state", "col2_out", "div_quot",
+)  # fmt: skip
 
+#: Codes of the quantisation and overflow modes in the Verilog (``hdl/fx_cast_sized.v``),
+#: the values of ``rangefx.rtl_model.fixedpoint.Quant`` / ``Overflow`` (tested equal).
+QUANT_CODES = {
+    "TRN": 0, "TRN_ZERO": 1, "RND": 2, "RND_ZERO": 3, "RND_INF": 4, "RND_MIN_INF": 5,
+    "RND_CONV": 6,
+}  # fmt: skip
+OVERFLOW_CODES = {"WRAP": 0, "SAT": 1, "SAT_ZERO": 2, "SAT_SYM": 3}
+
+#: Verilog parameter prefix of each signal the front end implements.
 _PREFIX = {
     "pix_in": "PIX",
     "bias_reg": "BREG",
@@ -44,29 +94,363 @@ _PREFIX = {
     "col_state": "Q",
     "col_s1": "S1",
     "col_s2": "S2",
+    "col2_state": "Q2",
+    "col2_out": "X2",
+    "div_quot": "DQ",
+}
+_REGISTERS = ("bias_reg", "pole_coef")
+_FORMAT = re.compile(r"^([su])(\d+)\.(-?\d+)$")
+
+
+def _format(text: str) -> tuple[int, int, int]:
+    """``"s20.10"`` -> (word, frac, signed)."""
+    match = _FORMAT.match(text)
+    if match is None:
+        raise ValueError(f"format {text!r} is not like 's20.10'")
+    sign, word, frac = match.groups()
+    return int(word), int(frac), int(sign == "s")
+
+
+def top_parameters(
+    manifest: Mapping, rom_file: str | Path | None = None, *, with_range: bool = True
+) -> dict[str, int | str]:
+    """Verilog parameters of ``p1_top`` for a P1 vector directory's ``manifest``.
+
+    ``rom_file``: the reciprocal divider's seed ROM (the directory's ``recip_rom.mem``),
+    needed by the reciprocal divider. The front end's come from the manifest's parsed
+    config alone; the range stage's (``with_range``) from :func:`range_parameters` of the
+    config its TOML describes (the model's config type: not for the simulator process).
+    """
+    if manifest.get("pipeline") != "p1":
+        raise ValueError(f"the RTL implements P1, not {manifest.get('pipeline')!r}")
+    parsed = manifest["config"]["parsed"]
+    design, signals = parsed["design"], parsed["signals"]
+    m, n = manifest["shape"]
+    params: dict[str, int | str] = {
+        "MOTION": int(manifest["mode"] == "motion"),
+        "MAX_WIDTH": int(n),
+        "ADDR_W": max(1, int(n).bit_length()),
+        "MAX_PIXELS": int(m * n),
+        "PADDR_W": max(1, int(m * n).bit_length()),
+        "CONSISTENT": int(design["variant"] == "consistent"),
+        "INIT_FIRST": int(design["init"] == "first"),
+        "DIVIDER": int(design["divider"] == "reciprocal"),
+        "RECIP_L": int(design["recip_lut_bits"]),
+        "RECIP_R": int(design["recip_bits"]),
+    }
+    for signal, p in _PREFIX.items():
+        spec = signals[signal]
+        word, frac, signed = _format(spec["format"])
+        params |= {f"{p}_W": word, f"{p}_F": frac, f"{p}_S": signed}
+        if signal not in _REGISTERS:
+            params |= {
+                f"{p}_Q": QUANT_CODES[spec["quant"]],
+                f"{p}_O": OVERFLOW_CODES[spec["overflow"]],
+            }
+    if rom_file is not None:
+        params["ROM_FILE"] = f'"{Path(rom_file).resolve()}"'
+    if with_range:
+        from rangefx.rtl_model.registry import get_pipeline
+
+        config = get_pipeline("p1").config_from_toml(manifest["config"]["toml"], "manifest")
+        rom = str(Path(rom_file).resolve()) if rom_file is not None else ""
+        params |= range_parameters(config, n, m, rom_file=rom)
+    return params
+
+
+#: Parameters of p1_top that p1_frontend does not have.
+_TOP_ONLY = ("MOTION", "MAX_PIXELS", "PADDR_W")
+
+
+def frontend_parameters(config: P1Config, width: int, rom_file: str | Path = "") -> dict:
+    """Verilog parameters of one ``p1_frontend`` for ``config`` and lines of ``width``
+    pixels (the synthesis of one stream); ``rom_file`` as in :func:`top_parameters`."""
+    import tomllib
+
+    manifest = {
+        "pipeline": "p1",
+        "mode": "stereo",
+        "shape": [1, int(width)],
+        "config": {"parsed": tomllib.loads(config.to_toml())},
+    }
+    params = top_parameters(manifest, rom_file or None, with_range=False)
+    return {k: v for k, v in params.items() if k not in _TOP_ONLY}
+
+
+#: ``hdl/p1_rowcol.v`` (bias, row and column filter of one stream, the generic 64-bit
+#: ``fx_cast.v``): the stage ``rangefx hdl synth`` synthesises as ``rowcol``; the replay
+#: runs ``p1_frontend``, which computes the same signals with sized casts.
+ROWCOL_SOURCES = ("fx_cast.v", "p1_rowcol.v")
+_ROWCOL_PREFIXES = ("PIX", "BREG", "POLE", "B", "P", "R1", "R2", "Q", "S1", "S2")
+
+
+def rowcol_parameters(config: P1Config, width: int) -> dict:
+    """Verilog parameters of ``p1_rowcol`` for ``config`` and lines of ``width`` pixels."""
+    params = frontend_parameters(config, width)
+    keep = {"MAX_WIDTH", "ADDR_W", "CONSISTENT", "INIT_FIRST"}
+    keep |= {f"{p}_{x}" for p in _ROWCOL_PREFIXES for x in "WFSQO"}
+    return {k: v for k, v in params.items() if k in keep}
+
+
+def register_codes(manifest: Mapping) -> dict[str, int]:
+    """Raw codes (unsigned words) of every host register port of ``p1_top`` from the
+    manifest's ``registers``: ``pole_raw``, ``bias_raw`` and the range stage's."""
+    out = _range_register_ports(manifest["registers"])
+    for port, name in (("pole_raw", "pole"), ("bias_raw", "bias")):
+        reg = manifest["registers"][name]
+        word, _frac, _signed = _format(reg["format"])
+        out[port] = int(reg["raw"]) & ((1 << word) - 1)
+    return out
+
+
+def frontend_instances(manifest: Mapping) -> dict[str, str]:
+    """Stream -> hierarchical name of its p1_frontend in ``p1_top``: stereo ``e1`` on
+    ``fe0`` and ``e2`` on ``g_stereo.fe1``; motion both frames on ``fe0``."""
+    if manifest["mode"] == "motion":
+        return {"e1+e2": "fe0"}
+    return {"e1": "fe0", "e2": "g_stereo.fe1"}
+
+
+def bench_header(
+    manifest: Mapping, rom_file: str | Path | None, lead: int, overrides: Mapping[str, int] = {}
+) -> str:
+    """``p1_bench.vh`` of the Verilog bench ``hdl/tb_p1_top.v`` for a vector directory:
+    the design's parameters, the register codes, the sizes, and the statements that dump
+    every front-end tap in its stage's valid cycles and the overflow counters
+    (``overrides`` replace parameters, as a mutation test does)."""
+    params = top_parameters(manifest, rom_file) | dict(overrides)
+    regs = register_codes(manifest)
+    streams = [e for e in manifest["files"] if e["kind"] == "stream" and e["path"].endswith(".bin")]
+    depth = max(int(e["count"]) for e in streams)
+    out_w = int(params["RNG_W"]) + 1
+    taps, counts = [], []
+    for k, inst in enumerate(frontend_instances(manifest).values()):
+        for tap, (port, valid) in FRONTEND_TAPS.items():
+            if tap == "col2_state" and not params["CONSISTENT"]:
+                continue
+            taps.append(f'if (dut.{inst}.{valid}) $fwrite(fd, "T {k} {tap} %0d %h\\n", '
+                        f"cycle, dut.{inst}.{port});")  # fmt: skip
+        for signal in OVERFLOW_SIGNALS:
+            counts.append(f'$fwrite(fd, "O {k} {signal} %0d\\n", dut.{inst}.ovf_{signal});')
+    for ovf, (vport, names) in RANGE_TAP_GROUPS.items():
+        for tap in names:
+            taps.append(f'if (dut.u_range.{vport}) $fwrite(fd, "T R {tap} %0d %h\\n", '
+                        f"cycle, dut.u_range.{tap});")  # fmt: skip
+        if ovf:
+            taps.append(f'if (dut.u_range.{vport}) $fwrite(fd, "G {ovf} %h\\n", '
+                        f"dut.u_range.{ovf});")  # fmt: skip
+    widths = {"pole_raw": params["POLE_W"], "bias_raw": params["BREG_W"],
+              "cx_raw": params["CO_W"], "cy_raw": params["CO_W"], "f_raw": params["FR_W"],
+              "k3_raw": params["KT_W"], "k4_raw": params["KT_W"], "k5_raw": params["KT_W"],
+              "m_raw": 9 * int(params["KM_W"]), "te_raw": params["C1_W"],
+              "tg2_raw": params["TG2_W"], "dmin_raw": params["DEN_W"],
+              "rmax_raw": params["RNG_W"]}  # fmt: skip
+    ports = ", ".join(f".{p}({w}'h{regs[p]:x})" for p, w in widths.items())
+    latency = int(manifest["latency"]["total"])
+    body = [
+        "// generated by rangefx (rangefx.vectors.hdl.bench_header) from a vector directory",
+        "`define P1_PARAMS " + ", ".join(f".{k}({v})" for k, v in params.items()),
+        f"`define P1_PIX_W {params['PIX_W']}",
+        f"`define P1_OUT_W {out_w}",
+        f"`define P1_STREAM_DEPTH {depth}",
+        f"`define P1_CYCLES {depth + latency + 8}",
+        f"`define P1_LEAD {int(lead)}",
+        f"`define P1_REGISTERS {ports}",
+        "`define P1_TAPS " + " ".join(taps),
+        "`define P1_COUNTS " + " ".join(counts),
+    ]
+    return "\n".join(body) + "\n"
+
+
+Samples = Mapping[str, Sequence[tuple[int, int | None]]]
+
+
+def write_dump(
+    dump: Path,
+    vec: Path,
+    manifest: Mapping,
+    samples: Samples,
+    inputs: Sequence[int],
+    lines: Sequence[tuple[Sequence[int], int]],
+    overflows: Mapping[str, int],
+    flags: Mapping[str, int],
+    cycles: int,
+) -> None:
+    """Write a bench's observations on the vectors ``vec`` as the dump that
+    :func:`rangefx.vectors.replay.compare` reads.
+
+    ``samples``: ``"<stream>.<tap>"`` -> (cycle, code or None for x/z) per sample, the
+    stream being ``e1``, ``e2`` or, in motion mode, ``e1+e2`` (frame 1 is E1, frame 2 E2);
+    a range-stage tap has no prefix;
+    ``inputs``: the cycle of every beat of the first input stream, in the bench's count;
+    its offset from the stream file's first beat is taken off every cycle, and every
+    beat must then be in its file's cycle (else ``AssertionError``). ``lines``: the
+    AXI4-Stream output, (words, TUSER of the first beat) per line. Files: ``<tap>.mem``,
+    ``taps.npz`` (``<tap>.value``, ``<tap>.cycle``), ``m_axis.npz``, ``status.json``.
+    """
+    m, n = manifest["shape"]
+    first = next(
+        e for e in manifest["files"] if e["kind"] == "stream" and e["path"].endswith(".bin")
+    )
+    expected = _valid_cycles(vec, first)
+    got = np.asarray(inputs, dtype=np.int64)
+    offset = int(got[0] - expected[0]) if got.size else 0
+    if not np.array_equal(got - offset, expected):
+        raise AssertionError(
+            f"the bench did not reproduce the stream's timing: {got.size} beats, first at "
+            f"{(got[:3] - offset).tolist()}, expected {expected[:3].tolist()}"
+        )
+    words = {e["tap"]: int(e["word"]) for e in manifest["files"]}
+    arrays = {}
+    for name, rows in samples.items():
+        stream, _, base = name.rpartition(".")
+        if stream == "e1+e2":
+            parts = {"e1.": rows[: m * n], "e2.": rows[m * n :]}
+        else:
+            parts = {f"{stream}." if stream else "": rows}  # "": a range-stage tap
+        for prefix, rs in parts.items():
+            tap = f"{prefix}{base}"
+            arrays[f"{tap}.cycle"] = np.array([c for c, _v in rs], dtype=np.int64) - offset
+            arrays[f"{tap}.value"] = np.array([-1 if v is None else v for _c, v in rs], np.int64)
+            (dump / f"{tap}.mem").write_text(_mem_text(tap, rs, words.get(tap, 64)))
+    np.savez(dump / "taps.npz", **arrays)
+    np.savez(
+        dump / "m_axis.npz",
+        words=np.array([str(w) for t, _u in lines for w in t]),  # > 64 bits: decimal text
+        line_lengths=np.array([len(t) for t, _u in lines], dtype=np.int64),
+        first_tuser=np.array([u for _t, u in lines], dtype=np.int64),
+    )
+    status = {"overflows": dict(overflows), **dict(flags), "cycles": int(cycles),
+              "input_beats": int(got.size), "stream_offset": offset}  # fmt: skip
+    (dump / "status.json").write_text(json.dumps(status, indent=1) + "\n")
+
+
+def _valid_cycles(vec: Path, entry: Mapping) -> np.ndarray:
+    """Cycles of the valid beats of a vector directory's stream file."""
+    data = read_stream_bin_valid((vec / entry["path"]).read_bytes(), int(entry["word"]))
+    return np.flatnonzero(data).astype(np.int64)
+
+
+def _mem_text(tap: str, rows: Sequence[tuple[int, int | None]], word: int) -> str:
+    """``$readmemh`` dump of a tap (``x`` words where the DUT gave x/z bits)."""
+    known = np.array([0 if v is None else v for _c, v in rows], dtype=np.int64)
+    lines = write_mem(known, word, f"{tap}: RTL dump, {len(rows)} samples").decode().splitlines()
+    for k, (_c, v) in enumerate(rows):
+        if v is None:
+            lines[k + 1] = "x" * ((word + 3) // 4)
+    return "\n".join(lines) + "\n"
+
+
+# -- the range stage (hdl/p1_range.v) ---------------------------------------------------
+RANGE_SOURCES = ("fx_cast_sized.v", "fx_divide.v", "p1_range.v")
+
+#: Tap groups of ``p1_range`` in the order of their overflow-flag bits (``ovf_c``,
+#: ``ovf_p``, ``ovf_q``), each with its valid port; the port of a tap is its name.
+RANGE_TAP_GROUPS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "ovf_c": (
+        "c_valid",
+        ("xp", "yp", "c1", "a1", "b1", "k0", "k1", "k2", "vx", "vy", "wx", "wy", "w0"),
+    ),
+    "ovf_p": ("p_valid", ("gv", "num", "den", "v_sq", "g_sq", "g_thr")),
+    "ovf_q": ("q_valid", ("range_q",)),
+    "": ("m_valid", ("valid", "range")),
+}
+
+#: Stream inputs of ``p1_range`` (per stream ``e1_``/``e2_``) -> the front-end tap feeding it.
+RANGE_INPUTS = {"s1": "col_s1", "ex": "ex", "s2": "col_s2"}
+
+_RANGE_PREFIX = {
+    "col_s1": "S1",
+    "col_s2": "S2",
+    "f_reg": "FR",
+    "k_t_reg": "KT",
+    "k_m_reg": "KM",
+    "tg2_reg": "TG2",
+    "coord": "CO",
+    "c1": "C1",
+    "grad_a": "GA",
+    "grad_b": "GB",
+    "k_rot": "KR",
+    "geom_v": "V",
+    "geom_w": "W",
+    "gv": "GV",
+    "num": "NUM",
+    "den": "DEN",
+    "range": "RNG",
+    "v_sq": "VSQ",
+    "grad_sq": "GSQ",
+}
+#: Signals of ``p1_range`` that are only read (stream inputs, host registers): no modes.
+_RANGE_READ_ONLY = ("col_s1", "col_s2", "f_reg", "k_t_reg", "k_m_reg", "tg2_reg")
+
+#: Register port of ``p1_range`` -> the manifest's register names (``FrameRegisters``);
+#: ``m_raw`` packs the nine rotation terms, ``R00`` in the low bits.
+RANGE_REGISTER_PORTS: dict[str, tuple[str, ...]] = {
+    "cx_raw": ("cx",),
+    "cy_raw": ("cy",),
+    "f_raw": ("f",),
+    "k3_raw": ("k3",),
+    "k4_raw": ("k4",),
+    "k5_raw": ("k5",),
+    "m_raw": tuple(f"R{i}{c}" for i in range(3) for c in range(3)),
+    "te_raw": ("T_E",),
+    "tg2_raw": ("T_g^2",),
+    "dmin_raw": ("min_denominator",),
+    "rmax_raw": ("range_max",),
 }
 
 
-def rowcol_parameters(config: P1Config, width: int) -> dict[str, int]:
-    """Verilog parameters of ``p1_rowcol`` for ``config`` and lines of ``width`` pixels."""
-    params = {
-        "MAX_WIDTH": int(width),
-        "ADDR_W": max(1, (int(width) - 1).bit_length()) + 1,
-        "CONSISTENT": int(config.variant == "consistent"),
-        "INIT_FIRST": int(config.init == "first"),
+def range_parameters(config: P1Config, width: int, height: int, rom_file: str = "") -> dict:
+    """Verilog parameters of ``p1_range`` for ``config`` and frames of ``width`` x ``height``
+    pixels; ``rom_file``: the reciprocal seed ROM (``recip_rom.mem`` of a vector directory,
+    or :func:`write_recip_rom`), needed by the reciprocal divider only."""
+    params: dict = {
+        "X_W": max(1, (int(width) - 1).bit_length()),
+        "Y_W": max(1, (int(height) - 1).bit_length()),
+        "DIVIDER": int(config.divider == "reciprocal"),
+        "RECIP_L": config.recip_lut_bits,
+        "RECIP_R": config.recip_bits,
     }
-    for signal, p in _PREFIX.items():
+    if config.divider == "reciprocal":
+        if not rom_file:
+            raise ValueError("the reciprocal divider needs its seed ROM file (rom_file)")
+        params["ROM_FILE"] = f'"{rom_file}"'
+    ex = config.fmt(config.ex_signal)
+    params |= {"EX_W": ex.word, "EX_F": ex.frac, "EX_S": int(ex.signed)}
+    for signal, p in _RANGE_PREFIX.items():
         f = config.fmt(signal)
         params |= {f"{p}_W": f.word, f"{p}_F": f.frac, f"{p}_S": int(f.signed)}
-        if signal not in ("bias_reg", "pole_coef"):
+        if signal not in _RANGE_READ_ONLY:
             params |= {f"{p}_Q": int(f.quant), f"{p}_O": int(f.overflow)}
     return params
 
 
-def rowcol_registers(config: P1Config) -> dict[str, int]:
-    """Raw codes (unsigned words) of ``pole_raw`` and ``bias_raw``, as the host writes them."""
-    pole, bias = config.fmt("pole_coef"), config.fmt("bias_reg")
-    return {
-        "pole_raw": pole.from_float(config.pole) & ((1 << pole.word) - 1),
-        "bias_raw": bias.from_float(config.bias) & ((1 << bias.word) - 1),
-    }
+def range_registers(config: P1Config, registers: Mapping) -> dict[str, int]:
+    """Port values (unsigned words) of ``p1_range``'s host registers from a manifest's
+    ``registers`` (name -> ``{"signal", "format", "raw", ...}``: the raw codes the model
+    used, in the formats of ``config``, which the entries carry)."""
+    return _range_register_ports(registers)
+
+
+def _range_register_ports(registers: Mapping) -> dict[str, int]:
+    out = {}
+    for port, names in RANGE_REGISTER_PORTS.items():
+        value = 0
+        for k, name in enumerate(names):
+            reg = registers[name]
+            word = _format(reg["format"])[0]
+            value |= (int(reg["raw"]) & ((1 << word) - 1)) << (k * word)
+        out[port] = value
+    return out
+
+
+def write_recip_rom(config: P1Config, path: str | Path) -> Path:
+    """Write the reciprocal divider's seed ROM of ``config`` as ``$readmemh`` words (the
+    table of ``rangefx.rtl_model.runtime.reciprocal_lut``, as the vectors' ``recip_rom``)."""
+    from rangefx.rtl_model.runtime import reciprocal_lut
+
+    words = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
+    digits = max(1, (int(words.max()).bit_length() + 3) // 4)
+    p = Path(path)
+    p.write_text("".join(f"{int(w):0{digits}x}\n" for w in words))
+    return p

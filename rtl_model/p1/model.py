@@ -563,10 +563,13 @@ def frame_registers(
 
 
 def stage_latencies(config: P1Config) -> dict[str, int]:
-    """Declared latency in clock cycles of every stage (docs/p1_datapath.md, Timing)."""
+    """Latency in clock cycles of every stage, as the RTL has them (``hdl/p1_frontend.v``;
+    docs/p1_datapath.md, Timing). The consistent variant's second column filter runs
+    beside the first (its ``ex`` leaves with ``s1``): its x-derivative adds no cycle; the
+    paper variant's adds the product ``s1 r2`` (2 cycles) and the divider."""
     div = divider_latency(config.divider, config.formats["div_quot"].word)
     rdiv = divider_latency(config.divider, config.formats["range"].word)
-    x_derivative = 3 if config.variant == "consistent" else 2 + div  # product s1*r2 + divider
+    x_derivative = 0 if config.variant == "consistent" else 2 + div
     return {
         "input": 1,
         "bias": 1,

@@ -14,12 +14,12 @@ from collections.abc import Sequence
 
 from ..errors import UserError
 from ..report.outdir import check_output_dir
-from . import bench, config, demo, eval, guide, run, sweep, track, vectors
+from . import bench, config, demo, eval, guide, hdl, run, sweep, track, vectors
 
 __all__ = ["DIR_OUTPUT_COMMANDS", "EXIT_INTERRUPTED", "build_parser", "main"]
 
 #: Subcommand modules, in ``--help`` order; each has ``add_parser(sub)``.
-COMMANDS = (demo, run, config, bench, vectors, sweep, eval, track, guide)
+COMMANDS = (demo, run, config, bench, vectors, hdl, sweep, eval, track, guide)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -38,9 +38,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import hashlib
 import json
 import sys
+from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -101,6 +103,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if not args.definition or not args.out:
         raise UserError("sweep needs a definition file and --out DIR (or --example)")
     defn = load_sweep(args.definition)
+    if args.cost == "synth" and "synth" not in defn.metrics:
+        try:
+            defn = dataclasses.replace(defn, metrics=(*defn.metrics, "synth"))
+        except ValueError as exc:
+            raise UserError(f"--cost synth: {exc}") from None
+    if "synth" in defn.metrics:
+        from ..studies.synth import yosys_version
+
+        yosys_version()  # one error line now if yosys is missing, not one per point
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UserError(f"output path {str(out)!r} exists and is not a directory")
@@ -260,6 +271,22 @@ def _figures(figs: dict[str, Any]) -> dict[str, Any]:
     return {k: figs[k] for k in keys}
 
 
+def _synth_cost(pipe: Pipeline, args: argparse.Namespace, case: Case) -> Callable[[Any], float]:
+    """``--cost synth``: the Yosys LUT + FF of the whole P1 on the first tuning scene's
+    shape and mode (:func:`rangefx.tools.studies.synth.synth_p1`, cached per stage)."""
+    from ..studies.synth import synth_p1, yosys_version
+
+    if pipe.name != "p1":
+        raise UserError(f"--cost synth: only P1 has RTL in hdl/, not {pipe.name}")
+    yosys_version()  # a one-line error when yosys is missing, before any run
+
+    def cost(config) -> float:
+        area = synth_p1(config, args.synth_target, case.shape, case.mode)
+        return float(area["lut"] + area["ff"])
+
+    return cost
+
+
 def cmd_optimise(args: argparse.Namespace) -> int:
     from ..studies.optimiser import Budget, evaluate, optimise
 
@@ -294,9 +321,11 @@ def cmd_optimise(args: argparse.Namespace) -> int:
     default = _default_for(pipe, start)
     cases = [_case(pipe, name, args.size, "--scene") for name in scenes]
     vcase = _case(pipe, args.verify, args.size, "--verify") if args.verify else None
+    synth_cost = _synth_cost(pipe, args, cases[0]) if args.cost == "synth" else None
     res = optimise(
         cases, start, budget, pipeline=pipe, margin=args.margin, signals=args.signals,
         tune_registers=args.tune_registers, workers=args.workers, progress=not args.json,
+        cost_fn=synth_cost,
     )  # fmt: skip
     case = cases[0]
     shape, mode = case.shape, case.mode
@@ -349,6 +378,13 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         "seconds": res.seconds,
         "steps": res.steps,
     }
+    if synth_cost is not None:
+        figures["synth_cost"] = {
+            "cost": "lut + ff",
+            "target": args.synth_target,
+            **{k: synth_cost(c) for k, c in (("start", start), ("default", default),
+                                             ("optimised", res.config))},
+        }  # fmt: skip
     if vcase is not None:
         golden = pipe.golden(vcase, res.config).result
         fig_opt = evaluate(vcase, res.config, golden, pipeline=pipe)
@@ -424,6 +460,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", help="address of a dask.distributed scheduler")
     p.add_argument("--workers", type=_positive_int, default=2, help="local threads (default 2)")
     p.add_argument("--example", action="store_true", help="print the example definition's path")
+    p.add_argument("--cost", choices=("proxy", "synth"), default="proxy",
+                   help="cost axis of the Pareto fronts: proxy (cost_bits, default) or synth "
+                   "(Yosys xcup LUT + FF of the P1 RTL per point, cached; adds the synth "
+                   "metrics)")  # fmt: skip
     p.add_argument(
         "--restart", action="store_true",
         help="delete the results of an earlier sweep in --out (another definition) and start over",
@@ -467,6 +507,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "host may load (focal length, baseline, thresholds), which tuning scenes "
                    "do not sample, so they keep the starting config's formats")  # fmt: skip
     p.add_argument("--workers", type=_positive_int, default=2, help="concurrent runs (default 2)")
+    p.add_argument("--cost", choices=("proxy", "synth"), default="proxy",
+                   help="cost minimised: proxy (cost_bits, default) or synth (Yosys LUT + FF "
+                   "of the whole P1: a narrowing that does not lower it is not kept)")  # fmt: skip
+    p.add_argument("--synth-target", choices=("xc7", "xcup", "ecp5", "ice40"), default="xcup",
+                   help="Yosys target of --cost synth (default xcup)")  # fmt: skip
     p.add_argument("--out", help="write optimised.toml, build-up plots and summary.json here")
     p.add_argument("--json", action="store_true",
                    help="print the figures as one JSON object (top-level accuracy: worst case "

@@ -250,6 +250,7 @@ def optimise(
     max_frac_drop: int = 40,
     progress: bool = True,
     on_eval: Callable[[WordLengthConfig, list[dict | None]], None] | None = None,
+    cost_fn: Callable[[WordLengthConfig], float] | None = None,
 ) -> OptimiseResult:
     """Cheapest config reachable from ``start`` meeting ``budget`` on every case.
 
@@ -261,7 +262,10 @@ def optimise(
     these (default: all but the input pixel and, unless ``tune_registers``, the config
     type's ``HOST_REGISTERS``; a register named in ``signals`` is tuned). ``on_eval`` sees
     each candidate with the figures of the scenes it was run on (it stops at the first
-    miss).
+    miss). ``cost_fn``: a measured cost to minimise (``rangefx optimise --cost synth``:
+    the Yosys LUT + FF of the whole P1): each signal's narrowing that meets the budget is
+    kept only if it does not raise ``cost_fn`` (the step is then logged with
+    ``"kept": False``); the signals are still visited in the order of the proxy weights.
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise UserError(f"--workers must be a positive integer, not {workers!r}")
@@ -393,6 +397,15 @@ def optimise(
                     new = make(best)
                     assert new is not None
                     old = str(current.formats[name])
+                    if cost_fn is not None:
+                        measured = (cost_fn(current), cost_fn(new))
+                        if measured[1] > measured[0]:
+                            rejected = {"signal": name, "dim": dim, "from": old,
+                                        "to": str(new.formats[name]), "kept": False}  # fmt: skip
+                            rejected |= {"cost_from": measured[0], "cost_to": measured[1]}
+                            steps.append(rejected)
+                            bar.update(1)
+                            continue
                     current, cur_figs = new, best_figs
                     worst = worst_case(cur_figs)
                     steps.append(
@@ -403,6 +416,9 @@ def optimise(
                             "valid_agreement": worst["valid_agreement"],
                         }
                     )  # fmt: skip
+                    if cost_fn is not None:
+                        steps[-1] |= {"kept": True, "cost_from": measured[0],
+                                      "cost_to": measured[1]}  # fmt: skip
                 bar.update(1)
     finally:
         bar.close()

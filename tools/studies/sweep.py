@@ -109,6 +109,10 @@ __all__ = [
 
 RESULTS_NAME = "results.jsonl"
 METRIC_GROUPS: tuple[str, ...] = ("golden", "truth", "sqnr", "overflows")
+#: Metric groups a definition (or ``rangefx sweep --cost synth``) must ask for: ``synth``,
+#: the Yosys area of P1's RTL (:func:`rangefx.tools.studies.synth.synth_record`), which
+#: also makes ``synth_cost`` (LUT + FF) the cost axis of the Pareto fronts.
+OPTIONAL_METRICS: tuple[str, ...] = ("synth",)
 PARAMS: tuple[str, ...] = (
     "frac",
     "word",
@@ -219,9 +223,15 @@ class SweepDef:
         bad = [s for s in self.scenes if s not in SCENE_NAMES]
         if bad:
             raise ValueError(f"sweep: unknown scenes {bad}; choose from {', '.join(SCENE_NAMES)}")
-        bad = [m for m in self.metrics if m not in METRIC_GROUPS]
+        bad = [m for m in self.metrics if m not in (*METRIC_GROUPS, *OPTIONAL_METRICS)]
         if bad:
-            raise ValueError(f"sweep: unknown metrics {bad}; choose from {METRIC_GROUPS}")
+            raise ValueError(
+                f"sweep: unknown metrics {bad}; choose from {(*METRIC_GROUPS, *OPTIONAL_METRICS)}"
+            )
+        if "synth" in self.metrics and self.pipeline != "p1":
+            raise ValueError(
+                f"sweep: the synth metrics need RTL: only P1 has it, not {self.pipeline}"
+            )
         if self.combine not in COMBINES:
             raise ValueError(f"sweep: combine must be one of {COMBINES}, not {self.combine!r}")
         if not self.axes:
@@ -234,6 +244,12 @@ class SweepDef:
             raise ValueError("sweep: pareto_metric needs the 'truth' metrics")
         if not self.pareto_metric.startswith("truth") and "golden" not in self.metrics:
             raise ValueError("sweep: pareto_metric needs the 'golden' metrics")
+
+    @property
+    def cost_key(self) -> str:
+        """The cost axis of the Pareto fronts: ``synth_cost`` with the synth metrics, else
+        the proxy's ``cost_bits``."""
+        return "synth_cost" if "synth" in self.metrics else "cost_bits"
 
     @property
     def pipe(self) -> Pipeline:
@@ -533,6 +549,10 @@ def evaluate_point(spec: Mapping[str, Any]) -> dict[str, Any]:
         rec["overflows"] = {k: v for k, v in result.overflows.items() if v}
     if want_taps:
         rec["taps"] = tap_errors(result, golden, pipe.tap_table(config, case.mode))
+    if "synth" in metrics:
+        from .synth import synth_record
+
+        rec.update(synth_record(config, case.shape, case.mode))
     rec["seconds"] = time.perf_counter() - t0
     return _finite(rec)
 
@@ -752,6 +772,12 @@ _POINT_FIELDS = (
     "frame_store_bits",
     "bram18",
     "dsp",
+    "synth_cost",
+    "synth_lut",
+    "synth_ff",
+    "synth_carry",
+    "synth_dsp",
+    "synth_bram",
     "median_rel_range_diff",
     "p95_rel_range_diff",
     "valid_agreement",
@@ -798,21 +824,22 @@ def write_outputs(defn: SweepDef, outcome: SweepOutcome, out_dir: str | Path) ->
         unique.setdefault(r["key"], r)
     for scene in defn.scenes:
         pts = [r for r in unique.values() if r["scene"] == scene and r["status"] == "ok"]
-        costs = [float(r["cost_bits"]) for r in pts]
+        cost_key = defn.cost_key
+        costs = [float(r[cost_key]) for r in pts]
         errs = [_metric(r, metric) for r in pts]
         front = pareto_front(costs, errs)
         write_csv(out / f"pareto_{scene}.csv", [pts[i] for i in front], _POINT_FIELDS)
         base = next((r for r in rows if r["labels"] == "base" and r["scene"] == scene), None)
         marks = {}
         if base is not None and base["status"] == "ok":
-            marks["base config"] = (float(base["cost_bits"]), _metric(base, metric))
+            marks["base config"] = (float(base[cost_key]), _metric(base, metric))
         save_pareto(
             out / f"pareto_{scene}.png", costs, errs, front, ylabel=metric.replace("_", " "),
             title=f"{defn.name}: {scene} ({pipe.name}, golden {pipe.golden_label(defn.base)})",
-            marks=marks,
+            marks=marks, **({"xlabel": "Yosys xcup LUT + FF"} if cost_key != "cost_bits" else {}),
         )  # fmt: skip
         summary["pareto"][scene] = [
-            {k: pts[i][k] for k in ("key", "labels", "cost_bits", metric)} for i in front
+            {k: pts[i][k] for k in ("key", "labels", "cost_bits", cost_key, metric)} for i in front
         ]
     # sensitivity: single-signal bit axes, each point differing from the base in that axis;
     # a tap belongs to the signal whose format it carries (the base's tap table)

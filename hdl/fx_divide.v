@@ -1,0 +1,209 @@
+// Pipelined dividers of rangefx: divide(N, D, S) of docs/p1_datapath.md "Dividers".
+//
+// N and D are two's complement raw values (N_W, D_W bits) with N_F, D_F fraction bits;
+// the quotient is cast into S = (OUT_S, OUT_W, OUT_F) with the modes QUANT / OVF
+// (fx_cast_sized.v). One division enters per clock; the result leaves a fixed number of
+// cycles later (rtl_model/runtime.py divider_latency): the pipeline advances every
+// clock, the caller carries its own valid bit beside it.
+//   fx_div_restoring : radix-2 restoring, sign-magnitude, OUT_W + 1 quotient bits (one
+//                      per stage) with the guard bit, a sticky bit; latency OUT_W + 4
+//   fx_div_reciprocal: seed ROM (2^L words, $readmemh of ROM_FILE) + one Newton step,
+//                      three products, a normalising cast; latency 8
+// D = 0 gives 0 when N = 0, otherwise the overflow mode of S acting on an infinite value
+// with the sign of N (ovf = 1).
+`timescale 1ns / 1ps
+
+module fx_div_restoring #(
+    parameter integer N_W = 16, parameter integer N_F = 0,
+    parameter integer D_W = 16, parameter integer D_F = 0,
+    parameter integer OUT_W = 16, parameter integer OUT_F = 0, parameter integer OUT_S = 1,
+    parameter integer QUANT = 2, parameter integer OVF = 1
+) (
+    input  wire                    clk,
+    input  wire signed [N_W-1:0]   n,
+    input  wire signed [D_W-1:0]   d,
+    output reg         [OUT_W-1:0] y,
+    output reg                     ovf
+);
+    // T = |N| 2^SH and DD = |D| 2^-SH (whichever exponent is >= 0): q = floor(T / DD) has
+    // one guard bit below the LSB of S; q >= 2^QB overflows S in every mode, so only QB
+    // quotient bits are computed, after a comparison that flags the overflow.
+    localparam integer SH = OUT_F + 1 + D_F - N_F;
+    localparam integer SHN = (SH > 0) ? SH : 0;
+    localparam integer SHD = (SH < 0) ? -SH : 0;
+    localparam integer QB = OUT_W + 1;
+    localparam integer TW = N_W + SHN;
+    localparam integer DW = D_W + SHD;
+    localparam integer RW = DW + QB;            // remainder bits (R < DD 2^QB)
+    localparam integer CW = ((TW > RW) ? TW : RW) + 1;
+    localparam integer MW = QB + 2;             // magnitude 2q + sticky
+
+    wire [N_W-1:0] an = n[N_W-1] ? -n : n;
+    wire [D_W-1:0] ad = d[D_W-1] ? -d : d;
+    wire [CW-1:0]  t  = {{(CW-N_W){1'b0}}, an} << SHN;
+    wire [CW-1:0]  dd = {{(CW-D_W){1'b0}}, ad} << SHD;
+    wire           dz = (d == {D_W{1'b0}});
+    wire           big = dz ? (n != {N_W{1'b0}}) : (t >= (dd << QB));
+
+    // stage 0: operands; stages 1..QB: one quotient bit each (MSB first). Stage k's
+    // registers sit at slice k of these buses.
+    wire [RW*(QB+1)-1:0] rem_b;
+    wire [DW*(QB+1)-1:0] div_b;
+    wire [QB*(QB+1)-1:0] quo_b;
+    wire [QB:0]          neg_b, sat_b, zer_b;
+    reg  [RW-1:0] rem0;
+    reg  [DW-1:0] div0;
+    reg           neg0, sat0, zer0;
+    always @(posedge clk) begin
+        rem0 <= (big | dz) ? {RW{1'b0}} : t[RW-1:0];
+        div0 <= dd[DW-1:0];
+        neg0 <= dz ? n[N_W-1] : n[N_W-1] ^ d[D_W-1];
+        sat0 <= big;
+        zer0 <= dz;
+    end
+    assign rem_b[RW-1:0] = rem0;
+    assign div_b[DW-1:0] = div0;
+    assign quo_b[QB-1:0] = {QB{1'b0}};
+    assign {neg_b[0], sat_b[0], zer_b[0]} = {neg0, sat0, zer0};
+    genvar k;
+    generate
+        for (k = 1; k <= QB; k = k + 1) begin : g_bit
+            wire [RW-1:0] r_in = rem_b[(k-1)*RW +: RW];
+            wire [DW-1:0] d_in = div_b[(k-1)*DW +: DW];
+            wire [RW:0]   trial = {1'b0, r_in} - ({{(RW+1-DW){1'b0}}, d_in} << (QB - k));
+            wire          bit_k = ~trial[RW] & ~zer_b[k-1];
+            reg  [RW-1:0] r;
+            reg  [DW-1:0] dv;
+            reg  [QB-1:0] q;
+            reg           ng, st, zr;
+            always @(posedge clk) begin
+                r  <= trial[RW] ? r_in : trial[RW-1:0];
+                dv <= d_in;
+                q  <= quo_b[(k-1)*QB +: QB] | ({{(QB-1){1'b0}}, bit_k} << (QB - k));
+                {ng, st, zr} <= {neg_b[k-1], sat_b[k-1], zer_b[k-1]};
+            end
+            assign rem_b[k*RW +: RW] = r;
+            assign div_b[k*DW +: DW] = dv;
+            assign quo_b[k*QB +: QB] = q;
+            assign {neg_b[k], sat_b[k], zer_b[k]} = {ng, st, zr};
+        end
+    endgenerate
+    // stage QB+1: magnitude 2q + sticky (q clamped at 2^QB on overflow)
+    reg [MW-1:0] mag;
+    reg          neg_m;
+    always @(posedge clk) begin
+        mag <= sat_b[QB] ? ({{(MW-1){1'b0}}, 1'b1} << (QB + 1))
+                         : {1'b0, quo_b[QB*QB +: QB], (rem_b[QB*RW +: RW] != {RW{1'b0}})};
+        neg_m <= neg_b[QB];
+    end
+    // stage QB+2: sign and the cast of (2q + t) 2^-(OUT_F + 2) into S
+    wire signed [MW:0]  raw = neg_m ? -$signed({1'b0, mag}) : $signed({1'b0, mag});
+    wire [OUT_W-1:0] y_c;
+    wire             ovf_c;
+    fx_cast_sized #(MW + 1, OUT_F + 2, OUT_W, OUT_F, OUT_S, QUANT, OVF) u_cast (
+        .x(raw), .y(y_c), .ovf(ovf_c));
+    always @(posedge clk) {y, ovf} <= {y_c, ovf_c};
+endmodule
+
+module fx_div_reciprocal #(
+    parameter integer N_W = 16, parameter integer N_F = 0,
+    parameter integer D_W = 16, parameter integer D_F = 0,
+    parameter integer OUT_W = 16, parameter integer OUT_F = 0, parameter integer OUT_S = 1,
+    parameter integer QUANT = 2, parameter integer OVF = 1,
+    parameter integer L = 8,            // seed ROM index bits (recip_lut_bits)
+    parameter integer R = 20,           // reciprocal fraction bits (recip_bits)
+    parameter ROM_FILE = "recip_rom.mem"
+) (
+    input  wire                    clk,
+    input  wire signed [N_W-1:0]   n,
+    input  wire signed [D_W-1:0]   d,
+    output reg         [OUT_W-1:0] y,
+    output reg                     ovf
+);
+    localparam integer YW = R + 1;      // y0 < 2^R
+    localparam integer EW = R + 2;      // e = 2^(R+1) - t in (0, 2^(R+1)]
+    localparam integer Y1W = R + 3;
+    localparam integer PW = N_W + Y1W;  // |N| y1
+    localparam integer PB = (D_W > 1) ? $clog2(D_W) : 1;  // bits of p = bitlen(|D|) - 1
+    // the final cast drops F_N - F_D + p + R - OUT_F bits: a constant part SH0 plus p,
+    // made non-negative by a constant left shift SHL0 of the product
+    localparam integer SH0 = N_F - D_F + R - OUT_F;
+    localparam integer SHL0 = (SH0 < 0) ? -SH0 : 0;
+    localparam integer SH_MAX = SH0 + SHL0 + D_W - 1;
+    localparam integer SH_W = (SH_MAX > 0) ? $clog2(SH_MAX + 1) : 1;
+    localparam integer XW0 = PW + 1 + SHL0;
+    localparam integer XW = (XW0 > OUT_W + 2) ? XW0 : OUT_W + 2;
+
+    reg [YW-1:0] rom [0:(1 << L) - 1];
+    initial $readmemh(ROM_FILE, rom);
+
+    // stage 1: magnitude, leading one p, the L seed index bits and mR, the ROM read
+    wire [N_W-1:0] an = n[N_W-1] ? -n : n;
+    wire [D_W-1:0] ad = d[D_W-1] ? -d : d;
+    reg  [PB-1:0]  p;
+    integer k;
+    always @* begin
+        p = {PB{1'b0}};
+        for (k = 0; k < D_W; k = k + 1)
+            if (ad[k]) p = k;
+    end
+    wire [D_W-1:0] aligned = ad << (D_W - 1 - p);  // leading one at bit D_W - 1
+    // idx = floor(|D| 2^(L-p)) - 2^L, mR = floor(|D| 2^(R-p)): constant shifts of `aligned`
+    wire [D_W+L-1:0] idx_w = {aligned, {L{1'b0}}} >> (D_W - 1);
+    wire [L-1:0]     idx = idx_w[L-1:0];
+    wire [D_W+R-1:0] mr_w = {aligned, {R{1'b0}}} >> (D_W - 1);
+    wire [R:0]       mr = mr_w[R:0];
+    reg [YW-1:0]  y0_1;
+    reg [R:0]     mr_1;
+    reg [N_W-1:0] an_1;
+    reg [PB-1:0]  p_1;
+    reg           neg_1, dz_1, nz_1;
+    always @(posedge clk) begin
+        y0_1 <= rom[idx];
+        mr_1 <= mr;
+        an_1 <= an;
+        p_1 <= p;
+        neg_1 <= (d == {D_W{1'b0}}) ? n[N_W-1] : n[N_W-1] ^ d[D_W-1];
+        dz_1 <= (d == {D_W{1'b0}});
+        nz_1 <= (n != {N_W{1'b0}});
+    end
+    // stages 2-3: t = floor(mR y0 2^-R), e = 2^(R+1) - t
+    reg [2*R+1:0] m1_2;
+    reg [EW-1:0]  e_3;
+    reg [YW-1:0]  y0_2, y0_3;
+    // stages 4-5: y1 = floor(y0 e 2^-R); stages 6-7: |N| y1, its sign and the shift
+    reg [YW+EW-1:0] m2_4;
+    reg [Y1W-1:0]   y1_5;
+    reg [PW-1:0]    m3_6;
+    reg signed [XW-1:0] x_7;
+    reg [SH_W-1:0]  sh_7;
+    reg [N_W-1:0]   an_2, an_3, an_4, an_5;
+    reg [PB-1:0]    p_2, p_3, p_4, p_5, p_6;
+    reg             neg_2, neg_3, neg_4, neg_5, neg_6;
+    reg             dz_2, dz_3, dz_4, dz_5, dz_6, nz_2, nz_3, nz_4, nz_5, nz_6;
+    wire [2*R+1:0]  t_full = m1_2 >> R;
+    wire [XW-1:0]   mag = {{(XW-PW){1'b0}}, m3_6} << SHL0;
+    wire [XW-1:0]   inf = {{(XW-1){1'b0}}, 1'b1} << (XW - 2);  // beyond any code of S
+    always @(posedge clk) begin
+        m1_2 <= mr_1 * y0_1;
+        e_3 <= ({{(EW-1){1'b0}}, 1'b1} << (R + 1)) - t_full[EW-1:0];
+        m2_4 <= y0_3 * e_3;
+        y1_5 <= m2_4 >> R;
+        m3_6 <= an_5 * y1_5;
+        x_7 <= dz_6 ? (nz_6 ? (neg_6 ? -$signed(inf) : $signed(inf)) : {XW{1'b0}})
+                    : (neg_6 ? -$signed(mag) : $signed(mag));
+        sh_7 <= dz_6 ? {SH_W{1'b0}} : SH0 + SHL0 + p_6;
+        {y0_2, y0_3} <= {y0_1, y0_2};
+        {an_2, an_3, an_4, an_5} <= {an_1, an_2, an_3, an_4};
+        {p_2, p_3, p_4, p_5, p_6} <= {p_1, p_2, p_3, p_4, p_5};
+        {neg_2, neg_3, neg_4, neg_5, neg_6} <= {neg_1, neg_2, neg_3, neg_4, neg_5};
+        {dz_2, dz_3, dz_4, dz_5, dz_6} <= {dz_1, dz_2, dz_3, dz_4, dz_5};
+        {nz_2, nz_3, nz_4, nz_5, nz_6} <= {nz_1, nz_2, nz_3, nz_4, nz_5};
+    end
+    // stage 8: the cast
+    wire [OUT_W-1:0] y_c;
+    wire             ovf_c;
+    fx_cast_var #(XW, SH_W, SH_MAX, OUT_W, OUT_S, QUANT, OVF) u_cast (
+        .x(x_7), .sh(sh_7), .y(y_c), .ovf(ovf_c));
+    always @(posedge clk) {y, ovf} <= {y_c, ovf_c};
+endmodule

@@ -1,0 +1,403 @@
+// p1_range: rangefx P1 range stage (eq 28 of the obstacle paper), one pixel per clock.
+//
+// Bit-exact with docs/p1_datapath.md "Range stage" steps 1-8: pixel counters and
+// coordinates xp, yp; c1, a1, b1; k0..k2; vx, vy, wx, wy, w0; gv, num, den, v_sq, g_sq,
+// g_thr; the range divider (restoring or reciprocal, fx_divide.v); the thresholds, valid
+// and the range output. Every cast is fx_cast_sized, its exact input carried in as many
+// bits as its operands' formats need. Formats and modes are parameters, each signal's
+// <P>_W, _F, _S (signed), _Q (quantisation), _O (overflow); rangefx.vectors.hdl
+// .range_parameters(config, width, height) computes them from a word-length config.
+//
+// Input: one beat per clock when s_valid (no back-pressure), s_sof = first pixel of a
+// frame, s_eol = last pixel of a line; the two streams' outputs E_hat (col_s1), ex
+// (div_quot or col2_out) and ey (col_s2) of the same pixel. The pipeline advances every
+// clock; each tap group leaves at a fixed latency after its input beat, as
+// rtl_model/p1/model.py stage_latencies declares:
+//   range_coords   +2            : xp yp c1 a1 b1 k0 k1 k2 vx vy wx wy w0  (c_valid)
+//   range_products +2 (+4 in all) : gv num den v_sq g_sq g_thr              (p_valid)
+//   range_divider  +DIV_LAT       : range_q                                 (q_valid)
+//   threshold      +1             : valid, range                            (m_valid)
+// Each group's cast overflow flags leave with it (ovf_c, ovf_p, ovf_q; bit order as the
+// tap lists above). Host registers (raw codes in their register formats) are ports.
+`timescale 1ns / 1ps
+module p1_range #(
+    parameter integer X_W = 10,          // column counter bits
+    parameter integer Y_W = 10,          // row counter bits
+    parameter integer DIVIDER = 1,       // 0 restoring, 1 reciprocal
+    parameter integer RECIP_L = 8,
+    parameter integer RECIP_R = 20,
+    parameter ROM_FILE = "recip_rom.mem",
+    // stream inputs
+    parameter integer S1_W = 20, parameter integer S1_F = 11, parameter integer S1_S = 0,
+    parameter integer EX_W = 24, parameter integer EX_F = 12, parameter integer EX_S = 1,
+    parameter integer S2_W = 21, parameter integer S2_F = 11, parameter integer S2_S = 1,
+    // host register formats
+    parameter integer FR_W = 18, parameter integer FR_F = 6, parameter integer FR_S = 0,
+    parameter integer KT_W = 28, parameter integer KT_F = 20, parameter integer KT_S = 1,
+    parameter integer KM_W = 32, parameter integer KM_F = 34, parameter integer KM_S = 1,
+    parameter integer TG2_W = 12, parameter integer TG2_F = 4, parameter integer TG2_S = 0,
+    // cast signals
+    parameter integer CO_W = 13, parameter integer CO_F = 1, parameter integer CO_S = 1,
+    parameter integer CO_Q = 2, parameter integer CO_O = 1,
+    parameter integer C1_W = 21, parameter integer C1_F = 11, parameter integer C1_S = 1,
+    parameter integer C1_Q = 2, parameter integer C1_O = 1,
+    parameter integer GA_W = 24, parameter integer GA_F = 12, parameter integer GA_S = 1,
+    parameter integer GA_Q = 2, parameter integer GA_O = 1,
+    parameter integer GB_W = 21, parameter integer GB_F = 11, parameter integer GB_S = 1,
+    parameter integer GB_Q = 2, parameter integer GB_O = 1,
+    parameter integer KR_W = 28, parameter integer KR_F = 24, parameter integer KR_S = 1,
+    parameter integer KR_Q = 2, parameter integer KR_O = 1,
+    parameter integer V_W = 28, parameter integer V_F = 10, parameter integer V_S = 1,
+    parameter integer V_Q = 2, parameter integer V_O = 1,
+    parameter integer W_W = 24, parameter integer W_F = 16, parameter integer W_S = 1,
+    parameter integer W_Q = 2, parameter integer W_O = 1,
+    parameter integer GV_W = 28, parameter integer GV_F = 4, parameter integer GV_S = 1,
+    parameter integer GV_Q = 2, parameter integer GV_O = 1,
+    parameter integer NUM_W = 28, parameter integer NUM_F = 4, parameter integer NUM_S = 1,
+    parameter integer NUM_Q = 2, parameter integer NUM_O = 1,
+    parameter integer DEN_W = 30, parameter integer DEN_F = 12, parameter integer DEN_S = 1,
+    parameter integer DEN_Q = 2, parameter integer DEN_O = 1,
+    parameter integer RNG_W = 28, parameter integer RNG_F = 8, parameter integer RNG_S = 1,
+    parameter integer RNG_Q = 2, parameter integer RNG_O = 1,
+    parameter integer VSQ_W = 30, parameter integer VSQ_F = 2, parameter integer VSQ_S = 0,
+    parameter integer VSQ_Q = 2, parameter integer VSQ_O = 1,
+    parameter integer GSQ_W = 56, parameter integer GSQ_F = 4, parameter integer GSQ_S = 0,
+    parameter integer GSQ_Q = 2, parameter integer GSQ_O = 1
+) (
+    input  wire             clk,
+    input  wire             rst,
+    // host registers (docs/p1_datapath.md "Registers")
+    input  wire [CO_W-1:0]  cx_raw,
+    input  wire [CO_W-1:0]  cy_raw,
+    input  wire [FR_W-1:0]  f_raw,
+    input  wire [KT_W-1:0]  k3_raw,
+    input  wire [KT_W-1:0]  k4_raw,
+    input  wire [KT_W-1:0]  k5_raw,
+    input  wire [9*KM_W-1:0] m_raw,      // M_00 M_01 M_02 M_10 ... M_22, M_00 in the low bits
+    input  wire [C1_W-1:0]  te_raw,
+    input  wire [TG2_W-1:0] tg2_raw,
+    input  wire [DEN_W-1:0] dmin_raw,
+    input  wire [RNG_W-1:0] rmax_raw,
+    // the two streams' outputs of one pixel
+    input  wire             s_valid,
+    input  wire             s_sof,
+    input  wire             s_eol,
+    input  wire [S1_W-1:0]  e1_s1,
+    input  wire [EX_W-1:0]  e1_ex,
+    input  wire [S2_W-1:0]  e1_s2,
+    input  wire [S1_W-1:0]  e2_s1,
+    input  wire [EX_W-1:0]  e2_ex,
+    input  wire [S2_W-1:0]  e2_s2,
+    // range_coords taps
+    output reg              c_valid,
+    output reg  [CO_W-1:0]  xp,
+    output reg  [CO_W-1:0]  yp,
+    output reg  [C1_W-1:0]  c1,
+    output reg  [GA_W-1:0]  a1,
+    output reg  [GB_W-1:0]  b1,
+    output reg  [KR_W-1:0]  k0,
+    output reg  [KR_W-1:0]  k1,
+    output reg  [KR_W-1:0]  k2,
+    output reg  [V_W-1:0]   vx,
+    output reg  [V_W-1:0]   vy,
+    output reg  [W_W-1:0]   wx,
+    output reg  [W_W-1:0]   wy,
+    output reg  [W_W-1:0]   w0,
+    output reg  [12:0]      ovf_c,
+    // range_products taps
+    output reg              p_valid,
+    output reg  [GV_W-1:0]  gv,
+    output reg  [NUM_W-1:0] num,
+    output reg  [DEN_W-1:0] den,
+    output reg  [VSQ_W-1:0] v_sq,
+    output reg  [GSQ_W-1:0] g_sq,
+    output reg  [GSQ_W-1:0] g_thr,
+    output reg  [5:0]       ovf_p,
+    // range_divider tap
+    output wire             q_valid,
+    output wire [RNG_W-1:0] range_q,
+    output wire             ovf_q,
+    // outputs (threshold stage)
+    output reg              m_valid,
+    output reg              m_sof,
+    output reg              m_eol,
+    output reg              valid,
+    output reg  [RNG_W-1:0] range
+);
+`define RFX_MAX(a, b) (((a) > (b)) ? (a) : (b))
+// a raw code as a two's complement value one bit wider when unsigned
+`define RFX_SX(v, S) (((S) != 0) ? $signed(v) : $signed({1'b0, v}))
+    // two's complement widths of the formats
+    localparam integer S1_SW = S1_W + (S1_S ? 0 : 1);
+    localparam integer EX_SW = EX_W + (EX_S ? 0 : 1);
+    localparam integer S2_SW = S2_W + (S2_S ? 0 : 1);
+    localparam integer FR_SW = FR_W + (FR_S ? 0 : 1);
+    localparam integer KT_SW = KT_W + (KT_S ? 0 : 1);
+    localparam integer KM_SW = KM_W + (KM_S ? 0 : 1);
+    localparam integer TG2_SW = TG2_W + (TG2_S ? 0 : 1);
+    localparam integer CO_SW = CO_W + (CO_S ? 0 : 1);
+    localparam integer C1_SW = C1_W + (C1_S ? 0 : 1);
+    localparam integer GA_SW = GA_W + (GA_S ? 0 : 1);
+    localparam integer GB_SW = GB_W + (GB_S ? 0 : 1);
+    localparam integer KR_SW = KR_W + (KR_S ? 0 : 1);
+    localparam integer V_SW = V_W + (V_S ? 0 : 1);
+    localparam integer W_SW = W_W + (W_S ? 0 : 1);
+    localparam integer GV_SW = GV_W + (GV_S ? 0 : 1);
+    localparam integer NUM_SW = NUM_W + (NUM_S ? 0 : 1);
+    localparam integer DEN_SW = DEN_W + (DEN_S ? 0 : 1);
+    localparam integer RNG_SW = RNG_W + (RNG_S ? 0 : 1);
+    localparam integer VSQ_SW = VSQ_W + (VSQ_S ? 0 : 1);
+    localparam integer GSQ_SW = GSQ_W + (GSQ_S ? 0 : 1);
+    localparam integer DIV_LAT = DIVIDER ? 8 : RNG_W + 4;  // runtime.divider_latency
+
+    // host registers as two's complement values
+    wire signed [CO_SW-1:0]  cx_v = `RFX_SX(cx_raw, CO_S);
+    wire signed [CO_SW-1:0]  cy_v = `RFX_SX(cy_raw, CO_S);
+    wire signed [FR_SW-1:0]  f_v = `RFX_SX(f_raw, FR_S);
+    wire signed [KT_SW-1:0]  k3_v = `RFX_SX(k3_raw, KT_S);
+    wire signed [KT_SW-1:0]  k4_v = `RFX_SX(k4_raw, KT_S);
+    wire signed [KT_SW-1:0]  k5_v = `RFX_SX(k5_raw, KT_S);
+    wire signed [TG2_SW-1:0] tg2_v = `RFX_SX(tg2_raw, TG2_S);
+    wire signed [C1_SW-1:0]  te_v = `RFX_SX(te_raw, C1_S);
+    wire signed [DEN_SW-1:0] dmin_v = `RFX_SX(dmin_raw, DEN_S);
+    wire signed [RNG_SW-1:0] rmax_v = `RFX_SX(rmax_raw, RNG_S);
+
+    // ---- pixel counters: column i and row j of the incoming beat ------------------------
+    reg  [X_W-1:0] col_cnt;
+    reg  [Y_W-1:0] row_cnt;
+    wire [X_W-1:0] i_in = s_sof ? {X_W{1'b0}} : col_cnt;
+    wire [Y_W-1:0] j_in = s_sof ? {Y_W{1'b0}} : row_cnt;
+    always @(posedge clk) begin
+        if (rst) begin
+            col_cnt <= {X_W{1'b0}};
+            row_cnt <= {Y_W{1'b0}};
+        end else if (s_valid) begin
+            col_cnt <= s_eol ? {X_W{1'b0}} : i_in + 1'b1;
+            row_cnt <= s_eol ? j_in + 1'b1 : j_in;
+        end
+    end
+
+    // ---- stage 1: xp, yp, c1, a1, b1 and k0..k2 -------------------------------------------
+    localparam integer F_CO0 = `RFX_MAX(CO_F, 0);  // counters are integers
+    localparam integer XPW = `RFX_MAX(X_W + 1 + F_CO0, CO_SW + F_CO0 - CO_F) + 1;
+    localparam integer YPW = `RFX_MAX(Y_W + 1 + F_CO0, CO_SW + F_CO0 - CO_F) + 1;
+    wire signed [XPW-1:0] xp_x = ($signed({1'b0, i_in}) <<< F_CO0) - (cx_v <<< (F_CO0 - CO_F));
+    wire signed [YPW-1:0] yp_x = ($signed({1'b0, j_in}) <<< F_CO0) - (cy_v <<< (F_CO0 - CO_F));
+    wire [CO_W-1:0] xp_c, yp_c;
+    wire [12:0] ovf_c_n;
+    fx_cast_sized #(XPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_xp (xp_x, xp_c, ovf_c_n[0]);
+    fx_cast_sized #(YPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_yp (yp_x, yp_c, ovf_c_n[1]);
+
+    wire signed [S1_SW:0] c1_x = `RFX_SX(e1_s1, S1_S) - `RFX_SX(e2_s1, S1_S);
+    wire signed [EX_SW:0] a1_x = `RFX_SX(e1_ex, EX_S) + `RFX_SX(e2_ex, EX_S);
+    wire signed [S2_SW:0] b1_x = `RFX_SX(e1_s2, S2_S) + `RFX_SX(e2_s2, S2_S);
+    wire [C1_W-1:0] c1_c;
+    wire [GA_W-1:0] a1_c;
+    wire [GB_W-1:0] b1_c;
+    fx_cast_sized #(S1_SW + 1, S1_F, C1_W, C1_F, C1_S, C1_Q, C1_O) u_c1 (c1_x, c1_c, ovf_c_n[2]);
+    fx_cast_sized #(EX_SW + 1, EX_F + 1, GA_W, GA_F, GA_S, GA_Q, GA_O) u_a1 (
+        a1_x, a1_c, ovf_c_n[3]);
+    fx_cast_sized #(S2_SW + 1, S2_F + 1, GB_W, GB_F, GB_S, GB_Q, GB_O) u_b1 (
+        b1_x, b1_c, ovf_c_n[4]);
+
+    // k_r = cast(M_r0 + M_r1 xp + M_r2 yp, k_rot), at FK = max(F_M, F_M + F_coord) bits
+    localparam integer FK = `RFX_MAX(KM_F, KM_F + CO_F);
+    localparam integer KPW = KM_SW + CO_SW;
+    localparam integer KW = `RFX_MAX(KM_SW + FK - KM_F, KPW + FK - KM_F - CO_F) + 2;
+    wire signed [CO_SW-1:0] xp_s = `RFX_SX(xp_c, CO_S);
+    wire signed [CO_SW-1:0] yp_s = `RFX_SX(yp_c, CO_S);
+    wire [3*KR_W-1:0] k_c;
+    genvar r;
+    generate
+        for (r = 0; r < 3; r = r + 1) begin : g_k
+            wire signed [KM_SW-1:0] m0 = `RFX_SX(m_raw[(3*r)*KM_W +: KM_W], KM_S);
+            wire signed [KM_SW-1:0] m1 = `RFX_SX(m_raw[(3*r+1)*KM_W +: KM_W], KM_S);
+            wire signed [KM_SW-1:0] m2 = `RFX_SX(m_raw[(3*r+2)*KM_W +: KM_W], KM_S);
+            wire signed [KPW-1:0] m1x = m1 * xp_s;
+            wire signed [KPW-1:0] m2y = m2 * yp_s;
+            wire signed [KW-1:0] k_x = (m0 <<< (FK - KM_F)) + (m1x <<< (FK - KM_F - CO_F))
+                                     + (m2y <<< (FK - KM_F - CO_F));
+            fx_cast_sized #(KW, FK, KR_W, KR_F, KR_S, KR_Q, KR_O) u_k (
+                k_x, k_c[r*KR_W +: KR_W], ovf_c_n[5 + r]);
+        end
+    endgenerate
+
+    reg              v1;
+    reg              sof1, eol1;
+    reg [CO_W-1:0]   xp1, yp1;
+    reg [C1_W-1:0]   c1_1;
+    reg [GA_W-1:0]   a1_1;
+    reg [GB_W-1:0]   b1_1;
+    reg [3*KR_W-1:0] k_1;
+    reg [7:0]        ovf1;
+    always @(posedge clk) begin
+        v1 <= s_valid & ~rst;
+        {sof1, eol1} <= {s_sof, s_eol};
+        {xp1, yp1, c1_1, a1_1, b1_1, k_1} <= {xp_c, yp_c, c1_c, a1_c, b1_c, k_c};
+        ovf1 <= ovf_c_n[7:0];
+    end
+
+    // ---- stage 2: vx, vy, wx, wy, w0 --------------------------------------------------------
+    localparam integer FGV = `RFX_MAX(FR_F + KT_F, CO_F + KT_F);
+    localparam integer VPW = `RFX_MAX(FR_SW + KT_SW + FGV - FR_F - KT_F,
+                                      CO_SW + KT_SW + FGV - CO_F - KT_F) + 1;
+    localparam integer FGW = `RFX_MAX(FR_F + KR_F, CO_F + KR_F);
+    localparam integer WPW = `RFX_MAX(FR_SW + KR_SW + FGW - FR_F - KR_F,
+                                      CO_SW + KR_SW + FGW - CO_F - KR_F) + 1;
+    localparam integer F_W0 = `RFX_MAX(KR_F, 0);
+    localparam integer W0W = `RFX_MAX(2 + F_W0, KR_SW + F_W0 - KR_F) + 1;
+    wire signed [CO_SW-1:0] xp1_s = `RFX_SX(xp1, CO_S);
+    wire signed [CO_SW-1:0] yp1_s = `RFX_SX(yp1, CO_S);
+    wire signed [KR_SW-1:0] k0_s = `RFX_SX(k_1[0 +: KR_W], KR_S);
+    wire signed [KR_SW-1:0] k1_s = `RFX_SX(k_1[KR_W +: KR_W], KR_S);
+    wire signed [KR_SW-1:0] k2_s = `RFX_SX(k_1[2*KR_W +: KR_W], KR_S);
+    wire signed [FR_SW+KT_SW-1:0] fk4 = f_v * k4_v, fk5 = f_v * k5_v;
+    wire signed [CO_SW+KT_SW-1:0] xk3 = xp1_s * k3_v, yk3 = yp1_s * k3_v;
+    wire signed [FR_SW+KR_SW-1:0] fk1 = f_v * k1_s, fk2 = f_v * k2_s;
+    wire signed [CO_SW+KR_SW-1:0] xk0 = xp1_s * k0_s, yk0 = yp1_s * k0_s;
+    wire signed [VPW-1:0] vx_x = (fk4 <<< (FGV - FR_F - KT_F)) - (xk3 <<< (FGV - CO_F - KT_F));
+    wire signed [VPW-1:0] vy_x = (fk5 <<< (FGV - FR_F - KT_F)) - (yk3 <<< (FGV - CO_F - KT_F));
+    wire signed [WPW-1:0] wx_x = (fk1 <<< (FGW - FR_F - KR_F)) - (xk0 <<< (FGW - CO_F - KR_F));
+    wire signed [WPW-1:0] wy_x = (fk2 <<< (FGW - FR_F - KR_F)) - (yk0 <<< (FGW - CO_F - KR_F));
+    wire signed [W0W-1:0] w0_x = ($signed(3'sd1) <<< F_W0) + (k0_s <<< (F_W0 - KR_F));
+    wire [V_W-1:0] vx_c, vy_c;
+    wire [W_W-1:0] wx_c, wy_c, w0_c;
+    fx_cast_sized #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vx (vx_x, vx_c, ovf_c_n[8]);
+    fx_cast_sized #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vy (vy_x, vy_c, ovf_c_n[9]);
+    fx_cast_sized #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wx (wx_x, wx_c, ovf_c_n[10]);
+    fx_cast_sized #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wy (wy_x, wy_c, ovf_c_n[11]);
+    fx_cast_sized #(W0W, F_W0, W_W, W_F, W_S, W_Q, W_O) u_w0 (w0_x, w0_c, ovf_c_n[12]);
+
+    always @(posedge clk) begin
+        c_valid <= v1 & ~rst;
+        {xp, yp, c1, a1, b1, k0, k1, k2} <= {xp1, yp1, c1_1, a1_1, b1_1,
+                                             k_1[0 +: KR_W], k_1[KR_W +: KR_W], k_1[2*KR_W +: KR_W]};
+        {vx, vy, wx, wy, w0} <= {vx_c, vy_c, wx_c, wy_c, w0_c};
+        ovf_c <= {ovf_c_n[12:8], ovf1};
+    end
+    reg sof2, eol2;
+    always @(posedge clk) {sof2, eol2} <= {sof1, eol1};
+
+    // ---- stage 3: gv, den, v_sq and the product k3 c1 ---------------------------------------
+    localparam integer FGVS = `RFX_MAX(GA_F + V_F, GB_F + V_F);
+    localparam integer GVW = `RFX_MAX(GA_SW + V_SW + FGVS - GA_F - V_F,
+                                      GB_SW + V_SW + FGVS - GB_F - V_F) + 1;
+    localparam integer FDS = `RFX_MAX(`RFX_MAX(GA_F + W_F, GB_F + W_F), C1_F + W_F);
+    localparam integer DSW = `RFX_MAX(`RFX_MAX(GA_SW + W_SW + FDS - GA_F - W_F,
+                                               GB_SW + W_SW + FDS - GB_F - W_F),
+                                      C1_SW + W_SW + FDS - C1_F - W_F) + 2;
+    wire signed [GA_SW-1:0] a1_s = `RFX_SX(a1, GA_S);
+    wire signed [GB_SW-1:0] b1_s = `RFX_SX(b1, GB_S);
+    wire signed [C1_SW-1:0] c1_s = `RFX_SX(c1, C1_S);
+    wire signed [V_SW-1:0]  vx_s = `RFX_SX(vx, V_S), vy_s = `RFX_SX(vy, V_S);
+    wire signed [W_SW-1:0]  wx_s = `RFX_SX(wx, W_S), wy_s = `RFX_SX(wy, W_S);
+    wire signed [W_SW-1:0]  w0_s = `RFX_SX(w0, W_S);
+    wire signed [GA_SW+V_SW-1:0] avx = a1_s * vx_s;
+    wire signed [GB_SW+V_SW-1:0] bvy = b1_s * vy_s;
+    wire signed [GA_SW+W_SW-1:0] awx = a1_s * wx_s;
+    wire signed [GB_SW+W_SW-1:0] bwy = b1_s * wy_s;
+    wire signed [C1_SW+W_SW-1:0] cw0 = c1_s * w0_s;
+    wire signed [2*V_SW-1:0] vx2 = vx_s * vx_s, vy2 = vy_s * vy_s;
+    wire signed [GVW-1:0] gv_x = (avx <<< (FGVS - GA_F - V_F)) + (bvy <<< (FGVS - GB_F - V_F));
+    wire signed [DSW-1:0] den_x = (awx <<< (FDS - GA_F - W_F)) + (bwy <<< (FDS - GB_F - W_F))
+                                - (cw0 <<< (FDS - C1_F - W_F));
+    wire signed [2*V_SW:0] vsq_x = vx2 + vy2;
+    wire [GV_W-1:0]  gv_c;
+    wire [DEN_W-1:0] den_c;
+    wire [VSQ_W-1:0] vsq_c;
+    wire [2:0]       ovf3_n;
+    fx_cast_sized #(GVW, FGVS, GV_W, GV_F, GV_S, GV_Q, GV_O) u_gv (gv_x, gv_c, ovf3_n[0]);
+    fx_cast_sized #(DSW, FDS, DEN_W, DEN_F, DEN_S, DEN_Q, DEN_O) u_den (
+        den_x, den_c, ovf3_n[1]);
+    fx_cast_sized #(2 * V_SW + 1, 2 * V_F, VSQ_W, VSQ_F, VSQ_S, VSQ_Q, VSQ_O) u_vsq (
+        vsq_x, vsq_c, ovf3_n[2]);
+    reg                          v3, sof3, eol3;
+    reg [GV_W-1:0]               gv3;
+    reg [DEN_W-1:0]              den3;
+    reg [VSQ_W-1:0]              vsq3;
+    reg signed [KT_SW+C1_SW-1:0] k3c1_3;
+    reg [C1_W-1:0]               c1_3;
+    reg [2:0]                    ovf3;
+    always @(posedge clk) begin
+        {v3, sof3, eol3} <= {c_valid & ~rst, sof2, eol2};
+        {gv3, den3, vsq3, c1_3} <= {gv_c, den_c, vsq_c, c1};
+        k3c1_3 <= k3_v * c1_s;
+        ovf3 <= ovf3_n;
+    end
+
+    // ---- stage 4: num, g_sq, g_thr ---------------------------------------------------------
+    localparam integer FNS = `RFX_MAX(KT_F + C1_F, GV_F);
+    localparam integer NSW = `RFX_MAX(KT_SW + C1_SW + FNS - KT_F - C1_F, GV_SW + FNS - GV_F) + 1;
+    wire signed [GV_SW-1:0]  gv3_s = `RFX_SX(gv3, GV_S);
+    wire signed [VSQ_SW-1:0] vsq3_s = `RFX_SX(vsq3, VSQ_S);
+    wire signed [NSW-1:0] num_x = (k3c1_3 <<< (FNS - KT_F - C1_F)) - (gv3_s <<< (FNS - GV_F));
+    wire signed [2*GV_SW-1:0] gsq_x = gv3_s * gv3_s;
+    wire signed [TG2_SW+VSQ_SW-1:0] gthr_x = tg2_v * vsq3_s;
+    wire [NUM_W-1:0] num_c;
+    wire [GSQ_W-1:0] gsq_c, gthr_c;
+    wire [2:0]       ovf4_n;
+    fx_cast_sized #(NSW, FNS, NUM_W, NUM_F, NUM_S, NUM_Q, NUM_O) u_num (
+        num_x, num_c, ovf4_n[0]);
+    fx_cast_sized #(2 * GV_SW, 2 * GV_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gsq (
+        gsq_x, gsq_c, ovf4_n[1]);
+    fx_cast_sized #(TG2_SW + VSQ_SW, TG2_F + VSQ_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gthr (
+        gthr_x, gthr_c, ovf4_n[2]);
+    reg [C1_W-1:0] c1_4;
+    reg            sof4, eol4;
+    always @(posedge clk) begin
+        p_valid <= v3 & ~rst;
+        {sof4, eol4} <= {sof3, eol3};
+        {gv, den, v_sq, c1_4} <= {gv3, den3, vsq3, c1_3};
+        {num, g_sq, g_thr} <= {num_c, gsq_c, gthr_c};
+        // bit order gv, num, den, v_sq, g_sq, g_thr
+        ovf_p <= {ovf4_n[2], ovf4_n[1], ovf3[2], ovf3[1], ovf4_n[0], ovf3[0]};
+    end
+
+    // ---- range divider: num / den where |den| >= DMIN and den != 0, else 0 / 1 -----------
+    localparam integer DVW = `RFX_MAX(DEN_SW, DEN_F + 2);  // holds 1.0 = 2^DEN_F
+    wire signed [NUM_SW-1:0] num_s = `RFX_SX(num, NUM_S);
+    wire signed [DEN_SW-1:0] den_s = `RFX_SX(den, DEN_S);
+    wire signed [DEN_SW:0]   den_abs = den_s[DEN_SW-1] ? -den_s : den_s;
+    wire den_ok = (den_abs >= dmin_v) && (den_s != 0);
+    wire signed [NUM_SW-1:0] div_n = den_ok ? num_s : {NUM_SW{1'b0}};
+    wire signed [DVW-1:0]    div_d = den_ok ? den_s : ($signed({{(DVW-1){1'b0}}, 1'b1}) <<< DEN_F);
+    wire signed [C1_SW:0]    c1_abs = `RFX_SX(c1_4, C1_S) < 0 ? -`RFX_SX(c1_4, C1_S)
+                                                                : `RFX_SX(c1_4, C1_S);
+    wire te_ok = c1_abs >= te_v;
+    wire g_ok = `RFX_SX(g_sq, GSQ_S) >= `RFX_SX(g_thr, GSQ_S);
+    wire [RNG_W-1:0] rq;
+    wire             rq_ovf;
+    generate
+        if (DIVIDER == 0) begin : g_restoring
+            fx_div_restoring #(NUM_SW, NUM_F, DVW, DEN_F, RNG_W, RNG_F, RNG_S, RNG_Q, RNG_O) u_div (
+                .clk(clk), .n(div_n), .d(div_d), .y(rq), .ovf(rq_ovf));
+        end else begin : g_reciprocal
+            fx_div_reciprocal #(NUM_SW, NUM_F, DVW, DEN_F, RNG_W, RNG_F, RNG_S, RNG_Q, RNG_O,
+                                RECIP_L, RECIP_R, ROM_FILE) u_div (
+                .clk(clk), .n(div_n), .d(div_d), .y(rq), .ovf(rq_ovf));
+        end
+    endgenerate
+    // the flags of the thresholds travel beside the divider
+    reg [DIV_LAT-1:0]   valid_d;
+    reg [5*DIV_LAT-1:0] flags_d;
+    always @(posedge clk) begin
+        valid_d <= rst ? {DIV_LAT{1'b0}} : {valid_d[DIV_LAT-2:0], p_valid};
+        flags_d <= {flags_d[5*(DIV_LAT-1)-1:0], sof4, eol4, te_ok, g_ok, den_ok};
+    end
+    wire [4:0] flags_q = flags_d[5*DIV_LAT-1 -: 5];
+    assign q_valid = valid_d[DIV_LAT-1];
+    assign range_q = rq;
+    assign ovf_q = rq_ovf;
+
+    // ---- threshold stage: valid and the range output ----------------------------------------
+    wire signed [RNG_SW-1:0] rq_s = `RFX_SX(rq, RNG_S);
+    wire ok = flags_q[2] & flags_q[1] & flags_q[0] & ~rq_ovf & (rq_s > 0) & (rq_s <= rmax_v);
+    always @(posedge clk) begin
+        m_valid <= q_valid & ~rst;
+        {m_sof, m_eol} <= flags_q[4:3];
+        valid <= ok;
+        range <= ok ? rq : rmax_raw;
+    end
+`undef RFX_SX
+`undef RFX_MAX
+endmodule

@@ -1,0 +1,110 @@
+"""Synthesis area of the P1 RTL (``rangefx hdl synth``, ``optimise --cost synth``; issue 15).
+
+Yosys runs on the small ``rowcol`` stage only (a 16-pixel line), cached under a
+temporary ``RANGEFX_CACHE``; the cell-count mapping and the optimiser's use of a measured
+cost are tested without Yosys.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+
+from rangefx.rtl_model.fixedpoint import FixedFormat
+from rangefx.rtl_model.p1.config import P1Config
+from rangefx.tools.cli import main
+from rangefx.tools.studies.cases import scene_case
+from rangefx.tools.studies.optimiser import Budget, optimise
+from rangefx.tools.studies.synth import area_from_cells, proxy_area, proxy_ratios
+
+
+def test_cell_counts_map_to_lut_ff_carry_dsp_bram():
+    cells = {"LUT2": 10, "LUT6": 5, "INV": 2, "SRLC32E": 1, "FDRE": 30, "FDSE": 2}
+    cells |= {"CARRY4": 7, "DSP48E2": 3, "RAMB18E2": 1, "RAMB36E2": 2, "IBUF": 9, "MUXF7": 4}
+    a = area_from_cells(cells, "xcup")
+    assert (a.lut, a.ff, a.carry, a.dsp, a.bram) == (18, 32, 7, 3, 5)
+    e = area_from_cells({"LUT4": 40, "TRELLIS_FF": 12, "CCU2C": 6, "MULT18X18D": 4,
+                         "DP16KD": 1, "PFUMX": 3}, "ecp5")  # fmt: skip
+    assert (e.lut, e.ff, e.carry, e.dsp, e.bram) == (40, 12, 6, 4, 1)
+    assert (a + a).lut == 36 and a.times(2).cells["FDRE"] == 60
+
+
+def test_proxy_of_a_stage_and_its_ratios():
+    cfg = P1Config.default()
+    rowcol = proxy_area(cfg, "rowcol", (512, 512))
+    # one stream's pix_in .. col_s2 plus the pole and bias registers; two DSP products
+    assert rowcol == {"register_bits": 166, "dsp": 2, "bram18": 1}
+    assert proxy_ratios(rowcol, {"ff": 332, "dsp": 2, "bram": 0}) == {
+        "ff": 0.5, "dsp": 1.0, "bram": None, "lut": None}  # fmt: skip
+
+
+def test_synth_without_yosys_is_one_error_line(monkeypatch, tmp_path, capsys):
+    monkeypatch.setenv("PATH", str(tmp_path))
+    assert main(["hdl", "synth", "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rangefx: error: yosys is not installed")
+
+
+@pytest.mark.skipif(shutil.which("yosys") is None, reason="yosys is not installed")
+def test_yosys_area_of_the_rowcol_stage_is_cached_and_follows_the_formats(
+    monkeypatch, tmp_path, capsys
+):
+    monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
+    argv = ["hdl", "synth", "--stage", "rowcol", "--width", "16", "--height", "16", "--json"]
+    assert main(argv) == 0
+    first = json.loads(capsys.readouterr().out)
+    stage = first["stages"]["rowcol"]
+    assert stage["instances"] == 2 and not stage["cached"]
+    assert stage["dsp"] == 2  # C (b - p) and C (r1 - q) on DSP48E2
+    assert stage["ff"] > 0 and stage["lut"] > 0
+    assert all(first[k] == 2 * stage[k] for k in ("lut", "ff", "carry", "dsp", "bram"))
+    assert main(argv) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert again["stages"]["rowcol"]["cached"] and again["total"] == first["total"]
+    # 12 fewer fraction bits of row_r1 and row_r2 (row_r2 s8.-2: a negative parameter
+    # value, which chparam reads as a signed literal): fewer flip-flops
+    cfg = P1Config.default()
+    narrow = cfg.with_formats(**{
+        s: FixedFormat(f.signed, f.word - 12, f.frac - 12, f.quant, f.overflow)
+        for s, f in ((s, cfg.formats[s]) for s in ("row_r1", "row_r2"))
+    })  # fmt: skip
+    toml = tmp_path / "narrow.toml"
+    narrow.save(toml)
+    assert main([*argv, "--config", str(toml), "--mode", "motion"]) == 0
+    small = json.loads(capsys.readouterr().out)
+    assert small["stages"]["rowcol"]["instances"] == 1
+    assert small["stages"]["rowcol"]["ff"] < stage["ff"]
+
+
+def test_optimiser_keeps_only_narrowings_that_lower_the_measured_cost():
+    """A measured cost that rises when ``col_s1`` narrows: the optimiser tries it, meets
+    the budget, and does not keep it; ``row_r2``'s narrowing lowers the cost and stays."""
+    case = scene_case("lab", [32, 40])
+    start = P1Config.default()
+
+    def cost(cfg: P1Config) -> float:
+        return cfg.formats["row_r2"].word - 10 * cfg.formats["col_s1"].word
+
+    res = optimise(case, start, Budget(0.01, 0.99), signals=["col_s1", "row_r2"],
+                   progress=False, cost_fn=cost)  # fmt: skip
+    assert res.config.formats["col_s1"] == start.formats["col_s1"]
+    assert res.config.formats["row_r2"].word < start.formats["row_r2"].word
+    dropped = [s for s in res.steps if not s["kept"]]
+    assert dropped and {s["signal"] for s in dropped} == {"col_s1"}
+    assert all(s["cost_to"] > s["cost_from"] for s in dropped)
+    assert all(s["cost_to"] <= s["cost_from"] for s in res.steps if s["kept"])
+
+
+def test_sweep_synth_metrics_make_lut_plus_ff_the_pareto_cost():
+    from rangefx.tools.errors import UserError
+    from rangefx.tools.studies.sweep import parse_sweep
+
+    head = '[sweep]\nname = "s"\nscenes = ["lab"]\nmetrics = ["golden", "synth"]\n'
+    axis = '[[axis]]\nsignals = "row_r2"\nparam = "frac"\nvalues = [8, 10]\n'
+    assert parse_sweep(head + axis).cost_key == "synth_cost"
+    assert parse_sweep(head.replace(', "synth"', "") + axis).cost_key == "cost_bits"
+    p2 = head + 'pipeline = "p2"\n' + axis.replace("row_r2", "p2_a")
+    with pytest.raises(UserError, match="only P1 has it"):
+        parse_sweep(p2)

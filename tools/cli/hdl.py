@@ -1,0 +1,182 @@
+"""``rangefx hdl``: the Verilog of P1 (``hdl/``, docs/hdl.md).
+
+* ``replay``: build ``hdl/p1_top.v`` with a P1 vector directory's parameters, replay its
+  input streams under Icarus or Verilator (cocotb + cocotbext-axi) and check every
+  front-end tap value for value and cycle for cycle, the AXI4-Stream output and the
+  overflow counters against the manifest (exit 0 when all match, 1 otherwise).
+* ``synth``: Yosys area (LUT, FF, carry, DSP, BRAM) of each stage and of the whole P1 as
+  instantiated, for a word-length config and a target (:mod:`rangefx.tools.studies.synth`).
+
+One function per subcommand adds its parser (``add_replay_parser``, ``add_synth_parser``);
+``add_parser`` registers the group.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+from rangefx.rtl_model.registry import get_pipeline
+from rangefx.vectors.generate import case_from_manifest, load_manifest
+from rangefx.vectors.replay import SIMULATORS, SimulatorMissing, compare, simulate
+
+from ..errors import UserError
+from ..report import atomic_output_dir
+from ..studies.runner import load_config
+from ..studies.synth import AREA_KEYS, STAGES, TARGETS, synth_p1
+from .options import add_design_args, design_from_args, int_at_least
+
+__all__ = ["add_parser", "add_replay_parser", "add_synth_parser", "cmd_replay", "cmd_synth"]
+
+
+def add_parser(sub) -> None:
+    """Register ``rangefx hdl`` and its subcommands on ``sub``."""
+    p = sub.add_parser("hdl", help="the Verilog of P1: vector replay, synthesis area")
+    hs = p.add_subparsers(dest="hdl_command", required=True)
+    add_replay_parser(hs)
+    add_synth_parser(hs)
+
+
+def add_replay_parser(hs) -> None:
+    """``rangefx hdl replay DIR [--sim S] [--dump OUT] [--time-model] [--json]``."""
+    r = hs.add_parser("replay", help="replay a P1 vector directory through hdl/p1_top.v")
+    r.add_argument("dir", help="P1 vector directory (rangefx vectors gen)")
+    r.add_argument("--sim", choices=tuple(SIMULATORS), default="icarus", help="HDL simulator")
+    r.add_argument("--dump", help="keep the RTL dumps (<tap>.mem, taps.npz, status.json) here")
+    r.add_argument(
+        "--time-model", action="store_true",
+        help="also time the model on the same case (all taps, after a warm-up run) and "
+        "report its Mpix/s beside the simulator's Mcycles/s",
+    )  # fmt: skip
+    r.add_argument("--json", action="store_true", help="print one JSON object")
+    r.set_defaults(func=cmd_replay)
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    vec = Path(args.dir)
+    try:
+        manifest = load_manifest(vec)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    if manifest.get("pipeline") != "p1":
+        raise UserError(
+            f"{vec}: the RTL implements P1; these are {manifest.get('pipeline')} vectors"
+        )
+    with tempfile.TemporaryDirectory(prefix="rangefx-hdl-") as tmp:
+        try:
+            run = simulate(vec, tmp, args.sim)
+        except SimulatorMissing as exc:
+            raise UserError(str(exc)) from None
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+        report = compare(vec, run["dump"])
+        if args.dump:
+            with atomic_output_dir(args.dump) as out:
+                for f in sorted(run["dump"].iterdir()):
+                    shutil.copy2(f, out / f.name)
+    m, n = manifest["shape"]
+    frames = 2 if manifest["mode"] == "motion" else 1
+    cycles = int(run["status"]["cycles"])
+    result = {
+        "dir": str(vec),
+        "sim": args.sim,
+        "mode": manifest["mode"],
+        "shape": [m, n],
+        **report.as_dict(),
+        "cycles": cycles,
+        "build_s": round(run["build_s"], 3),
+        "sim_s": round(run["sim_s"], 3),
+        "mcycles_per_s": round(cycles / run["sim_s"] / 1e6, 4),
+    }
+    if args.time_model:
+        again = case_from_manifest(vec, manifest)
+        pipe = again["pipeline"]
+        pipe.run(again["case"], again["config"], again["timing"], taps=True)  # compiled
+        t0 = time.perf_counter()
+        pipe.run(again["case"], again["config"], again["timing"], taps=True)
+        model_s = time.perf_counter() - t0
+        result["model_s"] = round(model_s, 3)
+        result["model_mpix_s"] = round(frames * m * n / model_s / 1e6, 4)
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        print(_text(result))
+    return 0 if report.ok else 1
+
+
+def _text(r: dict) -> str:
+    lines = [
+        f"{r['dir']}: {r['sim']} replay of {r['mode']} {r['shape'][0]}x{r['shape'][1]}, "
+        f"{r['cycles']} cycles in {r['sim_s']:.2f} s ({r['mcycles_per_s']:.4f} Mcycles/s)"
+    ]
+    for tap, t in r["taps"].items():
+        lines.append(
+            f"  {tap}: {t['samples']} samples, {t['value_mismatches']} value mismatches, "
+            f"{t['cycle_mismatches']} cycle mismatches"
+        )
+    bad = {k: v for k, v in r["overflows"].items() if v["rtl"] != v["model"]}
+    counted = {k: v["rtl"] for k, v in r["overflows"].items() if v["rtl"]}
+    lines.append(f"overflow counts: {'equal to' if not bad else 'DIFFER from'} the manifest's "
+                 f"{counted or '(none)'}" + (f"; differing: {bad}" if bad else ""))  # fmt: skip
+    lines.append(f"AXI4-Stream output: {r['m_axis']['words']} words, "
+                 f"{r['m_axis']['mismatches']} mismatches")  # fmt: skip
+    raised = [k for k, v in r["flags"].items() if v]
+    if raised:
+        lines.append(f"flags raised: {', '.join(raised)}")
+    f = r["first_mismatch"]
+    if f:
+        lines.append(
+            f"first mismatch: tap {f['tap']}, cycle {f['cycle']} (RTL {f['got_cycle']}), "
+            f"row {f['row']}, col {f['col']}, expected {f['expected']}, got {f['got']}"
+        )
+    if "model_mpix_s" in r:
+        lines.append(f"model on the same case: {r['model_s']:.3f} s, {r['model_mpix_s']} Mpix/s")
+    lines.append(
+        f"total: {r['value_mismatches']} value mismatches, {r['cycle_mismatches']} cycle "
+        f"mismatches: {'OK' if r['ok'] else 'FAIL'}"
+    )
+    return "\n".join(lines)
+
+
+def cmd_synth(args: argparse.Namespace) -> int:
+    pipeline = get_pipeline("p1")
+    config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
+    stages = tuple(STAGES) if args.stage == "all" else (args.stage,)
+    shape = (args.height, args.width)
+    report = synth_p1(config, args.target, shape, args.mode, stages, use_cache=not args.no_cache)
+    report = {"config": config.name, **report}
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    print(f"P1 {args.mode} {shape[0]}x{shape[1]}, config {config.name}, Yosys {args.target}:")
+    print(f"  {'stage':<8} {'inst':>4} " + " ".join(f"{k:>6}" for k in AREA_KEYS) + "  cached")
+    for stage, a in report["stages"].items():
+        cells = " ".join(f"{a[k]:>6}" for k in AREA_KEYS)
+        print(f"  {stage:<8} {a['instances']:>4} {cells}  {'yes' if a['cached'] else 'no'}")
+    print(f"  {'total':<8} {'':>4} " + " ".join(f"{report[k]:>6}" for k in AREA_KEYS))
+    return 0
+
+
+def add_synth_parser(hs) -> None:
+    """``hdl synth``: added to the ``hdl`` group's subparsers ``hs``."""
+    s = hs.add_parser("synth", help="Yosys area of the P1 RTL per stage and in all")
+    add_design_args(s, estimator=False)
+    s.add_argument("--target", choices=tuple(TARGETS), default="xcup",
+                   help="Yosys flow: synth_xilinx -family xc7|xcup, synth_ecp5, synth_ice40 "
+                   "(default xcup)")  # fmt: skip
+    s.add_argument("--stage", choices=(*STAGES, "all"), default="all",
+                   help="rowcol (one stream's bias/row/column filter), range, or all")  # fmt: skip
+    s.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
+                   help="stereo: two rowcol stages, motion: one (default stereo)")  # fmt: skip
+    s.add_argument("--width", type=int_at_least(2, "--width"), default=512,
+                   help="line width the line buffers and counters are sized for (512)")  # fmt: skip
+    s.add_argument("--height", type=int_at_least(2, "--height"), default=512,
+                   help="frame height the row counter is sized for (512)")  # fmt: skip
+    s.add_argument("--no-cache", action="store_true",
+                   help="synthesise again even when the cache holds the result")  # fmt: skip
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_synth)

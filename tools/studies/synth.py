@@ -1,0 +1,396 @@
+"""Synthesis area of the P1 RTL with Yosys (issue 15; ``rangefx hdl synth``, ``--cost synth``).
+
+The stages of ``hdl/`` are synthesised one by one with the formats of a word-length
+config as Verilog parameters (:mod:`rangefx.vectors.hdl`): ``rowcol`` (``p1_rowcol.v``,
+bias, row and column filter of one stream) and ``range`` (``p1_range.v``, the range
+stage with its divider and thresholds). The whole P1 is the sum of the stages as
+instantiated: two ``rowcol`` in stereo, one in motion, one ``range``. Each run is
+``synth_xilinx -family xc7|xcup``, ``synth_ecp5`` or ``synth_ice40 -dsp`` with
+``-flatten``, then ``stat -json``; the cell counts are mapped to LUT, FF, carry, DSP and
+BRAM (:data:`TARGETS`).
+
+Results are cached per stage: the key is the SHA-256 of the stage, the target, the
+stage's parameters (only the formats that stage reads), the Verilog sources and the Yosys
+version, under ``$RANGEFX_CACHE/synth`` (default ``~/.cache/rangefx/synth``). A config
+that changes only range-stage signals re-synthesises only the range stage.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from rangefx.rtl_model.p1.config import P1Config
+from rangefx.rtl_model.p1.pipeline import FRONTEND_SIGNALS
+from rangefx.rtl_model.registry import get_pipeline
+from rangefx.vectors.hdl import (
+    HDL_DIR,
+    RANGE_SOURCES,
+    ROWCOL_SOURCES,
+    range_parameters,
+    rowcol_parameters,
+    write_recip_rom,
+)
+
+from ..errors import UserError
+
+__all__ = [
+    "AREA_KEYS",
+    "STAGES",
+    "STAGE_SIGNALS",
+    "TARGETS",
+    "SynthArea",
+    "area_from_cells",
+    "cache_dir",
+    "proxy_area",
+    "proxy_ratios",
+    "synth_p1",
+    "synth_record",
+    "synth_stage",
+    "yosys_version",
+]
+
+#: Stages of P1 that ``hdl/`` implements, and their top modules and sources.
+STAGES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "rowcol": ("p1_rowcol", ROWCOL_SOURCES),
+    "range": ("p1_range", RANGE_SOURCES),
+}
+
+
+@dataclass(frozen=True)
+class Target:
+    """A Yosys synthesis flow and how its cells count: cell-name prefixes of each class;
+    ``bram_weight`` gives each block RAM cell's size in 18 Kbit units (a RAMB36 is 2)."""
+
+    command: str
+    lut: tuple[str, ...]
+    ff: tuple[str, ...]
+    carry: tuple[str, ...]
+    dsp: tuple[str, ...]
+    bram_weight: Mapping[str, int]
+    lut_like: tuple[str, ...] = ()  # inverters, shift registers, LUT RAM: counted as LUTs
+
+
+_XILINX_FF = ("FDRE", "FDSE", "FDCE", "FDPE")
+_XILINX_LUTLIKE = (
+    "INV",
+    "SRL16E",
+    "SRLC32E",
+    "RAM32M",
+    "RAM64M",
+    "RAM32X1D",
+    "RAM64X1D",
+    "RAM128X1D",
+)
+TARGETS: dict[str, Target] = {
+    "xc7": Target(
+        "synth_xilinx -family xc7 -flatten",
+        ("LUT",),
+        _XILINX_FF,
+        ("CARRY4",),
+        ("DSP48E1",),
+        {"RAMB18E1": 1, "RAMB36E1": 2},
+        _XILINX_LUTLIKE,
+    ),
+    "xcup": Target(
+        "synth_xilinx -family xcup -flatten",
+        ("LUT",),
+        _XILINX_FF,
+        ("CARRY4", "CARRY8"),
+        ("DSP48E2",),
+        {"RAMB18E2": 1, "RAMB36E2": 2},
+        _XILINX_LUTLIKE,
+    ),
+    "ecp5": Target(
+        "synth_ecp5 -flatten",
+        ("LUT4",),
+        ("TRELLIS_FF",),
+        ("CCU2C",),
+        ("MULT18X18D",),
+        {"DP16KD": 1},
+        ("TRELLIS_DPR16X4",),
+    ),
+    "ice40": Target(
+        "synth_ice40 -dsp -flatten",
+        ("SB_LUT4",),
+        ("SB_DFF",),
+        ("SB_CARRY",),
+        ("SB_MAC16",),
+        {"SB_RAM40_4K": 1},
+    ),
+}
+#: Keys of an area, in report order.
+AREA_KEYS = ("lut", "ff", "carry", "dsp", "bram")
+
+
+@dataclass(frozen=True)
+class SynthArea:
+    """Cell counts of one synthesised design: LUTs (inverters, which the vendor tools
+    place as LUT1, shift registers and LUT RAM included), flip-flops, carry cells, DSP
+    blocks, block RAM (18 Kbit units on Xilinx, the target's block otherwise) and every
+    cell type's count."""
+
+    lut: int = 0
+    ff: int = 0
+    carry: int = 0
+    dsp: int = 0
+    bram: int = 0
+    cells: dict[str, int] = field(default_factory=dict)
+
+    def __add__(self, other: SynthArea) -> SynthArea:
+        cells = dict(self.cells)
+        for k, v in other.cells.items():
+            cells[k] = cells.get(k, 0) + v
+        return SynthArea(*(getattr(self, k) + getattr(other, k) for k in AREA_KEYS), cells)
+
+    def times(self, k: int) -> SynthArea:
+        return SynthArea(*(getattr(self, a) * k for a in AREA_KEYS),
+                         {c: v * k for c, v in self.cells.items()})  # fmt: skip
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def area_from_cells(cells: Mapping[str, int], target: str) -> SynthArea:
+    """Map Yosys cell counts (``stat -json`` ``num_cells_by_type``) to a :class:`SynthArea`."""
+    t = TARGETS[target]
+
+    def count(prefixes: tuple[str, ...]) -> int:
+        return sum(v for c, v in cells.items() if c.startswith(prefixes)) if prefixes else 0
+
+    bram = sum(v * t.bram_weight[c] for c, v in cells.items() if c in t.bram_weight)
+    return SynthArea(
+        lut=count(t.lut) + count(t.lut_like),
+        ff=count(t.ff),
+        carry=count(t.carry),
+        dsp=count(t.dsp),
+        bram=bram,
+        cells=dict(sorted(cells.items())),
+    )
+
+
+def yosys_version() -> str:
+    """``yosys -V`` of the Yosys on PATH; :class:`UserError` if there is none."""
+    exe = shutil.which("yosys")
+    if exe is None:
+        raise UserError("yosys is not installed (apt-get install yosys); `hdl synth` and "
+                        "`--cost synth` run it")  # fmt: skip
+    out = subprocess.run([exe, "-V"], capture_output=True, text=True, check=False)
+    return out.stdout.strip()
+
+
+def cache_dir() -> Path:
+    """``$RANGEFX_CACHE/synth``, else ``$XDG_CACHE_HOME/rangefx/synth``, else
+    ``~/.cache/rangefx/synth``."""
+    if os.environ.get("RANGEFX_CACHE"):
+        return Path(os.environ["RANGEFX_CACHE"]) / "synth"
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "rangefx" / "synth"
+
+
+def stage_parameters(config: P1Config, stage: str, shape: tuple[int, int]) -> dict:
+    """Verilog parameters of one stage for ``config`` on ``shape`` = (height, width) frames
+    (the reciprocal ROM file name is left as a placeholder: its content is a function of
+    ``RECIP_L``/``RECIP_R``, which are parameters)."""
+    m, n = shape
+    if stage == "rowcol":
+        return rowcol_parameters(config, n)
+    if stage == "range":
+        return range_parameters(config, n, m, rom_file="recip_rom.mem")
+    raise ValueError(f"unknown stage {stage!r}; choose from {', '.join(STAGES)}")
+
+
+def _key(stage: str, target: str, params: Mapping, version: str) -> str:
+    h = hashlib.sha256()
+    _top, sources = STAGES[stage]
+    h.update(json.dumps([stage, target, TARGETS[target].command, sorted(params.items()), version])
+             .encode())  # fmt: skip
+    for s in sources:
+        h.update((HDL_DIR / s).read_bytes())
+    return h.hexdigest()[:32]
+
+
+def _verilog_constant(value: object) -> str:
+    """A parameter value as ``chparam`` reads it: a negative integer as a signed 32-bit
+    literal (``chparam`` cannot decode ``-4``), strings as they are (quoted)."""
+    if isinstance(value, int) and value < 0:
+        return f"32'sh{value & 0xFFFFFFFF:08X}"
+    return str(value)
+
+
+def _yosys_script(top: str, sources: tuple[str, ...], params: Mapping, target: str) -> str:
+    lines = ["read_verilog -defer " + " ".join(str(HDL_DIR / s) for s in sources)]
+    sets = " ".join(f"-set {k} {_verilog_constant(v)}" for k, v in params.items())
+    lines += [f"chparam {sets} {top}", f"hierarchy -top {top}", TARGETS[target].command,
+              "tee -q -o stat.json stat -json"]  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
+def synth_stage(
+    config: P1Config,
+    stage: str,
+    target: str = "xcup",
+    shape: tuple[int, int] = (512, 512),
+    *,
+    use_cache: bool = True,
+    timeout_s: float = 3600.0,
+) -> tuple[SynthArea, bool]:
+    """Yosys area of one stage; returns ``(area, from_cache)``.
+
+    Raises
+    ------
+    UserError
+        Yosys is missing, or fails on the design (its last lines are in the message).
+    """
+    if target not in TARGETS:
+        raise UserError(f"unknown synthesis target {target!r}; choose from {', '.join(TARGETS)}")
+    version = yosys_version()
+    params = stage_parameters(config, stage, shape)
+    key = _key(stage, target, params, version)
+    cached = cache_dir() / f"{stage}-{target}-{key}.json"
+    if use_cache and cached.is_file():
+        try:
+            data = json.loads(cached.read_text())
+            return area_from_cells(data["cells"], target), True
+        except (OSError, ValueError, KeyError):
+            pass  # a damaged cache entry: synthesise again
+    top, sources = STAGES[stage]
+    with tempfile.TemporaryDirectory(prefix="rangefx-synth-") as tmp:
+        work = Path(tmp)
+        if stage == "range" and config.divider == "reciprocal":
+            write_recip_rom(config, work / "recip_rom.mem")
+        (work / "synth.ys").write_text(_yosys_script(top, sources, params, target))
+        try:
+            run = subprocess.run(["yosys", "-q", "-s", "synth.ys"], cwd=work, capture_output=True,
+                                 text=True, timeout=timeout_s, check=False)  # fmt: skip
+        except subprocess.TimeoutExpired:
+            raise UserError(f"yosys took over {timeout_s:.0f} s on stage {stage}") from None
+        if run.returncode != 0 or not (work / "stat.json").is_file():
+            tail = " | ".join((run.stderr or run.stdout).strip().splitlines()[-3:])
+            raise UserError(f"yosys failed on stage {stage} ({target}): {tail}")
+        stat = json.loads((work / "stat.json").read_text())
+    modules = stat.get("modules", {})
+    top_stat = modules.get(f"\\{top}") or next(iter(modules.values()))
+    cells = {str(k).lstrip("\\$"): int(v) for k, v in top_stat["num_cells_by_type"].items()}
+    cached.parent.mkdir(parents=True, exist_ok=True)
+    tmp_file = cached.with_suffix(".tmp")
+    tmp_file.write_text(json.dumps({"stage": stage, "target": target, "params": params,
+                                    "yosys": version, "cells": cells}, indent=1))  # fmt: skip
+    tmp_file.replace(cached)
+    return area_from_cells(cells, target), False
+
+
+def synth_p1(
+    config: P1Config,
+    target: str = "xcup",
+    shape: tuple[int, int] = (512, 512),
+    mode: str = "stereo",
+    stages: tuple[str, ...] = ("rowcol", "range"),
+    *,
+    use_cache: bool = True,
+) -> dict:
+    """Area of each stage and of the whole P1 as instantiated (``rowcol`` once per stream:
+    two in stereo, one in motion; ``range`` once). Returns a JSON-able dict: ``target``,
+    ``shape``, ``mode``, ``stages`` {stage: {``instances``, ``cached``, per-instance area,
+    ``proxy`` (:func:`proxy_area`), ``proxy_ratio`` (:func:`proxy_ratios`)}}, ``total``
+    (the sum as instantiated, over ``stages`` only; also at the top level: ``lut``, ``ff``,
+    ``carry``, ``dsp``, ``bram``) and the summed ``proxy`` and ``proxy_ratio``."""
+    if mode not in ("stereo", "motion"):
+        raise UserError(f"unknown P1 mode {mode!r}; choose stereo or motion")
+    instances = {"rowcol": 2 if mode == "stereo" else 1, "range": 1}
+    out_stages = {}
+    total = SynthArea()
+    proxy_total = {"register_bits": 0, "dsp": 0, "bram18": 0}
+    for stage in stages:
+        area, hit = synth_stage(config, stage, target, shape, use_cache=use_cache)
+        proxy = proxy_area(config, stage, shape)
+        ratio = proxy_ratios(proxy, area.as_dict())
+        out_stages[stage] = {"instances": instances[stage], "cached": hit, **area.as_dict(),
+                             "proxy": proxy, "proxy_ratio": ratio}  # fmt: skip
+        total = total + area.times(instances[stage])
+        for k in proxy_total:
+            proxy_total[k] += proxy[k] * instances[stage]
+    totals = {k: getattr(total, k) for k in AREA_KEYS}
+    return {"target": target, "shape": list(shape), "mode": mode, "stages": out_stages,
+            "total": totals, **totals, "proxy": proxy_total,
+            "proxy_ratio": proxy_ratios(proxy_total, totals)}  # fmt: skip
+
+
+#: The x-derivative's signals: in no stage of ``hdl/`` here (nor is the frame store).
+_X_DERIVATIVE = ("div_quot", "col2_state", "col2_out")
+#: Signals whose registers each stage of ``hdl/`` holds (``rtl_model/p1/cost.py``
+#: ``REGISTER_INSTANCES``): ``rowcol`` per stream (with the pole and bias registers),
+#: ``range`` once (with the host registers it reads); from the pipeline's signal groups.
+STAGE_SIGNALS: dict[str, tuple[str, ...]] = {
+    "rowcol": (
+        "pix_in",
+        "bias_reg",
+        "pole_coef",
+        *(s for s in FRONTEND_SIGNALS if s not in _X_DERIVATIVE),
+    ),
+    "range": (
+        *get_pipeline("p1").signal_groups["range_stage"],
+        "f_reg",
+        "k_t_reg",
+        "k_m_reg",
+        "tg2_reg",
+    ),
+}
+#: Multipliers of the proxy (``rtl_model/p1/cost.py multipliers``) by stage, by name prefix.
+_STAGE_MULTIPLIERS = {"rowcol": ("row filter:", "column filter: C * (r1")}
+_FRONTEND_ONLY = ("x-derivative", "divider s1", "column filter on r2")
+
+
+def proxy_area(config: P1Config, stage: str, shape: tuple[int, int]) -> dict[str, int]:
+    """The cost proxy (``rtl_model/p1/cost.py``) of one instance of a stage, restricted to
+    what that stage of ``hdl/`` implements: register bits of :data:`STAGE_SIGNALS`
+    (``rowcol``: one stream's instances and the pole/bias registers), DSP slices of its
+    multipliers, RAMB18 of its line buffer; the proxy has no LUT term."""
+    from rangefx.rtl_model.cost import bram18_blocks
+    from rangefx.rtl_model.p1.cost import REGISTER_INSTANCES, multipliers
+
+    f = config.formats
+    regs = sum(sum(REGISTER_INSTANCES[s]) * f[s].word for s in STAGE_SIGNALS[stage])
+    muls = multipliers(config, "motion")  # one stream's instances
+    if stage == "rowcol":
+        mine = [m for m in muls if m.name.startswith(_STAGE_MULTIPLIERS["rowcol"])]
+        bram = bram18_blocks(shape[1], f["col_state"].word)
+    else:
+        others = (*_STAGE_MULTIPLIERS["rowcol"], *_FRONTEND_ONLY)
+        mine = [m for m in muls if not m.name.startswith(others)]
+        bram = 0
+    return {"register_bits": regs, "dsp": sum(m.dsp for m in mine), "bram18": bram}
+
+
+def proxy_ratios(proxy: Mapping[str, int], area: Mapping[str, int]) -> dict[str, float | None]:
+    """Proxy / synthesis: register bits / FF, DSP / DSP, RAMB18 / BRAM (``None`` where the
+    synthesis count is 0); LUT has no proxy term."""
+
+    def ratio(a: int, b: int) -> float | None:
+        return round(a / b, 3) if b else None
+
+    return {
+        "ff": ratio(proxy["register_bits"], area["ff"]),
+        "dsp": ratio(proxy["dsp"], area["dsp"]),
+        "bram": ratio(proxy["bram18"], area["bram"]),
+        "lut": None,
+    }
+
+
+def synth_record(
+    config: P1Config, shape: tuple[int, int], mode: str, target: str = "xcup"
+) -> dict[str, int]:
+    """A sweep point's synthesis figures (the whole P1, :func:`synth_p1`): ``synth_lut``,
+    ``synth_ff``, ``synth_carry``, ``synth_dsp``, ``synth_bram`` and the cost the studies
+    minimise, ``synth_cost`` = LUT + FF."""
+    area = synth_p1(config, target, shape, mode)
+    rec = {f"synth_{k}": area[k] for k in AREA_KEYS}
+    rec["synth_cost"] = area["lut"] + area["ff"]
+    return rec

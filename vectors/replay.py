@@ -1,0 +1,354 @@
+"""Replay a P1 vector directory through the Verilog (``hdl/``) and check every tap of the
+RTL (both front ends, the range stage) value for value and cycle for cycle
+(``rangefx hdl replay``, docs/hdl.md).
+
+:func:`simulate` builds ``hdl/p1_top.v`` with the directory's parameters
+(:func:`rangefx.vectors.hdl.top_parameters`) under Icarus or Verilator through
+``cocotb_tools.runner`` and runs the bench ``hdl/test_p1_top.py`` into a dump directory;
+:func:`compare` checks the dump against the vectors: per tap the samples, value
+mismatches, cycle mismatches (a sample's cycle against the manifest's: its input beat
+plus the declared latency) and the first mismatch; the AXI4-Stream output against the
+``valid`` and ``range`` taps; the overflow counters against the manifest's counts.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import formats as fmt_io
+from .generate import load_manifest, read_tap, tap_cycles
+from .hdl import (
+    HDL_DIR,
+    HDL_SOURCES,
+    OVERFLOW_SIGNALS,
+    RANGE_TAP_GROUPS,
+    TOPLEVEL,
+    bench_header,
+    frontend_instances,
+    top_parameters,
+    write_dump,
+)
+
+__all__ = [
+    "OVERFLOW_SIGNALS",
+    "SIMULATORS",
+    "ReplayReport",
+    "SimulatorMissing",
+    "compare",
+    "simulate",
+]
+
+#: Simulators the replay runs on, and the executable each needs.
+SIMULATORS = {"icarus": "iverilog", "verilator": "verilator"}
+_BENCH = "test_p1_top"
+
+
+class SimulatorMissing(RuntimeError):
+    """The simulator (or cocotb) is not installed."""
+
+
+def _rtl_taps(manifest: Mapping) -> list[str]:
+    """The taps the RTL emits: both streams' front-end taps and the range stage's."""
+    return [e["tap"] for e in manifest["files"]
+            if e["kind"] in ("stream_tap", "range") and e["path"].endswith(".mem")]  # fmt: skip
+
+
+def simulate(
+    directory: str | Path, work: str | Path, sim: str = "icarus", **overrides: int
+) -> dict:
+    """Build and run the bench on ``directory``; the dump goes to ``work/dump``.
+
+    ``overrides`` replace Verilog parameters (a mutation test compiles ``R2_Q=0``, say).
+    Returns ``{"sim_s", "build_s", "dump", "status"}``.
+
+    Raises
+    ------
+    SimulatorMissing
+        ``sim``'s executable or cocotb is not installed.
+    ValueError
+        The directory is not P1 vectors; the simulation failed (its log is named).
+    """
+    if sim not in SIMULATORS:
+        raise ValueError(f"unknown simulator {sim!r}; choose from {', '.join(SIMULATORS)}")
+    if shutil.which(SIMULATORS[sim]) is None:
+        raise SimulatorMissing(f"{sim}: '{SIMULATORS[sim]}' is not installed (not on PATH)")
+    vec = Path(directory).resolve()
+    manifest = load_manifest(vec)
+    rom = vec / "recip_rom.mem"
+    rom_file = rom if rom.exists() else None
+    work = Path(work).resolve()
+    dump = work / "dump"
+    if sim == "verilator":
+        timings = _run_verilator(vec, manifest, rom_file, work, dump, overrides)
+    else:
+        timings = _run_cocotb(vec, manifest, rom_file, work, dump, sim, overrides)
+    if not (dump / "status.json").exists():
+        raise ValueError(f"the {sim} simulation wrote no dump; see {work / 'sim.log'}")
+    status = json.loads((dump / "status.json").read_text())
+    return {**timings, "dump": dump, "status": status}
+
+
+def _run_cocotb(
+    vec: Path, manifest: Mapping, rom_file: Path | None, work: Path, dump: Path, sim: str,
+    overrides: Mapping[str, int],
+) -> dict:  # fmt: skip
+    """The cocotb bench (``hdl/test_p1_top.py``, cocotbext-axi) through cocotb's runner."""
+    try:
+        from cocotb_tools.runner import get_results, get_runner
+    except ImportError:
+        raise SimulatorMissing("cocotb is not installed (pip install 'rangefx[hdl]')") from None
+    params = top_parameters(manifest, rom_file) | dict(overrides)
+    build = work / f"build_{sim}"
+    runner = get_runner(sim)
+    t0 = time.perf_counter()
+    try:
+        runner.build(
+            sources=[HDL_DIR / s for s in HDL_SOURCES],
+            hdl_toplevel=TOPLEVEL,
+            includes=[HDL_DIR],
+            parameters=params,
+            build_dir=build,
+            always=True,
+            log_file=work / "build.log",
+        )
+    except RuntimeError:
+        raise ValueError(f"building the RTL with {sim} failed; see {work / 'build.log'}") from None
+    t1 = time.perf_counter()
+    env = {
+        "RANGEFX_VECTORS": str(vec),
+        "RANGEFX_DUMP": str(dump),
+        "PYTHONPATH": os.pathsep.join([str(HDL_DIR), *sys.path]),
+    }
+    try:
+        results = runner.test(
+            hdl_toplevel=TOPLEVEL,
+            test_module=_BENCH,
+            test_dir=HDL_DIR,
+            build_dir=build,
+            extra_env=env,
+            log_file=work / "sim.log",
+        )
+    except RuntimeError:
+        raise ValueError(f"the {sim} simulation failed; see {work / 'sim.log'}") from None
+    t2 = time.perf_counter()
+    if get_results(results) != (1, 0):
+        raise ValueError(f"the {sim} simulation failed; see {work / 'sim.log'}")
+    return {"build_s": t1 - t0, "sim_s": t2 - t1}
+
+
+#: Idle cycles the Verilog bench drives before the streams (reset inside them).
+_LEAD = 8
+
+
+def _run_verilator(
+    vec: Path, manifest: Mapping, rom_file: Path | None, work: Path, dump: Path,
+    overrides: Mapping[str, int],
+) -> dict:  # fmt: skip
+    """The Verilog bench ``hdl/tb_p1_top.v`` built with ``verilator --binary`` (cocotb 2.1
+    needs Verilator >= 5.036; this one drives any Verilator 5)."""
+    build = work / "build_verilator"
+    build.mkdir(parents=True, exist_ok=True)
+    header = bench_header(manifest, rom_file, _LEAD, overrides)
+    (build / "p1_bench.vh").write_text(header)
+    cmd = [
+        "verilator", "--binary", "-O3", "-j", "2", "-Wno-fatal", "-Wno-lint", "-Wno-style",
+        "--top-module", "tb_p1_top", f"-I{build}", f"-I{HDL_DIR}", "--Mdir", str(build / "obj"),
+        "-o", "tb", *(str(HDL_DIR / s) for s in HDL_SOURCES), str(HDL_DIR / "tb_p1_top.v"),
+    ]  # fmt: skip
+    t0 = time.perf_counter()
+    with open(work / "build.log", "w") as log:
+        rc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=build).returncode
+    if rc != 0:
+        raise ValueError(f"building the RTL with verilator failed; see {work / 'build.log'}")
+    t1 = time.perf_counter()
+    streams = sorted((e for e in manifest["files"]
+                      if e["kind"] == "stream" and e["path"].endswith(".mem")),
+                     key=lambda e: e["tap"])  # fmt: skip
+    out = work / "tb_out.txt"
+    args = [f"+STREAM{k}={vec / e['path']}" for k, e in enumerate(streams)] + [f"+OUT={out}"]
+    with open(work / "sim.log", "w") as log:
+        rc = subprocess.run([str(build / "obj" / "tb"), *args], stdout=log,
+                            stderr=subprocess.STDOUT, cwd=build).returncode  # fmt: skip
+    t2 = time.perf_counter()
+    if rc != 0 or not out.exists():
+        raise ValueError(f"the verilator simulation failed; see {work / 'sim.log'}")
+    dump.mkdir(parents=True, exist_ok=True)
+    _dump_from_text(out, vec, manifest, dump)
+    return {"build_s": t1 - t0, "sim_s": t2 - t1}
+
+
+def _dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None:
+    """Parse the Verilog bench's lines (``hdl/tb_p1_top.v``) into the dump."""
+    streams = list(frontend_instances(manifest))
+    signal_of = {e["tap"]: e["signal"] for e in manifest["files"]}
+    samples: dict[str, list[tuple[int, int | None]]] = {}
+    inputs: list[int] = []
+    lines: list[tuple[list[int], int]] = []
+    overflows = dict.fromkeys(OVERFLOW_SIGNALS, 0)
+    flags: dict[str, int] = {}
+    current: list[int] = []
+    first_tuser = 0
+    cycles = 0
+    with open(out) as f:
+        for text in f:
+            part = text.split()
+            kind = part[0]
+            if kind == "T":
+                value = None if any(c in "xXzZ" for c in part[4]) else int(part[4], 16)
+                name = part[2] if part[1] == "R" else f"{streams[int(part[1])]}.{part[2]}"
+                samples.setdefault(name, []).append((int(part[3]), value))
+                cycles = max(cycles, int(part[3]) + 1)
+            elif kind == "I":
+                inputs.append(int(part[1]))
+            elif kind == "M":
+                if not current:
+                    first_tuser = int(part[2])
+                known = not any(c in "xXzZ" for c in part[1])
+                current.append(int(part[1], 16) if known else -1)
+                if part[3] == "1":
+                    lines.append((current, first_tuser))
+                    current = []
+            elif kind == "G":  # a range tap group's overflow flags, bit k = its k-th tap
+                bits = int(part[2], 16)
+                for k, tap in enumerate(RANGE_TAP_GROUPS[part[1]][1]):
+                    overflows[signal_of[tap]] = overflows.get(signal_of[tap], 0) + (bits >> k & 1)
+            elif kind == "O":
+                overflows[part[2]] += int(part[3])
+            elif kind == "F":
+                flags[part[1]] = int(part[2])
+    write_dump(dump, vec, manifest, samples, inputs, lines, overflows, flags, cycles)
+
+
+@dataclass
+class ReplayReport:
+    """Outcome of :func:`compare`: per-tap counts, the first mismatch, the totals."""
+
+    taps: dict[str, dict] = field(default_factory=dict)
+    first_mismatch: dict | None = None
+    overflows: dict[str, dict] = field(default_factory=dict)
+    m_axis: dict = field(default_factory=dict)
+    flags: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def value_mismatches(self) -> int:
+        return sum(t["value_mismatches"] for t in self.taps.values())
+
+    @property
+    def cycle_mismatches(self) -> int:
+        return sum(t["cycle_mismatches"] for t in self.taps.values())
+
+    @property
+    def overflow_mismatches(self) -> int:
+        return sum(o["rtl"] != o["model"] for o in self.overflows.values())
+
+    @property
+    def ok(self) -> bool:
+        return (
+            self.value_mismatches == 0
+            and self.cycle_mismatches == 0
+            and self.overflow_mismatches == 0
+            and self.m_axis.get("mismatches", 0) == 0
+            and not any(self.flags.values())
+        )
+
+    def as_dict(self) -> dict:
+        return {
+            "ok": self.ok,
+            "value_mismatches": self.value_mismatches,
+            "cycle_mismatches": self.cycle_mismatches,
+            "overflow_mismatches": self.overflow_mismatches,
+            "first_mismatch": self.first_mismatch,
+            "taps": self.taps,
+            "overflows": self.overflows,
+            "m_axis": self.m_axis,
+            "flags": self.flags,
+        }
+
+
+def compare(directory: str | Path, dump: str | Path) -> ReplayReport:
+    """Check a bench dump (:func:`simulate`) against the vectors of ``directory``."""
+    vec, dump = Path(directory), Path(dump)
+    manifest = load_manifest(vec)
+    m, n = manifest["shape"]
+    got = np.load(dump / "taps.npz")
+    status = json.loads((dump / "status.json").read_text())
+    report = ReplayReport()
+    firsts = []
+    for tap in _rtl_taps(manifest):
+        entry = next(e for e in manifest["files"] if e["tap"] == tap and e["path"].endswith(".mem"))
+        word = int(entry["word"])
+        exp_v = fmt_io.to_unsigned(read_tap(vec, tap, manifest), word).astype(np.int64)
+        exp_c = tap_cycles(vec, manifest, tap, int(entry["first_valid_cycle"]))
+        g_v = got[f"{tap}.value"] if f"{tap}.value" in got else np.zeros(0, np.int64)
+        g_c = got[f"{tap}.cycle"] if f"{tap}.cycle" in got else np.zeros(0, np.int64)
+        k = min(exp_v.size, g_v.size)
+        bad_v = g_v[:k] != exp_v[:k]
+        bad_c = g_c[:k] != exp_c[:k]
+        extra = abs(exp_v.size - g_v.size)
+        row = {
+            "samples": int(exp_v.size),
+            "got_samples": int(g_v.size),
+            "value_mismatches": int(np.count_nonzero(bad_v)) + extra,
+            "cycle_mismatches": int(np.count_nonzero(bad_c)) + extra,
+            "first_mismatch": None,
+        }
+        bad = np.flatnonzero(bad_v | bad_c)
+        if bad.size or extra:
+            i = int(bad[0]) if bad.size else k
+            first = {
+                "tap": tap,
+                "index": i,
+                "row": (i // n) % m,
+                "col": i % n,
+                "cycle": int(exp_c[i]) if i < exp_c.size else None,
+                "got_cycle": int(g_c[i]) if i < g_c.size else None,
+                "expected": _signed(exp_v, i, word, entry["signed"]),
+                "got": _signed(g_v, i, word, entry["signed"]),
+            }
+            row["first_mismatch"] = first
+            firsts.append(first)
+        report.taps[tap] = row
+    if firsts:
+        report.first_mismatch = min(firsts, key=lambda f: (f["cycle"] is None, f["cycle"] or 0))
+    model = manifest.get("overflows", {})
+    for signal in sorted(set(status["overflows"]) | set(model)):
+        rtl = int(status["overflows"].get(signal, 0))
+        report.overflows[signal] = {"rtl": rtl, "model": int(model.get(signal, 0))}
+    report.m_axis = _check_m_axis(vec, manifest, dump)
+    report.flags = {k: int(status[k]) for k in ("line_too_long", "align_error", "frame_too_big")}
+    return report
+
+
+def _signed(codes: np.ndarray, i: int, word: int, signed: bool) -> int | None:
+    if i >= codes.size or codes[i] < 0:
+        return None
+    return int(fmt_io.to_signed(codes[i : i + 1].astype(np.uint64), word, signed)[0])
+
+
+def _check_m_axis(vec: Path, manifest: Mapping, dump: Path) -> dict:
+    """The AXI4-Stream output words against the vectors: per pixel ``{valid, range}``
+    (``hdl/p1_top.v``), one line per image line, TUSER on the frame's first pixel."""
+    m, n = manifest["shape"]
+    out = np.load(dump / "m_axis.npz")
+    words = [int(w) for w in out["words"]]
+    entry = next(e for e in manifest["files"] if e["tap"] == "range")
+    rng = fmt_io.to_unsigned(read_tap(vec, "range", manifest), int(entry["word"]))
+    valid = read_tap(vec, "valid", manifest)
+    expected = [(int(v) << int(entry["word"])) | int(r) for v, r in zip(valid, rng, strict=True)]
+    k = min(len(words), len(expected))
+    bad = sum(words[i] != expected[i] for i in range(k)) + abs(len(words) - len(expected))
+    lines = out["line_lengths"].tolist()
+    tuser = out["first_tuser"].tolist()
+    framing = lines == [n] * m and tuser == [1] + [0] * (m - 1)
+    return {"words": len(words), "mismatches": int(bad) + (0 if framing else 1),
+            "lines": len(lines), "framing_ok": framing}  # fmt: skip
