@@ -202,3 +202,27 @@ def test_rounding_mutant_is_caught_at_the_first_differing_pixel(tmp_path):
     assert (first["expected"], first["got"]) == (int(runs[0][k]), int(runs[1][k]))
     for tap in RANGE_TAPS[: RANGE_TAPS.index("gv")]:
         assert diff_dump(vec, dump / f"{tap}.mem").ok, tap
+
+
+@pytest.mark.parametrize(
+    ("iw", "signed", "f_in", "out"),
+    [
+        (14, 1, 3, (1, 12, 5)),  # left shift by 2, signed
+        (14, 0, 4, (0, 6, -2)),  # unsigned in and out, negative output fraction
+        (14, 1, 9, (1, 4, 0)),  # a 4-bit output: most inputs overflow
+    ],
+)
+def test_sized_cast_equals_the_generic_cast_on_every_input(iw, signed, f_in, out, tmp_path):
+    """``fx_cast_sized`` (every cast of p1_range) against the 64-bit ``fx_cast`` on all
+    2^14 inputs, under all 7 x 4 quantisation and overflow modes (Icarus)."""
+    import subprocess
+
+    out_s, out_w, out_f = out
+    vvp = tmp_path / "tb.vvp"
+    params = {"IW": iw, "IS": signed, "IF": f_in, "OW": out_w, "OF": out_f, "OS": out_s}
+    cmd = ["iverilog", "-g2005", "-o", str(vvp), "-s", "tb_fx_cast_sized"]
+    cmd += [f"-Ptb_fx_cast_sized.{k}={v}" for k, v in params.items()]
+    cmd += [str(HDL_DIR / f) for f in ("fx_cast.v", "fx_cast_sized.v", "tb_fx_cast_sized.v")]
+    subprocess.run(cmd, check=True, capture_output=True)
+    run = subprocess.run(["vvp", "-n", str(vvp)], check=True, capture_output=True, text=True)
+    assert f"inputs={1 << iw} mismatching=0" in run.stdout

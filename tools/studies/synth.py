@@ -75,20 +75,14 @@ class Target:
     carry: tuple[str, ...]
     dsp: tuple[str, ...]
     bram_weight: Mapping[str, int]
-    lut_like: tuple[str, ...] = ()  # inverters, shift registers, LUT RAM: counted as LUTs
+    #: inverters, shift registers, LUT RAM: cell -> the LUTs it occupies
+    lut_like: Mapping[str, int] = field(default_factory=dict)
 
 
 _XILINX_FF = ("FDRE", "FDSE", "FDCE", "FDPE")
-_XILINX_LUTLIKE = (
-    "INV",
-    "SRL16E",
-    "SRLC32E",
-    "RAM32M",
-    "RAM64M",
-    "RAM32X1D",
-    "RAM64X1D",
-    "RAM128X1D",
-)
+# a RAM32M/RAM64M/RAM128X1D fills the four LUTs of a SLICEM, a RAM32X1D/RAM64X1D two
+_XILINX_LUTLIKE = {"INV": 1, "SRL16E": 1, "SRLC32E": 1, "RAM32M": 4, "RAM64M": 4,
+                   "RAM32X1D": 2, "RAM64X1D": 2, "RAM128X1D": 4}  # fmt: skip
 TARGETS: dict[str, Target] = {
     "xc7": Target(
         "synth_xilinx -family xc7 -flatten",
@@ -115,7 +109,7 @@ TARGETS: dict[str, Target] = {
         ("CCU2C",),
         ("MULT18X18D",),
         {"DP16KD": 1},
-        ("TRELLIS_DPR16X4",),
+        {"TRELLIS_DPR16X4": 1},
     ),
     "ice40": Target(
         "synth_ice40 -dsp -flatten",
@@ -167,7 +161,7 @@ def area_from_cells(cells: Mapping[str, int], target: str) -> SynthArea:
 
     bram = sum(v * t.bram_weight[c] for c, v in cells.items() if c in t.bram_weight)
     return SynthArea(
-        lut=count(t.lut) + count(t.lut_like),
+        lut=count(t.lut) + sum(v * t.lut_like.get(c, 0) for c, v in cells.items()),
         ff=count(t.ff),
         carry=count(t.carry),
         dsp=count(t.dsp),
