@@ -35,7 +35,6 @@ __all__ = [
     "RANGE_REGISTER_PORTS",
     "RANGE_SOURCES",
     "RANGE_TAP_GROUPS",
-    "ROWCOL_SOURCES",
     "TOPLEVEL",
     "bench_header",
     "frontend_instances",
@@ -43,7 +42,6 @@ __all__ = [
     "range_parameters",
     "range_registers",
     "register_codes",
-    "rowcol_parameters",
     "top_parameters",
     "write_dump",
     "write_recip_rom",
@@ -175,21 +173,6 @@ def frontend_parameters(config: P1Config, width: int, rom_file: str | Path = "")
     }
     params = top_parameters(manifest, rom_file or None, with_range=False)
     return {k: v for k, v in params.items() if k not in _TOP_ONLY}
-
-
-#: ``hdl/p1_rowcol.v`` (bias, row and column filter of one stream, the generic 64-bit
-#: ``fx_cast.v``): the stage ``rangefx hdl synth`` synthesises as ``rowcol``; the replay
-#: runs ``p1_frontend``, which computes the same signals with sized casts.
-ROWCOL_SOURCES = ("fx_cast.v", "p1_rowcol.v")
-_ROWCOL_PREFIXES = ("PIX", "BREG", "POLE", "B", "P", "R1", "R2", "Q", "S1", "S2")
-
-
-def rowcol_parameters(config: P1Config, width: int) -> dict:
-    """Verilog parameters of ``p1_rowcol`` for ``config`` and lines of ``width`` pixels."""
-    params = frontend_parameters(config, width)
-    keep = {"MAX_WIDTH", "ADDR_W", "CONSISTENT", "INIT_FIRST"}
-    keep |= {f"{p}_{x}" for p in _ROWCOL_PREFIXES for x in "WFSQO"}
-    return {k: v for k, v in params.items() if k in keep}
 
 
 def register_codes(manifest: Mapping) -> dict[str, int]:

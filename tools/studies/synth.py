@@ -1,10 +1,13 @@
 """Synthesis area of the P1 RTL with Yosys (issue 15; ``rangefx hdl synth``, ``--cost synth``).
 
 The stages of ``hdl/`` are synthesised one by one with the formats of a word-length
-config as Verilog parameters (:mod:`rangefx.vectors.hdl`): ``rowcol`` (``p1_rowcol.v``,
-bias, row and column filter of one stream) and ``range`` (``p1_range.v``, the range
-stage with its divider and thresholds). The whole P1 is the sum of the stages as
-instantiated: two ``rowcol`` in stereo, one in motion, one ``range``. Each run is
+config as Verilog parameters (:mod:`rangefx.vectors.hdl`): ``frontend``
+(``p1_frontend.v``, one stream: input cast, bias, row and column filter, the
+x-derivative of the config's variant with its divider or second column filter) and
+``range`` (``p1_range.v``, the range stage with its divider and thresholds). The whole P1
+is the sum of the stages as instantiated: two ``frontend`` in stereo, one in motion, one
+``range`` (the motion frame store, a plain memory of ``p1_top.v``, is not synthesised:
+the proxy's BRAM count of it is exact, see ``docs/hdl_area.md``). Each run is
 ``synth_xilinx -family xc7|xcup``, ``synth_ecp5`` or ``synth_ice40 -dsp`` with
 ``-flatten``, then ``stat -json``; the cell counts are mapped to LUT, FF, carry, DSP and
 BRAM (:data:`TARGETS`).
@@ -31,11 +34,11 @@ from rangefx.rtl_model.p1.config import P1Config
 from rangefx.rtl_model.p1.pipeline import FRONTEND_SIGNALS
 from rangefx.rtl_model.registry import get_pipeline
 from rangefx.vectors.hdl import (
+    FRONTEND_SOURCES,
     HDL_DIR,
     RANGE_SOURCES,
-    ROWCOL_SOURCES,
+    frontend_parameters,
     range_parameters,
-    rowcol_parameters,
     write_recip_rom,
 )
 
@@ -59,7 +62,7 @@ __all__ = [
 
 #: Stages of P1 that ``hdl/`` implements, and their top modules and sources.
 STAGES: dict[str, tuple[str, tuple[str, ...]]] = {
-    "rowcol": ("p1_rowcol", ROWCOL_SOURCES),
+    "frontend": ("p1_frontend", FRONTEND_SOURCES),
     "range": ("p1_range", RANGE_SOURCES),
 }
 
@@ -194,8 +197,8 @@ def stage_parameters(config: P1Config, stage: str, shape: tuple[int, int]) -> di
     (the reciprocal ROM file name is left as a placeholder: its content is a function of
     ``RECIP_L``/``RECIP_R``, which are parameters)."""
     m, n = shape
-    if stage == "rowcol":
-        return rowcol_parameters(config, n)
+    if stage == "frontend":
+        return frontend_parameters(config, n) | {"ROM_FILE": '"recip_rom.mem"'}
     if stage == "range":
         return range_parameters(config, n, m, rom_file="recip_rom.mem")
     raise ValueError(f"unknown stage {stage!r}; choose from {', '.join(STAGES)}")
@@ -258,7 +261,7 @@ def synth_stage(
     top, sources = STAGES[stage]
     with tempfile.TemporaryDirectory(prefix="rangefx-synth-") as tmp:
         work = Path(tmp)
-        if stage == "range" and config.divider == "reciprocal":
+        if config.divider == "reciprocal":
             write_recip_rom(config, work / "recip_rom.mem")
         (work / "synth.ys").write_text(_yosys_script(top, sources, params, target))
         try:
@@ -286,11 +289,11 @@ def synth_p1(
     target: str = "xcup",
     shape: tuple[int, int] = (512, 512),
     mode: str = "stereo",
-    stages: tuple[str, ...] = ("rowcol", "range"),
+    stages: tuple[str, ...] = ("frontend", "range"),
     *,
     use_cache: bool = True,
 ) -> dict:
-    """Area of each stage and of the whole P1 as instantiated (``rowcol`` once per stream:
+    """Area of each stage and of the whole P1 as instantiated (``frontend`` once per stream:
     two in stereo, one in motion; ``range`` once). Returns a JSON-able dict: ``target``,
     ``shape``, ``mode``, ``stages`` {stage: {``instances``, ``cached``, per-instance area,
     ``proxy`` (:func:`proxy_area`), ``proxy_ratio`` (:func:`proxy_ratios`)}}, ``total``
@@ -298,7 +301,7 @@ def synth_p1(
     ``carry``, ``dsp``, ``bram``) and the summed ``proxy`` and ``proxy_ratio``."""
     if mode not in ("stereo", "motion"):
         raise UserError(f"unknown P1 mode {mode!r}; choose stereo or motion")
-    instances = {"rowcol": 2 if mode == "stereo" else 1, "range": 1}
+    instances = {"frontend": 2 if mode == "stereo" else 1, "range": 1}
     out_stages = {}
     total = SynthArea()
     proxy_total = {"register_bits": 0, "dsp": 0, "bram18": 0}
@@ -317,18 +320,11 @@ def synth_p1(
             "proxy_ratio": proxy_ratios(proxy_total, totals)}  # fmt: skip
 
 
-#: The x-derivative's signals: in no stage of ``hdl/`` here (nor is the frame store).
-_X_DERIVATIVE = ("div_quot", "col2_state", "col2_out")
 #: Signals whose registers each stage of ``hdl/`` holds (``rtl_model/p1/cost.py``
-#: ``REGISTER_INSTANCES``): ``rowcol`` per stream (with the pole and bias registers),
+#: ``REGISTER_INSTANCES``): ``frontend`` per stream (with the pole and bias registers),
 #: ``range`` once (with the host registers it reads); from the pipeline's signal groups.
 STAGE_SIGNALS: dict[str, tuple[str, ...]] = {
-    "rowcol": (
-        "pix_in",
-        "bias_reg",
-        "pole_coef",
-        *(s for s in FRONTEND_SIGNALS if s not in _X_DERIVATIVE),
-    ),
+    "frontend": ("pix_in", "bias_reg", "pole_coef", *FRONTEND_SIGNALS),
     "range": (
         *get_pipeline("p1").signal_groups["range_stage"],
         "f_reg",
@@ -337,28 +333,37 @@ STAGE_SIGNALS: dict[str, tuple[str, ...]] = {
         "tg2_reg",
     ),
 }
-#: Multipliers of the proxy (``rtl_model/p1/cost.py multipliers``) by stage, by name prefix.
-_STAGE_MULTIPLIERS = {"rowcol": ("row filter:", "column filter: C * (r1")}
-_FRONTEND_ONLY = ("x-derivative", "divider s1", "column filter on r2")
+#: Multipliers of the proxy (``rtl_model/p1/cost.py multipliers``) of the front end, by
+#: name prefix: the filters, the x-derivative and its divider or second column filter.
+_FRONTEND_MULTIPLIERS = (
+    "row filter:",
+    "column filter",
+    "x-derivative",
+    "divider s1",
+)
 
 
 def proxy_area(config: P1Config, stage: str, shape: tuple[int, int]) -> dict[str, int]:
     """The cost proxy (``rtl_model/p1/cost.py``) of one instance of a stage, restricted to
-    what that stage of ``hdl/`` implements: register bits of :data:`STAGE_SIGNALS`
-    (``rowcol``: one stream's instances and the pole/bias registers), DSP slices of its
-    multipliers, RAMB18 of its line buffer; the proxy has no LUT term."""
+    what that stage of ``hdl/`` implements: register bits of :data:`STAGE_SIGNALS` used by
+    the config's variant (``frontend``: one stream's instances and the pole/bias
+    registers), DSP slices of its multipliers, RAMB18 of its line buffers; the proxy has no
+    LUT term."""
     from rangefx.rtl_model.cost import bram18_blocks
     from rangefx.rtl_model.p1.cost import REGISTER_INSTANCES, multipliers
+    from rangefx.rtl_model.p1.model import line_buffer_words
 
     f = config.formats
-    regs = sum(sum(REGISTER_INSTANCES[s]) * f[s].word for s in STAGE_SIGNALS[stage])
+    unused = ("col2_state", "col2_out") if config.variant == "paper" else ("div_quot",)
+    regs = sum(sum(REGISTER_INSTANCES[s]) * f[s].word for s in STAGE_SIGNALS[stage]
+               if s not in unused)  # fmt: skip
     muls = multipliers(config, "motion")  # one stream's instances
-    if stage == "rowcol":
-        mine = [m for m in muls if m.name.startswith(_STAGE_MULTIPLIERS["rowcol"])]
-        bram = bram18_blocks(shape[1], f["col_state"].word)
+    front = [m for m in muls if m.name.startswith(_FRONTEND_MULTIPLIERS)]
+    if stage == "frontend":
+        mine = front
+        bram = sum(bram18_blocks(shape[1], w) for w in line_buffer_words(config))
     else:
-        others = (*_STAGE_MULTIPLIERS["rowcol"], *_FRONTEND_ONLY)
-        mine = [m for m in muls if not m.name.startswith(others)]
+        mine = [m for m in muls if m not in front]
         bram = 0
     return {"register_bits": regs, "dsp": sum(m.dsp for m in mine), "bram18": bram}
 
