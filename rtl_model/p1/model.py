@@ -580,6 +580,10 @@ def stage_latencies(config: P1Config) -> dict[str, int]:
     }
 
 
+#: Whether to run the fused front end (:mod:`~rangefx.rtl_model.p1.fused`) where it
+#: applies (False: the general kernel everywhere, for A/B measurements).
+FUSED = True
+
 #: Cast sites in the kernels (each logs its own raw min/max).
 N_SITES = 32
 
@@ -621,12 +625,16 @@ def run_p1(
     mode: str = "stereo",
     taps: bool = True,
     threads: int = 2,
+    log: bool = True,
 ) -> PipelineResult:
     """Run P1 on an image pair: E1 = ``image1`` (left, or the previous frame in
     ``mode="motion"``), E2 = ``image2``; integer grey levels.
 
     ``threads`` (1 or 2): the two streams' front ends, then two row bands of the range
-    stage, run concurrently (the kernels release the GIL).
+    stage, run concurrently (the kernels release the GIL). ``log`` (as ``fipref``'s
+    LoggingMode): keep the pre-quantisation min/max of every signal (``minmax``); off,
+    ``minmax`` is empty and the front end skips its log. Every output, tap and overflow
+    count is the same either way.
     """
     if mode not in ("stereo", "motion"):
         raise ValueError(f"unknown P1 mode {mode!r}; choose 'stereo' or 'motion'")
@@ -650,6 +658,9 @@ def run_p1(
     consistent = config.variant == "consistent"
     init_first = config.init == "first"
     n_ft = len(FRONTEND_TAPS)
+    from . import fused  # the fast front end (it imports this module's helpers)
+
+    fused_frontend = FUSED and fused.frontend_fits(fm, consistent)
     shape_t = (n_ft, m, n) if taps else (n_ft, 1, 1)
 
     cpu: list[tuple[str, float]] = []  # (kernel, CPU seconds of its thread); append is atomic
@@ -660,10 +671,12 @@ def run_p1(
         outs = [np.empty((m, n), dtype=np.int64) for _ in range(3)]
         tp = np.zeros(shape_t, dtype=np.int64)
         t0 = time.thread_time()
-        _frontend_kernel(
-            img, np.int64(regs.pole), np.int64(regs.bias), consistent, init_first, kind,
-            lut, config.recip_bits, fm, st, dst, ov, *outs, tp, taps,
-        )  # fmt: skip
+        args = (img, np.int64(regs.pole), np.int64(regs.bias), consistent, init_first, kind,
+                lut, config.recip_bits, fm, st, dst, ov, *outs, tp, taps)  # fmt: skip
+        if fused_frontend:
+            fused.frontend_fused(*args, log)
+        else:
+            _frontend_kernel(*args)
         cpu.append(("front_end", time.thread_time() - t0))
         return outs, tp, stats
 
@@ -694,6 +707,7 @@ def run_p1(
         parts = [range_band(0, m, r1, r2)]
 
     overflows, minmax = SignalStats.merge([r1[2], r2[2], *parts], P1_SIGNALS)
+    minmax = minmax if log else {}
     tap_dict: dict[str, np.ndarray] = {}
     if taps:
         for prefix, r in (("e1", r1), ("e2", r2)):
