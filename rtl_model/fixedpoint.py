@@ -34,6 +34,8 @@ __all__ = [
     "Overflow",
     "Quant",
     "cast_array",
+    "cast_by_plan",
+    "cast_plan",
     "cast_raw",
     "cast_row",
     "cast_shifted",
@@ -394,6 +396,45 @@ def _cast_row_loop(raw, shift, word, signed, quant, overflow, out, short):
         out[i] = value
         count += flag
     return lo, hi, count
+
+
+@njit(cache=True, nogil=True, inline="always")
+def cast_plan(shift, word, signed, quant, overflow):
+    """Loop-invariant constants of a cast with ``shift = frac_in - frac_out``,
+    ``|shift| <= 62`` (for :func:`cast_by_plan`, computed once outside a loop):
+    ``(left, right, a, b, c, lo, hi, mask, overflow)``."""
+    left = max(-shift, 0)
+    right = max(shift, 0)
+    a, b, c = _round_offsets(right, quant)
+    one = np.int64(1)
+    hi = (one << (word - 1)) - 1 if signed else (one << word) - 1
+    lo = (-hi if (overflow == _O_SAT_SYM and word > 1) else -hi - 1) if signed else np.int64(0)
+    return (left, right, a, b, c, lo, hi, (one << word) - 1, np.int64(overflow))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def cast_by_plan(raw, plan):
+    """:func:`cast_raw` of ``raw`` by a :func:`cast_plan`, for either sign of the shift:
+    one branch-free body (selects only), so that a loop of several casts vectorises.
+
+    A left shift whose product does not fit int64 is an overflow, as in
+    :func:`shift_left_raw`: the sign's extreme for the saturating modes; the low ``W`` bits
+    of the exact product (those of the shift modulo 2**64) for WRAP. Returns (int64,
+    overflowed)."""
+    left, right, a, b, c, lo, hi, mask, mode = plan
+    v = raw << left
+    fits = (v >> left) == raw
+    extreme = np.int64(_I64_MAX) if raw >= 0 else np.int64(_I64_MIN)
+    v = v if (fits or mode == _O_WRAP) else extreme
+    one_s = np.int64(1) << right
+    q = v >> right
+    t = (v & (one_s - 1)) + a + (b & -np.int64(v < 0)) + (c & -(q & 1))
+    q = q + np.int64(t >= one_s)
+    inside = (q >= lo) & (q <= hi) & fits
+    wrapped = ((q - lo) & mask) + lo
+    saturated = min(max(q, lo), hi)
+    other = wrapped if mode == _O_WRAP else (np.int64(0) if mode == _O_SAT_ZERO else saturated)
+    return q if inside else other, not inside
 
 
 def _check_int(name: str, value: object) -> int:

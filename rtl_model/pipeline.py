@@ -239,17 +239,26 @@ class Pipeline(abc.ABC):
         *,
         taps: bool = True,
         threads: int = 2,
+        log: bool = True,
     ) -> PipelineResult:
         """Run the bit-accurate model on ``case`` (default config if ``config`` is None);
         ``ValueError`` for bad inputs: a config of another pipeline, a mode the pipeline
-        does not model, bad images or timing."""
+        does not model, bad images or timing. ``log`` (``fipref``'s LoggingMode): keep
+        every signal's min/max; off, :attr:`PipelineResult.minmax` is empty and nothing
+        else changes (overflow counts are always kept)."""
         config = self.check_config(self.default_config() if config is None else config)
         self.check_mode(case)
-        return self.simulate(case, config, timing or TimingConfig(), taps, threads)
+        return self.simulate(case, config, timing or TimingConfig(), taps, threads, log)
 
     @abc.abstractmethod
     def simulate(
-        self, case: Case, config: WordLengthConfig, timing: TimingConfig, taps: bool, threads: int
+        self,
+        case: Case,
+        config: WordLengthConfig,
+        timing: TimingConfig,
+        taps: bool,
+        threads: int,
+        log: bool = True,
     ) -> PipelineResult:
         """The model itself, on checked arguments (:meth:`run` is the public entry)."""
 

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from oracles import ORACLES
+from oracles import ORACLES, OracleRun
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
@@ -33,6 +33,7 @@ from rangefx.golden.riccati import PAPER_PIXEL_PITCH_IN, RiccatiConfig
 from rangefx.golden.scenes import render_plane, render_scene
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p1 import model as p1_model
 from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
 
@@ -345,7 +346,7 @@ def _params():
 
 
 @pytest.mark.parametrize(("name", "spec"), list(_params()))
-def test_bit_exact(name, spec):
+def test_bit_exact(name, spec, monkeypatch):
     pipeline, oracle = PIPELINES[name], ORACLES[name]
     config = mode_config(pipeline, spec["quant"], spec["overflow"], spec["narrow"], spec["seed"],
                          SPECS[name].int_drop, **spec["design"])  # fmt: skip
@@ -353,6 +354,14 @@ def test_bit_exact(name, spec):
     ref = oracle.run(case, config)
     res = pipeline.run(case, config, spec["timing"], taps=True)
     assert_bit_exact(res, ref)
+    # the min/max log off (fipref's LoggingMode): everything else identical, no min/max
+    unlogged = pipeline.run(case, config, spec["timing"], taps=True, log=False)
+    assert unlogged.minmax == {}
+    assert_bit_exact(unlogged, OracleRun(ref.taps, ref.overflows, {}))
+    if name == "p1":
+        # P1's general kernels (the path of configs the fused front end does not take)
+        monkeypatch.setattr(p1_model, "FUSED", False)
+        assert_bit_exact(pipeline.run(case, config, spec["timing"], taps=True), ref)
     if spec["narrow"]:
         # not vacuous: the overflow mode under test acted on some datapath signal
         skip = {*config.QUOTIENTS, *fixed_signals(pipeline)}

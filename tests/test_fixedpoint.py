@@ -24,6 +24,8 @@ from rangefx.rtl_model.fixedpoint import (
     Overflow,
     Quant,
     cast_array,
+    cast_by_plan,
+    cast_plan,
     cast_raw,
     overflow_raw,
     quantise_shift,
@@ -181,6 +183,36 @@ def test_cast_row_in_range_and_overflowing_rows(quant, overflow, signed, shift):
         assert count == sum(f for _, f in expected), name
     assert cast_array(rows["inside"], frac_in, fmt)[1] == 0
     assert cast_array(rows["high"], frac_in, fmt)[1] >= 1
+
+
+@njit
+def _cast_by_plan_array(raws, shift, word, signed, quant, overflow):
+    plan = cast_plan(shift, word, signed, quant, overflow)
+    out = np.empty_like(raws)
+    flags = np.empty(raws.shape[0], dtype=np.bool_)
+    for i in range(raws.shape[0]):
+        out[i], flags[i] = cast_by_plan(raws[i], plan)
+    return out, flags
+
+
+@pytest.mark.parametrize(("quant", "overflow"), MODE_PAIRS, ids=lambda m: m.name)
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    target=formats,
+    shift=st.one_of(st.integers(-3, 3), st.integers(-62, 62)),
+    seed=st.integers(0, 2**32 - 1),
+    extra=st.lists(st.integers(I64_MIN, I64_MAX), max_size=8),
+)
+def test_cast_by_plan_matches_fraction_reference(quant, overflow, target, shift, seed, extra):
+    """The fused kernels' branch-free cast (either sign of the shift, left shifts that
+    leave int64 included) equals the Fraction reference element by element."""
+    signed, word, frac = target
+    fmt = FixedFormat(signed, word, frac, quant, overflow)
+    raws = np.concatenate([random_raws(seed, BATCH), np.array(extra, dtype=np.int64)])
+    out, flags = _cast_by_plan_array(raws, shift, word, signed, int(quant), int(overflow))
+    expected = [reference_cast(int(r), frac + shift, fmt) for r in raws]
+    assert out.tolist() == [value for value, _ in expected]
+    assert flags.tolist() == [flag for _, flag in expected]
 
 
 def to_signed(bits: int, word: int) -> int:

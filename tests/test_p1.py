@@ -330,5 +330,6 @@ def test_bench_reports_the_cost_breakdown():
                 "p2_stereo_mpix_s", "p2_stereo_taps_mpix_s", "golden_p2_mpix_s",
                 "calib_rowcol_mpix_s", "p1_over_calib", "p2_over_calib",
                 "p1_stereo_consistent_1thread_over_calib",
+                "p1_stereo_paper_logged_mpix_s", "p2_stereo_logged_1thread_over_calib",
                 "p2_stereo_taps_over_calib"):  # fmt: skip
         assert figures[key] > 0, key

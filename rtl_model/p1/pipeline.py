@@ -60,11 +60,17 @@ class P1Pipeline(Pipeline):
         return groups
 
     def simulate(
-        self, case: Case, config: WordLengthConfig, timing: TimingConfig, taps: bool, threads: int
+        self,
+        case: Case,
+        config: WordLengthConfig,
+        timing: TimingConfig,
+        taps: bool,
+        threads: int,
+        log: bool = True,
     ) -> PipelineResult:
         return model.run_p1(
             case.image1, case.image2, case.camera, case.motion, config, case.ranging,
-            timing=timing, mode=case.mode, taps=taps, threads=threads,
+            timing=timing, mode=case.mode, taps=taps, threads=threads, log=log,
         )  # fmt: skip
 
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:

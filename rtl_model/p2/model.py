@@ -300,11 +300,14 @@ def run_p2(
     timing: TimingConfig | None = None,
     taps: bool = True,
     threads: int = 2,
+    log: bool = True,
 ) -> PipelineResult:
     """Run P2 on a registered stereo pair (E1 = ``image1`` left, E2 = ``image2``, camera 2
     displaced ``b`` to the right), integer grey levels; ``riccati`` gives the weights
     (α, β, γ, pixel pitch), ``threshold_e`` and ``range_max`` of golden G5 (its ``form``
-    must be ``"lq"`` and ``a_sampling`` ``"edge"``, the discretisation P2 implements)."""
+    must be ``"lq"`` and ``a_sampling`` ``"edge"``, the discretisation P2 implements).
+    ``log`` off: ``minmax`` is empty (P2's kernel still keeps it: not yet switchable
+    there)."""
     runtime.check_threads(threads)
     config = config or P2Config.default()
     riccati = riccati or RiccatiConfig()
@@ -341,6 +344,7 @@ def run_p2(
     else:
         parts = [band(0, m)]
     overflows, minmax = runtime.SignalStats.merge(parts, P2_SIGNALS)
+    minmax = minmax if log else {}
     tap_dict = {name: tp[k] for k, name in enumerate(P2_TAPS)} if taps else {}
     zf = config.formats["p2_z"]
     latency = int((out_cycles - in_cycles).max())

@@ -76,16 +76,21 @@ def _bench_pipeline(
     pipeline.run(case, config, taps=False)  # JIT warm-up
     cpu: list[dict[str, float]] = []
 
-    def run(threads: int = 2, taps: bool = False) -> None:
-        cpu.append(pipeline.run(case, config, taps=taps, threads=threads).kernel_cpu_s)
+    def run(threads: int = 2, taps: bool = False, log: bool = False) -> None:
+        cpu.append(pipeline.run(case, config, taps=taps, threads=threads, log=log).kernel_cpu_s)
 
-    out = {f"{stereo}_mpix_s": pixels / median_time(run, repeats) / 1e6}
+    def mpix_s(**kw: Any) -> float:
+        return pixels / median_time(lambda: run(**kw), repeats) / 1e6
+
+    out = {f"{stereo}_mpix_s": mpix_s()}
     # where the time goes: CPU ns per pixel of each kernel, where the model reports it
     for kernel in cpu[0]:
         ns = statistics.median(c[kernel] for c in cpu) / pixels * 1e9
         out[f"{key}_{kernel}_cpu_ns_px"] = ns
-    out[f"{stereo}_1thread_mpix_s"] = pixels / median_time(lambda: run(threads=1), repeats) / 1e6
-    out[f"{stereo}_taps_mpix_s"] = pixels / median_time(lambda: run(taps=True), repeats) / 1e6
+    out[f"{stereo}_1thread_mpix_s"] = mpix_s(threads=1)
+    out[f"{stereo}_logged_mpix_s"] = mpix_s(log=True)
+    out[f"{stereo}_logged_1thread_mpix_s"] = mpix_s(threads=1, log=True)
+    out[f"{stereo}_taps_mpix_s"] = mpix_s(taps=True, log=True)
     t = median_time(lambda: pipeline.golden(case, config), repeats)
     out[f"golden_{key}_mpix_s"] = pixels / t / 1e6
     return out
@@ -95,9 +100,10 @@ def bench_figures(
     repeats: int = 5, size: int = 512, names: Sequence[str] | None = None
 ) -> dict[str, Any]:
     """Mpixel/s of every pipeline and variant (stereo ``size``², default config: two
-    threads without taps, one thread, with taps; per-kernel CPU ns/pixel where the model
-    reports it) beside its golden on the same pair, the unit costs of a cast, and the
-    cold start of a second process; ``names`` restricts the pipelines (default: all)."""
+    threads without taps and without the min/max log, one thread, logged on two and one
+    threads, with taps (and the log); per-kernel CPU ns/pixel where the model reports
+    it) beside its golden on the same pair, the unit costs of a cast, and the cold start
+    of a second process; ``names`` restricts the pipelines (default: all)."""
     case = scene_case("lab", (size, size) if size != 512 else None)
     out: dict[str, Any] = {"size": [size, size], "repeats": repeats, "cpu": cpu_description()}
     out["cpu_count"] = os.cpu_count()
