@@ -169,7 +169,7 @@ def add_synth_parser(hs) -> None:
                    help="Yosys flow: synth_xilinx -family xc7|xcup, synth_ecp5, synth_ice40 "
                    "(default xcup)")  # fmt: skip
     s.add_argument("--stage", choices=(*STAGES, "all"), default="all",
-                   help="frontend (one stream: bias, filters, x-derivative), range, or all")  # fmt: skip
+                   help="frontend (one stream, x-derivative included), range, or all")  # fmt: skip
     s.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
                    help="stereo: two frontend stages, motion: one (default stereo)")  # fmt: skip
     s.add_argument("--width", type=int_at_least(2, "--width"), default=512,
