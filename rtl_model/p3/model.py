@@ -503,10 +503,13 @@ def run_p3(
     timing: TimingConfig | None = None,
     taps: bool = True,
     threads: int = 2,
+    log: bool = True,
 ) -> PipelineResult:
     """Run P3 on a registered stereo pair (E1 = ``image1`` left, E2 = ``image2``, camera 2
     ``B > 0`` to the right), integer grey levels; only ``ranging.range_max`` is read (G6's
-    thresholds are design fields). ``threads`` = 2 builds the two pyramids at once."""
+    thresholds are design fields). ``threads`` = 2 builds the two pyramids at once.
+    ``log`` off: ``minmax`` is empty (the kernels still keep it: not yet switchable in
+    P3's kernels); overflow counts are always kept."""
     runtime.check_threads(threads)
     config = config or P3Config.default()
     if not isinstance(config, P3Config):
@@ -578,7 +581,7 @@ def run_p3(
         range_raw=out_range,
         taps=tap_dict,
         overflows=overflows,
-        minmax=minmax,
+        minmax=minmax if log else {},
         in_cycles=in_cycles,
         out_cycles=out_cycles,
         latency=int((out_cycles - in_cycles).max()),

@@ -42,11 +42,17 @@ class P3Pipeline(Pipeline):
         return groups
 
     def simulate(
-        self, case: Case, config: WordLengthConfig, timing: TimingConfig, taps: bool, threads: int
+        self,
+        case: Case,
+        config: WordLengthConfig,
+        timing: TimingConfig,
+        taps: bool,
+        threads: int,
+        log: bool = True,
     ) -> PipelineResult:
         return model.run_p3(
             case.image1, case.image2, case.camera, case.motion, config, case.ranging,
-            timing=timing, taps=taps, threads=threads,
+            timing=timing, taps=taps, threads=threads, log=log,
         )  # fmt: skip
 
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
