@@ -415,7 +415,10 @@ def _frontend_kernel(
 # along a line, so its loop runs over a band of lines (SIMD lanes) for one column at a
 # time; the column filters run along the line. Used whenever every front-end cast
 # shifts by at most 62 bits (frontend_fits: every real config); _frontend_kernel is the
-# path for the others. The variant and ``log`` are the only specialisations.
+# path for the others. The variant and ``log`` are runtime flags of one compiled body:
+# specialising the loops on them as literals (four inlined copies) cost 202 s of CPU to
+# compile against 65 s for one, for 6 % of the paper variant's run time (A/B in
+# docs/performance.md).
 # --------------------------------------------------------------------------------------
 #: Lines per band of the row filter (its SIMD lanes: two AVX-512 vectors of int64 per
 #: independent recursion chain in flight, measured best of 8/16/32).
@@ -638,19 +641,8 @@ def frontend_fused(
         for k in range(bw):
             for i in range(n):
                 imgT[i, k] = img[j0 + k, i]
-        if log:
-            if consistent:
-                _row_band(imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T,
-                          r2T, True, True)  # fmt: skip
-            else:
-                _row_band(imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T,
-                          r2T, True, False)  # fmt: skip
-        elif consistent:
-            _row_band(imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T, r2T,
-                      False, True)  # fmt: skip
-        else:
-            _row_band(imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T, r2T,
-                      False, False)  # fmt: skip
+        _row_band(imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T, r2T, log,
+                  consistent)  # fmt: skip
         for k in range(bw):
             for i in range(n):
                 r1[k, i] = r1T[i, k]
@@ -661,19 +653,8 @@ def frontend_fused(
                 lb1[:] = _cast_row(r1[k], f_r1, COL_STATE, 7, fm, st, ov)
                 if consistent:
                     lb2[:] = _cast_row(r2[k], f_r2, COL2_STATE, 12, fm, st, ov)
-            if log:
-                if consistent:
-                    _col_line(r1[k], r2[k], lb1, lb2, pole, fm, st, ov, out_e[j], out_ex[j],
-                              out_ey[j], num, True, True)  # fmt: skip
-                else:
-                    _col_line(r1[k], r2[k], lb1, lb2, pole, fm, st, ov, out_e[j], out_ex[j],
-                              out_ey[j], num, True, False)  # fmt: skip
-            elif consistent:
-                _col_line(r1[k], r2[k], lb1, lb2, pole, fm, st, ov, out_e[j], out_ex[j],
-                          out_ey[j], num, False, True)  # fmt: skip
-            else:
-                _col_line(r1[k], r2[k], lb1, lb2, pole, fm, st, ov, out_e[j], out_ex[j],
-                          out_ey[j], num, False, False)  # fmt: skip
+            _col_line(r1[k], r2[k], lb1, lb2, pole, fm, st, ov, out_e[j], out_ex[j], out_ey[j],
+                      num, log, consistent)  # fmt: skip
             if not consistent:
                 _divide_row(num, f_s1 + f_r2, r1[k], f_r1, DIV_QUOT, kind, lut, r_bits, fm,
                             dst, ov, out_ex[j], ex_flags)  # fmt: skip
