@@ -93,8 +93,9 @@ def replay_range(vec: Path, config: P1Config, work: Path, **over: int) -> Path:
     params = range_parameters(config, n, m, rom_file=str(vec / "recip_rom.mem")) | over
     runner = cocotb_tools_runner.get_runner("icarus")
     build = work / "build"
-    runner.build(sources=[HDL_DIR / s for s in RANGE_SOURCES], hdl_toplevel="p1_range",
-                 parameters=params, build_dir=build, always=True)  # fmt: skip
+    runner.build(sources=[HDL_DIR / s for s in RANGE_SOURCES], includes=[HDL_DIR],
+                 hdl_toplevel="p1_range", parameters=params, build_dir=build,
+                 always=True)  # fmt: skip
     dump = work / "dump"
     env = {
         "RANGEFX_VECTORS": str(vec),

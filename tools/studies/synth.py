@@ -209,8 +209,9 @@ def _key(stage: str, target: str, params: Mapping, version: str) -> str:
     _top, sources = STAGES[stage]
     h.update(json.dumps([stage, target, TARGETS[target].command, sorted(params.items()), version])
              .encode())  # fmt: skip
-    for s in sources:
-        h.update((HDL_DIR / s).read_bytes())
+    # the sources and every header they may `include (the shared parameter lists)
+    for path in (*(HDL_DIR / s for s in sources), *sorted(HDL_DIR.glob("*.vh"))):
+        h.update(path.read_bytes())
     return h.hexdigest()[:32]
 
 

@@ -1,0 +1,36 @@
+// The formats and modes of the range stage's host registers and signals, the parameters
+// p1_range and p1_top share (`include`d into both parameter lists; each signal's <P>_W,
+// _F, _S and, for a cast signal, _Q, _O). The last line has no comma: the includer adds
+// one when more parameters follow.
+    // host register formats
+    parameter integer FR_W = 18, parameter integer FR_F = 6, parameter integer FR_S = 0,
+    parameter integer KT_W = 28, parameter integer KT_F = 20, parameter integer KT_S = 1,
+    parameter integer KM_W = 32, parameter integer KM_F = 34, parameter integer KM_S = 1,
+    parameter integer TG2_W = 12, parameter integer TG2_F = 4, parameter integer TG2_S = 0,
+    // cast signals
+    parameter integer CO_W = 13, parameter integer CO_F = 1, parameter integer CO_S = 1,
+    parameter integer CO_Q = 2, parameter integer CO_O = 1,
+    parameter integer C1_W = 21, parameter integer C1_F = 11, parameter integer C1_S = 1,
+    parameter integer C1_Q = 2, parameter integer C1_O = 1,
+    parameter integer GA_W = 24, parameter integer GA_F = 12, parameter integer GA_S = 1,
+    parameter integer GA_Q = 2, parameter integer GA_O = 1,
+    parameter integer GB_W = 21, parameter integer GB_F = 11, parameter integer GB_S = 1,
+    parameter integer GB_Q = 2, parameter integer GB_O = 1,
+    parameter integer KR_W = 28, parameter integer KR_F = 24, parameter integer KR_S = 1,
+    parameter integer KR_Q = 2, parameter integer KR_O = 1,
+    parameter integer V_W = 28, parameter integer V_F = 10, parameter integer V_S = 1,
+    parameter integer V_Q = 2, parameter integer V_O = 1,
+    parameter integer W_W = 24, parameter integer W_F = 16, parameter integer W_S = 1,
+    parameter integer W_Q = 2, parameter integer W_O = 1,
+    parameter integer GV_W = 28, parameter integer GV_F = 4, parameter integer GV_S = 1,
+    parameter integer GV_Q = 2, parameter integer GV_O = 1,
+    parameter integer NUM_W = 28, parameter integer NUM_F = 4, parameter integer NUM_S = 1,
+    parameter integer NUM_Q = 2, parameter integer NUM_O = 1,
+    parameter integer DEN_W = 30, parameter integer DEN_F = 12, parameter integer DEN_S = 1,
+    parameter integer DEN_Q = 2, parameter integer DEN_O = 1,
+    parameter integer RNG_W = 28, parameter integer RNG_F = 8, parameter integer RNG_S = 1,
+    parameter integer RNG_Q = 2, parameter integer RNG_O = 1,
+    parameter integer VSQ_W = 30, parameter integer VSQ_F = 2, parameter integer VSQ_S = 0,
+    parameter integer VSQ_Q = 2, parameter integer VSQ_O = 1,
+    parameter integer GSQ_W = 56, parameter integer GSQ_F = 4, parameter integer GSQ_S = 0,
+    parameter integer GSQ_Q = 2, parameter integer GSQ_O = 1
