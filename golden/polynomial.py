@@ -315,7 +315,8 @@ def polynomial_roots(coeffs: np.ndarray, solver: str = "closed") -> np.ndarray:
     Rows whose leading coefficients vanish (``|c_k| <= 1e-12 max|c|``) are solved at
     their effective degree; the missing roots are NaN. ``solver="closed"`` uses the
     formulas of degree 1..4 (:func:`solve_quadratic`, :func:`solve_cubic`,
-    :func:`solve_quartic`); ``"companion"`` uses ``np.roots`` row by row.
+    :func:`solve_quartic`) after deflating exact zero roots (vanishing low-order
+    coefficients); ``"companion"`` uses ``np.roots`` row by row.
     """
     coeffs = np.asarray(coeffs, dtype=np.float64)
     if coeffs.ndim != 2 or coeffs.shape[1] < 2:
@@ -337,11 +338,23 @@ def polynomial_roots(coeffs: np.ndarray, solver: str = "closed") -> np.ndarray:
         sub = coeffs[rows, : k + 1]
         if solver == "companion":
             found = np.array([np.roots(row[::-1]) for row in sub]).reshape(len(rows), k)
-        elif k == 1:
-            found = (-sub[:, 0] / sub[:, 1])[:, None].astype(np.complex128)
-        else:
-            found = _CLOSED[k](sub)
-        out[rows, :k] = found
+            out[rows, :k] = found
+            continue
+        # exact zero roots (c_0 = ... = c_(z-1) = 0) are deflated, not left to the
+        # formulas: Ferrari's puts a double root at 0 some 1e-4 away (P = x^2 (24 +
+        # 82.6 x + x^2 / 16) gave ±2.06e-4)
+        zeros = np.argmax(sub[:, :k] != 0, axis=1)
+        zeros = np.where(np.any(sub[:, :k] != 0, axis=1), zeros, k)
+        for z in np.unique(zeros):
+            sel = np.flatnonzero(zeros == z)
+            d = k - z  # degree of the deflated polynomial
+            found = np.zeros((sel.size, k), dtype=np.complex128)
+            red = sub[sel, z:]
+            if d == 1:
+                found[:, 0] = -red[:, 0] / red[:, 1]
+            elif d > 1:
+                found[:, :d] = _CLOSED[d](red)
+            out[rows[sel], :k] = found
     return out
 
 
