@@ -100,6 +100,7 @@ from .simulate import (
     held_sample_times,
     integrate_held_controls,
     record_command,
+    result_from_record,
 )
 
 __all__ = [
@@ -811,16 +812,10 @@ def simulate_avoid(
             stacklevel=2,
         )
     n_upd = len(rec["tgo"])
-    return SimulationResult(
-        t=np.asarray(ts),
-        states=np.asarray(states),
-        t_cmd=np.asarray(rec["t_cmd"]),
-        accel_cmd=np.asarray(rec["a_cmd"]),
-        accel_achieved=np.asarray(rec["a_ach"]),
-        thrust=np.asarray(rec["T"]),
-        theta=np.asarray(rec["th"]),
-        phi=np.asarray(rec["ph"]),
-        t_go=np.asarray(rec["tgo"]),
+    return result_from_record(
+        ts,
+        states,
+        rec,
         h_residual=np.full(n_upd, np.nan),
         root_found=np.ones(n_upd, dtype=bool),
         obstacles=field.points,

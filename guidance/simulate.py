@@ -49,6 +49,7 @@ __all__ = [
     "held_sample_times",
     "integrate_held_controls",
     "record_command",
+    "result_from_record",
     "simulate",
     "trajectory_metrics",
 ]
@@ -165,6 +166,40 @@ def record_command(
     rec["tgo"].append(t_go)
 
 
+def result_from_record(
+    ts: list[float],
+    states: list[np.ndarray],
+    rec: dict[str, list],
+    *,
+    h_residual: np.ndarray,
+    root_found: np.ndarray,
+    obstacles: np.ndarray,
+    bc: BoundaryConditions,
+    params: VehicleParams,
+    extras: dict | None = None,
+) -> SimulationResult:
+    """The :class:`SimulationResult` of a flown trajectory (``ts``, ``states``) and its
+    guidance updates as :func:`record_command` recorded them in ``rec``; ``h_residual``
+    and ``root_found`` per update are the law's own."""
+    return SimulationResult(
+        t=np.asarray(ts),
+        states=np.asarray(states),
+        t_cmd=np.asarray(rec["t_cmd"]),
+        accel_cmd=np.asarray(rec["a_cmd"]),
+        accel_achieved=np.asarray(rec["a_ach"]),
+        thrust=np.asarray(rec["T"]),
+        theta=np.asarray(rec["th"]),
+        phi=np.asarray(rec["ph"]),
+        t_go=np.asarray(rec["tgo"]),
+        h_residual=np.asarray(h_residual),
+        root_found=np.asarray(root_found, dtype=bool),
+        obstacles=obstacles,
+        bc=bc,
+        params=params,
+        extras=extras or {},
+    )
+
+
 def held_sample_times(t: float, dt: float, sample_interval: float) -> tuple[float, np.ndarray]:
     """End and output times of one held-command interval ``[t, t + dt]``, sampled at most
     ``sample_interval`` apart (the last sample exactly at the end despite rounding)."""
@@ -250,22 +285,8 @@ def simulate(
             NoTransversalityRootWarning,
             stacklevel=2,
         )
-    return SimulationResult(
-        t=np.asarray(ts),
-        states=np.asarray(states),
-        t_cmd=np.asarray(rec["t_cmd"]),
-        accel_cmd=np.asarray(rec["a_cmd"]),
-        accel_achieved=np.asarray(rec["a_ach"]),
-        thrust=np.asarray(rec["T"]),
-        theta=np.asarray(rec["th"]),
-        phi=np.asarray(rec["ph"]),
-        t_go=np.asarray(rec["tgo"]),
-        h_residual=np.asarray(rec["h"]),
-        root_found=np.asarray(rec["ok"], dtype=bool),
-        obstacles=obstacles.points,
-        bc=bc,
-        params=params,
-    )
+    return result_from_record(ts, states, rec, h_residual=rec["h"], root_found=rec["ok"],
+                              obstacles=obstacles.points, bc=bc, params=params)  # fmt: skip
 
 
 def integrate_held_controls(
