@@ -358,6 +358,15 @@ def test_bit_exact(name, spec, monkeypatch):
     unlogged = pipeline.run(case, config, spec["timing"], taps=True, log=False)
     assert unlogged.minmax == {}
     assert_bit_exact(unlogged, OracleRun(ref.taps, ref.overflows, {}))
+    # without taps (P1's fused range stage runs only then), logged and unlogged: the same
+    # outputs, overflow counts and min/max
+    for log in (True, False):
+        fast = pipeline.run(case, config, spec["timing"], taps=False, log=log)
+        assert fast.taps == {}
+        assert np.array_equal(fast.range_raw, ref.range_raw)
+        assert np.array_equal(fast.valid, ref.valid)
+        assert dict(fast.overflows) == ref.overflows
+        assert dict(fast.minmax) == (ref.minmax if log else {})
     if name == "p1":
         # P1's general kernels (the path of configs the fused front end does not take)
         monkeypatch.setattr(p1_model, "FUSED", False)

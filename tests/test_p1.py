@@ -9,6 +9,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
@@ -18,6 +20,7 @@ from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_arra
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
 from rangefx.rtl_model.registry import PIPELINES
+from rangefx.rtl_model.runtime import DIV_RECIPROCAL
 from rangefx.rtl_model.stream import make_stream, pixel_cycles
 from rangefx.tools.cli import main
 from rangefx.tools.studies import bench
@@ -333,3 +336,57 @@ def test_bench_reports_the_cost_breakdown():
                 "p1_stereo_paper_logged_mpix_s", "p2_stereo_logged_1thread_over_calib",
                 "p2_stereo_taps_over_calib"):  # fmt: skip
         assert figures[key] > 0, key
+
+
+# -- the divider in SIMD lanes ----------------------------------------------------------
+
+
+@pytest.mark.parametrize("overflow", list(Overflow), ids=lambda m: m.name)
+@pytest.mark.parametrize("quant", [Quant.TRN, Quant.RND, Quant.RND_CONV, Quant.TRN_ZERO],
+                         ids=lambda m: m.name)  # fmt: skip
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    word=st.integers(1, 40),
+    frac=st.integers(-4, 24),
+    signed=st.booleans(),
+    fn=st.integers(0, 30),
+    fd=st.integers(0, 30),
+    d_word=st.integers(1, 40),
+    lut_bits=st.integers(2, 10),
+    r_bits=st.integers(8, 24),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_divide_row_lanes_equals_the_scalar_divider(
+    quant, overflow, word, frac, signed, fn, fd, d_word, lut_bits, r_bits, seed
+):
+    """The reciprocal divider in lanes (front end and range stage) against divide_row: every
+    quotient, flag, overflow count and logged min/max, with D = 0, N = 0 and both signs."""
+    from rangefx.rtl_model.p1 import model
+    from rangefx.rtl_model.runtime import reciprocal_lut
+
+    fm = np.zeros((len(P1_SIGNALS), 5), dtype=np.int64)
+    s = model.RANGE
+    fm[s] = (word, frac, int(signed), int(quant), int(overflow))
+    assume(model.divide_lanes_fit(fn, fd, d_word, s, r_bits, fm))
+    rng = np.random.default_rng(seed)
+    n = 67
+    num = rng.integers(-(2**30), 2**30, n) >> rng.integers(0, 30, n)
+    den = rng.integers(-(2 ** (d_word - 1)), 2 ** (d_word - 1), n, endpoint=True)
+    den >>= rng.integers(0, d_word, n)
+    num[:5], den[:5] = (0, 7, -7, 0, 3), (0, 0, 0, 5, -1)
+    lut = reciprocal_lut(lut_bits, r_bits)
+    got, want = [], []
+    for fn_div, out in ((model.divide_row_lanes, got), (model.divide_row, want)):
+        dst = np.empty((len(P1_SIGNALS), 2))
+        dst[:, 0], dst[:, 1] = np.inf, -np.inf
+        ov = np.zeros(len(P1_SIGNALS), dtype=np.int64)
+        q, flags = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_)
+        if fn_div is model.divide_row:
+            fn_div(num, fn, den, fd, s, DIV_RECIPROCAL, lut, r_bits, fm, dst, ov, q, flags)
+        else:
+            fn_div(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, q, flags, True)
+        out.extend([q, flags, ov[s], dst[s]])
+    assert np.array_equal(got[0], want[0])
+    assert np.array_equal(got[1], want[1])
+    assert got[2] == want[2]
+    assert np.array_equal(got[3], want[3])

@@ -54,13 +54,17 @@ __all__ = [
     "cast_row_site",
     "cast_site",
     "divide_into",
+    "divide_lanes_fit",
     "divide_row",
+    "divide_row_lanes",
     "divide_scalar",
     "frame_registers",
     "frame_store_word",
     "frontend_fits",
     "frontend_fused",
     "line_buffer_words",
+    "range_fits",
+    "range_fused",
     "run_p1",
     "stage_latencies",
 ]
@@ -260,6 +264,73 @@ def divide_row(num, fn, den, fd, s, kind, lut, r_bits, fm, dst, ov, out, flags):
         count += flag
         lo = v_lo if v_lo < lo else lo
         hi = v_hi if v_hi > hi else hi
+    dst[s, 0], dst[s, 1] = lo, hi
+    ov[s] += count
+
+
+@njit(cache=True, nogil=True)
+def divide_lanes_fit(fn, fd, d_word, s, r_bits, fm):
+    """Whether :func:`divide_row_lanes` takes a division into signal ``s`` of a numerator
+    at ``fn`` by a denominator at ``fd`` of at most ``d_word`` bits: every final cast of
+    the reciprocal product shifts right by 0..62 bits and the log's scale is a plain
+    product (:func:`ldexp2`)."""
+    base = fn - fd + r_bits - fm[s, 1]
+    return base >= 0 and base + d_word - 1 <= 62 and abs(fd - fn) <= 1022
+
+
+@njit(cache=True, nogil=True)
+def divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, log):
+    """:func:`divide_row` for the reciprocal divider, in SIMD lanes: the same quotients,
+    flags, overflow count and log (``log`` off: none), with ``D = 0`` by selects instead
+    of a branch. Three loops along the row: the seed index and normalisation, the seed
+    ROM read (a scalar loop: LLVM would not vectorise the gather, and with it in the loop
+    vectorised nothing), then Newton step, product and cast; the log in a fourth (the
+    caller checks :func:`divide_lanes_fit`)."""
+    n = num.shape[0]
+    word, frac, signed, quant, ovf = fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4]
+    lut_bits = bit_length(lut.shape[0]) - 1
+    mask = lut.shape[0] - 1
+    base = fn - fd + r_bits - frac
+    scale = ldexp2(1.0, fd - fn)
+    one = np.int64(1)
+    big = one << 62  # D = 0: beyond any format, the overflow mode decides (divide_scalar)
+    z_pos, _ = overflow_raw(big, word, signed, ovf)
+    z_neg, _ = overflow_raw(-big, word, signed, ovf)
+    lo, hi, count = dst[s, 0], dst[s, 1], np.int64(0)
+    seed = np.empty(n, dtype=np.int64)
+    norm = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        ad = max(abs(den[i]), one)
+        p = bit_length(ad) - 1
+        seed[i] = ((ad >> max(p - lut_bits, 0)) << max(lut_bits - p, 0)) & mask
+        norm[i] = p
+    for i in range(n):
+        seed[i] = lut[seed[i]]
+    for i in range(n):
+        nv = num[i]
+        d = den[i]
+        ad = max(abs(d), one)
+        p = norm[i]
+        y0 = seed[i]
+        m_r = (ad >> max(p - r_bits, 0)) << max(r_bits - p, 0)
+        t = (m_r * y0) >> r_bits
+        y1 = (y0 * ((one << (r_bits + 1)) - t)) >> r_bits
+        negative = -np.int64((nv < 0) != (d < 0))
+        raw = abs(nv) * y1
+        q, flag = cast_shifted((raw ^ negative) - negative, base + p, word, signed, quant, ovf,
+                               True)  # fmt: skip
+        zero = d == 0
+        q = (np.int64(0) if nv == 0 else (z_pos if nv > 0 else z_neg)) if zero else q
+        flag = (nv != 0) if zero else flag
+        out[i] = q
+        flags[i] = flag
+        count += flag
+    if log:  # its own loop: in the loop above, the float division ran even with log off
+        for i in range(n):
+            d = den[i]
+            v = (float(num[i]) / float(d if d != 0 else one)) * scale
+            lo = min(lo, np.inf if d == 0 else v)
+            hi = max(hi, -np.inf if d == 0 else v)
     dst[s, 0], dst[s, 1] = lo, hi
     ov[s] += count
 
@@ -636,6 +707,8 @@ def frontend_fused(
     lb1, lb2 = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
     num = np.empty(n, dtype=np.int64)
     ex_flags = np.empty(n, dtype=np.bool_)
+    div_lanes = kind != DIV_RESTORING and divide_lanes_fit(f_s1 + f_r2, f_r1, fm[ROW_R1, 0],
+                                                           DIV_QUOT, r_bits, fm)  # fmt: skip
     for j0 in range(0, m, BAND):
         bw = min(BAND, m - j0)
         for k in range(bw):
@@ -655,7 +728,12 @@ def frontend_fused(
                     lb2[:] = _cast_row(r2[k], f_r2, COL2_STATE, 12, fm, st, ov)
             _col_line(r1[k], r2[k], lb1, lb2, pole, fm, st, ov, out_e[j], out_ex[j], out_ey[j],
                       num, log, consistent)  # fmt: skip
-            if not consistent:
+            if consistent:
+                pass
+            elif div_lanes:
+                divide_row_lanes(num, f_s1 + f_r2, r1[k], f_r1, DIV_QUOT, lut, r_bits, fm, dst,
+                                 ov, out_ex[j], ex_flags, log)  # fmt: skip
+            else:
                 _divide_row(num, f_s1 + f_r2, r1[k], f_r1, DIV_QUOT, kind, lut, r_bits, fm,
                             dst, ov, out_ex[j], ex_flags)  # fmt: skip
             if want_taps:
@@ -680,22 +758,13 @@ def _rotation_row(mreg, r, m_xp, yp, f_km, f_co):
     return m_xp + (_at(mreg[r, 0], f_km, f_k) + _at(mreg[r, 2] * yp, f_km + f_co, f_k))
 
 
-@njit(cache=True, nogil=True)
-def _range_kernel(
-    e1, ex1, ey1, e2, ex2, ey2, regs, mreg, f_ex, kind, lut, r_bits, fm, st, dst, ov,
-    j0, j1, out_range, out_valid, taps, want_taps,
-):  # fmt: skip
-    """Eq 28 per pixel for rows ``j0 <= j < j1`` (docs/p1_datapath.md, range stage);
-    every signal of a line is a vector, each cast one loop."""
-    n = e1.shape[1]
-    cx, cy, fr, k3, k4, k5, te, tg2, dmin, rmax = (
-        regs[0], regs[1], regs[2], regs[3], regs[4], regs[5], regs[6], regs[7], regs[8], regs[9]
-    )  # fmt: skip
-    f_co, f_s1, f_ey = fm[COORD, 1], fm[COL_S1, 1], fm[COL_S2, 1]
-    f_c1, f_a, f_b = fm[C1, 1], fm[GRAD_A, 1], fm[GRAD_B, 1]
+@njit(cache=True, nogil=True, inline="always")
+def _range_fracs(fm):
+    """Fraction bits at which the range stage's exact sums are aligned (docs/p1_datapath.md):
+    ``(f_k, f_gvv, f_gww, f_gvs, f_ns, f_ds, f_co0, f_w0)``."""
+    f_co, f_c1, f_a, f_b = fm[COORD, 1], fm[C1, 1], fm[GRAD_A, 1], fm[GRAD_B, 1]
     f_f, f_kt, f_km, f_kr = fm[F_REG, 1], fm[K_T_REG, 1], fm[K_M_REG, 1], fm[K_ROT, 1]
-    f_v, f_w, f_gv, f_num, f_den = fm[GEOM_V, 1], fm[GEOM_W, 1], fm[GV, 1], fm[NUM, 1], fm[DEN, 1]
-    f_vsq, f_tg2 = fm[V_SQ, 1], fm[TG2_REG, 1]
+    f_v, f_w, f_gv = fm[GEOM_V, 1], fm[GEOM_W, 1], fm[GV, 1]
     f_k = max(f_km, f_km + f_co)
     f_gvv = max(f_f + f_kt, f_co + f_kt)
     f_gww = max(f_f + f_kr, f_co + f_kr)
@@ -704,41 +773,77 @@ def _range_kernel(
     f_ds = max(f_a + f_w, f_b + f_w, f_c1 + f_w)
     f_co0 = max(f_co, 0)  # pixel counters are integers: align at >= 0 fraction bits
     f_w0 = max(f_kr, 0)
+    return f_k, f_gvv, f_gww, f_gvs, f_ns, f_ds, f_co0, f_w0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _range_columns(n, regs, mreg, fm, st, ov, rows):
+    """The range stage's column terms, computed once for a band of ``rows`` lines: ``xp``,
+    ``vx`` (cast once, their overflows counted for every line, as a pixel-by-pixel run
+    counts them), the exact rotation terms ``M_r1 xp`` (3, n) and ``vx^2``."""
+    cx, fr, k3, k4 = regs[0], regs[2], regs[3], regs[4]
+    f_co, f_f, f_kt, f_km = fm[COORD, 1], fm[F_REG, 1], fm[K_T_REG, 1], fm[K_M_REG, 1]
+    f_k, f_gvv, _, _, _, _, f_co0, _ = _range_fracs(fm)
     cols = np.arange(n).astype(np.int64)
+    ov_x, ov_v = ov[COORD], ov[GEOM_V]
+    xp = _cast_row(_at(cols, 0, f_co0) - _at(cx, f_co, f_co0), f_co0, COORD, 16, fm, st, ov)
+    vx = _cast_row(_at(fr * k4, f_f + f_kt, f_gvv) - _at(xp * k3, f_co + f_kt, f_gvv), f_gvv,
+                   GEOM_V, 21, fm, st, ov)  # fmt: skip
+    ov[COORD] += (ov[COORD] - ov_x) * (rows - 1)
+    ov[GEOM_V] += (ov[GEOM_V] - ov_v) * (rows - 1)
+    m_xp = np.empty((3, n), dtype=np.int64)
+    for r in range(3):
+        m_xp[r] = _at(mreg[r, 1] * xp, f_km + f_co, f_k)
+    return xp, vx, m_xp, vx * vx
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _range_line(j, n, regs, fm, st, ov):
+    """The line terms of line ``j``: ``yp`` and ``vy``, held for the line but, like ``xp``,
+    cast (and counted) once per pixel."""
+    cy, fr, k3, k5 = regs[1], regs[2], regs[3], regs[5]
+    f_co, f_f, f_kt = fm[COORD, 1], fm[F_REG, 1], fm[K_T_REG, 1]
+    _, f_gvv, _, _, _, _, f_co0, _ = _range_fracs(fm)
+    ov_co = ov[COORD]
+    yp = _cast(_at(np.int64(j), 0, f_co0) - _at(cy, f_co, f_co0), f_co0, COORD, 15, fm, st, ov)
+    ov[COORD] += (ov[COORD] - ov_co) * (n - 1)
+    ov_vy = ov[GEOM_V]
+    vy = _cast(_at(fr * k5, f_f + f_kt, f_gvv) - _at(yp * k3, f_co + f_kt, f_gvv), f_gvv,
+               GEOM_V, 22, fm, st, ov)  # fmt: skip
+    ov[GEOM_V] += (ov[GEOM_V] - ov_vy) * (n - 1)
+    return yp, vy
+
+
+@njit(cache=True, nogil=True)
+def _range_kernel(
+    e1, ex1, ey1, e2, ex2, ey2, regs, mreg, f_ex, kind, lut, r_bits, fm, st, dst, ov,
+    j0, j1, out_range, out_valid, taps, want_taps,
+):  # fmt: skip
+    """Eq 28 per pixel for rows ``j0 <= j < j1`` (docs/p1_datapath.md, range stage);
+    every signal of a line is a vector, each cast one loop. The path with taps, and of
+    configs :func:`range_fits` rejects; :func:`range_fused` is the other."""
+    n = e1.shape[1]
+    fr, k3, te, tg2, dmin, rmax = regs[2], regs[3], regs[6], regs[7], regs[8], regs[9]
+    f_co, f_s1, f_ey = fm[COORD, 1], fm[COL_S1, 1], fm[COL_S2, 1]
+    f_c1, f_a, f_b = fm[C1, 1], fm[GRAD_A, 1], fm[GRAD_B, 1]
+    f_f, f_kt, f_km, f_kr = fm[F_REG, 1], fm[K_T_REG, 1], fm[K_M_REG, 1], fm[K_ROT, 1]
+    f_v, f_w, f_gv, f_num, f_den = fm[GEOM_V, 1], fm[GEOM_W, 1], fm[GV, 1], fm[NUM, 1], fm[DEN, 1]
+    f_vsq, f_tg2 = fm[V_SQ, 1], fm[TG2_REG, 1]
+    f_k, _, f_gww, f_gvs, f_ns, f_ds, _, f_w0 = _range_fracs(fm)
     one_den = np.int64(1) << f_den
     rq = np.empty(n, dtype=np.int64)
     dovf = np.empty(n, dtype=np.bool_)
     if j1 <= j0:
         return
-    # xp and vx depend on the column only: cast once, their overflows counted for every
-    # row of the band (as a pixel-by-pixel run counts them)
-    ov_x, ov_v = ov[COORD], ov[GEOM_V]
-    xp = _cast_row(_at(cols, 0, f_co0) - _at(cx, f_co, f_co0), f_co0, COORD, 16, fm, st, ov)
-    vx = _cast_row(_at(fr * k4, f_f + f_kt, f_gvv) - _at(xp * k3, f_co + f_kt, f_gvv), f_gvv,
-                   GEOM_V, 21, fm, st, ov)  # fmt: skip
-    ov[COORD] += (ov[COORD] - ov_x) * (j1 - j0 - 1)
-    ov[GEOM_V] += (ov[GEOM_V] - ov_v) * (j1 - j0 - 1)
-    # exact column terms, also computed once per band: M_r1 xp of the rotation rows, vx^2
-    m_xp = np.empty((3, n), dtype=np.int64)
-    for r in range(3):
-        m_xp[r] = _at(mreg[r, 1] * xp, f_km + f_co, f_k)
-    vx_sq = vx * vx
+    xp, vx, m_xp, vx_sq = _range_columns(n, regs, mreg, fm, st, ov, j1 - j0)
     for j in range(j0, j1):
-        # yp is held for the line but, like xp, cast (and counted) once per pixel
-        ov_co = ov[COORD]
-        yp = _cast(_at(np.int64(j), 0, f_co0) - _at(cy, f_co, f_co0), f_co0, COORD, 15, fm, st, ov)
-        ov[COORD] += (ov[COORD] - ov_co) * (n - 1)
+        yp, vy = _range_line(j, n, regs, fm, st, ov)
         c1 = _cast_row(e1[j] - e2[j], f_s1, C1, 17, fm, st, ov)
         a1 = _cast_row(ex1[j] + ex2[j], f_ex + 1, GRAD_A, 18, fm, st, ov)
         b1 = _cast_row(ey1[j] + ey2[j], f_ey + 1, GRAD_B, 19, fm, st, ov)
         k0 = _cast_row(_rotation_row(mreg, 0, m_xp[0], yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
         k1 = _cast_row(_rotation_row(mreg, 1, m_xp[1], yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
         k2 = _cast_row(_rotation_row(mreg, 2, m_xp[2], yp, f_km, f_co), f_k, K_ROT, 20, fm, st, ov)
-        # vy, like yp, depends on the line only: cast once, counted for every pixel
-        ov_vy = ov[GEOM_V]
-        vy = _cast(_at(fr * k5, f_f + f_kt, f_gvv) - _at(yp * k3, f_co + f_kt, f_gvv), f_gvv,
-                   GEOM_V, 22, fm, st, ov)  # fmt: skip
-        ov[GEOM_V] += (ov[GEOM_V] - ov_vy) * (n - 1)
         wx = _cast_row(_at(fr * k1, f_f + f_kr, f_gww) - _at(xp * k0, f_co + f_kr, f_gww), f_gww,
                        GEOM_W, 23, fm, st, ov)  # fmt: skip
         wy = _cast_row(_at(fr * k2, f_f + f_kr, f_gww) - _at(yp * k0, f_co + f_kr, f_gww), f_gww,
@@ -772,6 +877,166 @@ def _range_kernel(
             taps[19, j] = g_thr
             taps[20, j] = ok.astype(np.int64)
             taps[21, j] = out_range[j]
+
+
+@njit(cache=True, nogil=True)
+def range_fits(fm, f_ex, r_bits, kind):
+    """Whether :func:`range_fused` takes a config: every cast of the range stage shifts by
+    at most 62 bits (:func:`cast_by_plan`); a reciprocal divider also needs
+    :func:`divide_lanes_fit` (a restoring one divides row by row, :func:`divide_row`)."""
+    f_k, _, f_gww, f_gvs, f_ns, f_ds, _, f_w0 = _range_fracs(fm)
+    f_v, f_gv, f_vsq, f_tg2 = fm[GEOM_V, 1], fm[GV, 1], fm[V_SQ, 1], fm[TG2_REG, 1]
+    ok = _short(fm[COL_S1, 1], C1, fm) and _short(f_ex + 1, GRAD_A, fm)
+    ok = ok and _short(fm[COL_S2, 1] + 1, GRAD_B, fm) and _short(f_k, K_ROT, fm)
+    ok = ok and _short(f_gww, GEOM_W, fm) and _short(f_w0, GEOM_W, fm) and _short(f_gvs, GV, fm)
+    ok = ok and _short(f_ns, NUM, fm) and _short(f_ds, DEN, fm) and _short(2 * f_v, V_SQ, fm)
+    ok = ok and _short(2 * f_gv, GRAD_SQ, fm) and _short(f_tg2 + f_vsq, GRAD_SQ, fm)
+    if kind != DIV_RESTORING:
+        ok = ok and divide_lanes_fit(fm[NUM, 1], fm[DEN, 1], fm[DEN, 0], RANGE, r_bits, fm)
+    return ok
+
+
+@njit(cache=True, nogil=True)
+def range_fused(
+    e1, ex1, ey1, e2, ex2, ey2, regs, mreg, f_ex, kind, lut, r_bits, fm, st, dst, ov,
+    j0, j1, out_range, out_valid, log,
+):  # fmt: skip
+    """:func:`_range_kernel` without taps (the same outputs, overflow counts and, with
+    ``log``, min/max), fused: every cast of a pixel up to ``num``/``den`` and the
+    thresholds in one branch-free loop along the line (SIMD lanes; no array temporaries),
+    then the divider's row (:func:`divide_row_lanes`), then valid and range."""
+    n = e1.shape[1]
+    fr, k3, te, tg2, dmin, rmax = regs[2], regs[3], regs[6], regs[7], regs[8], regs[9]
+    f_co, f_s1, f_ey = fm[COORD, 1], fm[COL_S1, 1], fm[COL_S2, 1]
+    f_c1, f_a, f_b = fm[C1, 1], fm[GRAD_A, 1], fm[GRAD_B, 1]
+    f_f, f_kt, f_km, f_kr = fm[F_REG, 1], fm[K_T_REG, 1], fm[K_M_REG, 1], fm[K_ROT, 1]
+    f_v, f_w, f_gv, f_num, f_den = fm[GEOM_V, 1], fm[GEOM_W, 1], fm[GV, 1], fm[NUM, 1], fm[DEN, 1]
+    f_vsq, f_tg2 = fm[V_SQ, 1], fm[TG2_REG, 1]
+    f_k, _, f_gww, f_gvs, f_ns, f_ds, _, f_w0 = _range_fracs(fm)
+    if j1 <= j0:
+        return
+    xp, vx, m_xp, vx_sq = _range_columns(n, regs, mreg, fm, st, ov, j1 - j0)
+    m0, m1, m2 = m_xp[0], m_xp[1], m_xp[2]
+    pl_c1, pl_a = _plan(f_s1, C1, fm), _plan(f_ex + 1, GRAD_A, fm)
+    pl_b, pl_k = _plan(f_ey + 1, GRAD_B, fm), _plan(f_k, K_ROT, fm)
+    pl_w, pl_w0, pl_gv = _plan(f_gww, GEOM_W, fm), _plan(f_w0, GEOM_W, fm), _plan(f_gvs, GV, fm)
+    pl_num, pl_den, pl_vsq = _plan(f_ns, NUM, fm), _plan(f_ds, DEN, fm), _plan(2 * f_v, V_SQ, fm)
+    pl_gsq, pl_thr = _plan(2 * f_gv, GRAD_SQ, fm), _plan(f_tg2 + f_vsq, GRAD_SQ, fm)
+    # the exact sums' alignments (shifts of _at)
+    s_wf, s_wx, s_w0 = f_gww - f_f - f_kr, f_gww - f_co - f_kr, f_w0 - f_kr
+    s_ga, s_gb, s_nk, s_ng = f_gvs - f_a - f_v, f_gvs - f_b - f_v, f_ns - f_kt - f_c1, f_ns - f_gv
+    s_da, s_db, s_dc = f_ds - f_a - f_w, f_ds - f_b - f_w, f_ds - f_c1 - f_w
+    w0_one, one_den = np.int64(1) << f_w0, np.int64(1) << f_den
+    lanes = kind != DIV_RESTORING
+    nums, dens = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    pre = np.empty(n, dtype=np.bool_)
+    rq, dovf = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_)
+    big, small = np.int64(_I64_MAX), np.int64(_I64_MIN)
+    l17, h17, l18, h18, l19, h19, l20, h20 = big, small, big, small, big, small, big, small
+    l23, h23, l24, h24, l25, h25, l26, h26 = big, small, big, small, big, small, big, small
+    l27, h27, l28, h28, l29, h29 = big, small, big, small, big, small
+    l30, h30, l31, h31 = big, small, big, small
+    c_c1, c_a, c_b, c_k, c_w = 0, 0, 0, 0, 0
+    c_gv, c_num, c_den, c_vsq, c_gsq = 0, 0, 0, 0, 0
+    for j in range(j0, j1):
+        yp, vy = _range_line(j, n, regs, fm, st, ov)
+        kc0 = _at(mreg[0, 0], f_km, f_k) + _at(mreg[0, 2] * yp, f_km + f_co, f_k)
+        kc1 = _at(mreg[1, 0], f_km, f_k) + _at(mreg[1, 2] * yp, f_km + f_co, f_k)
+        kc2 = _at(mreg[2, 0], f_km, f_k) + _at(mreg[2, 2] * yp, f_km + f_co, f_k)
+        vy_sq = vy * vy
+        e1j, e2j, ex1j, ex2j, ey1j, ey2j = e1[j], e2[j], ex1[j], ex2[j], ey1[j], ey2[j]
+        for i in range(n):
+            c1_in, a_in, b_in = e1j[i] - e2j[i], ex1j[i] + ex2j[i], ey1j[i] + ey2j[i]
+            c1, f0 = cast_by_plan(c1_in, pl_c1)
+            a1, f1 = cast_by_plan(a_in, pl_a)
+            b1, f2 = cast_by_plan(b_in, pl_b)
+            k0_in, k1_in, k2_in = m0[i] + kc0, m1[i] + kc1, m2[i] + kc2
+            k0, f3 = cast_by_plan(k0_in, pl_k)
+            k1, f4 = cast_by_plan(k1_in, pl_k)
+            k2, f5 = cast_by_plan(k2_in, pl_k)
+            wx_in = ((fr * k1) << s_wf) - ((xp[i] * k0) << s_wx)
+            wy_in = ((fr * k2) << s_wf) - ((yp * k0) << s_wx)
+            w0_in = w0_one + (k0 << s_w0)
+            wx, f6 = cast_by_plan(wx_in, pl_w)
+            wy, f7 = cast_by_plan(wy_in, pl_w)
+            w0, f8 = cast_by_plan(w0_in, pl_w0)
+            gv_in = ((a1 * vx[i]) << s_ga) + ((b1 * vy) << s_gb)
+            gv, f9 = cast_by_plan(gv_in, pl_gv)
+            num_in = ((k3 * c1) << s_nk) - (gv << s_ng)
+            num, f10 = cast_by_plan(num_in, pl_num)
+            den_in = ((a1 * wx) << s_da) + ((b1 * wy) << s_db) - ((c1 * w0) << s_dc)
+            den, f11 = cast_by_plan(den_in, pl_den)
+            vsq_in = vx_sq[i] + vy_sq
+            v_sq, f12 = cast_by_plan(vsq_in, pl_vsq)
+            gsq_in = gv * gv
+            g_sq, f13 = cast_by_plan(gsq_in, pl_gsq)
+            thr_in = tg2 * v_sq
+            g_thr, f14 = cast_by_plan(thr_in, pl_thr)
+            # the divider is fed (0, 1) where |den| < DMIN, as in _range_kernel
+            den_ok = (abs(den) >= dmin) & (den != 0)
+            nums[i] = num if den_ok else np.int64(0)
+            dens[i] = den if den_ok else one_den
+            pre[i] = (abs(c1) >= te) & (g_sq >= g_thr) & den_ok
+            c_c1 += f0
+            c_a += f1
+            c_b += f2
+            c_k += f3 + f4 + f5
+            c_w += f6 + f7 + f8
+            c_gv += f9
+            c_num += f10
+            c_den += f11
+            c_vsq += f12
+            c_gsq += f13 + f14
+            if log:
+                l17, h17 = min(l17, c1_in), max(h17, c1_in)
+                l18, h18 = min(l18, a_in), max(h18, a_in)
+                l19, h19 = min(l19, b_in), max(h19, b_in)
+                l20 = min(l20, min(k0_in, min(k1_in, k2_in)))
+                h20 = max(h20, max(k0_in, max(k1_in, k2_in)))
+                l23, h23 = min(l23, wx_in), max(h23, wx_in)
+                l24, h24 = min(l24, wy_in), max(h24, wy_in)
+                l25, h25 = min(l25, w0_in), max(h25, w0_in)
+                l26, h26 = min(l26, gv_in), max(h26, gv_in)
+                l27, h27 = min(l27, num_in), max(h27, num_in)
+                l28, h28 = min(l28, den_in), max(h28, den_in)
+                l29, h29 = min(l29, vsq_in), max(h29, vsq_in)
+                l30, h30 = min(l30, gsq_in), max(h30, gsq_in)
+                l31, h31 = min(l31, thr_in), max(h31, thr_in)
+        if lanes:
+            divide_row_lanes(nums, f_num, dens, f_den, RANGE, lut, r_bits, fm, dst, ov, rq, dovf,
+                             log)  # fmt: skip
+        else:
+            _divide_row(nums, f_num, dens, f_den, RANGE, kind, lut, r_bits, fm, dst, ov, rq, dovf)
+        orow, vrow = out_range[j], out_valid[j]
+        for i in range(n):
+            r = rq[i]
+            ok = pre[i] & (not dovf[i]) & (r > 0) & (r <= rmax)
+            vrow[i] = ok
+            orow[i] = r if ok else rmax
+    ov[C1] += c_c1
+    ov[GRAD_A] += c_a
+    ov[GRAD_B] += c_b
+    ov[K_ROT] += c_k
+    ov[GEOM_W] += c_w
+    ov[GV] += c_gv
+    ov[NUM] += c_num
+    ov[DEN] += c_den
+    ov[V_SQ] += c_vsq
+    ov[GRAD_SQ] += c_gsq
+    if log:
+        _log(st, 17, l17, h17, f_s1, C1)
+        _log(st, 18, l18, h18, f_ex + 1, GRAD_A)
+        _log(st, 19, l19, h19, f_ey + 1, GRAD_B)
+        _log(st, 20, l20, h20, f_k, K_ROT)
+        _log(st, 23, l23, h23, f_gww, GEOM_W)
+        _log(st, 24, l24, h24, f_gww, GEOM_W)
+        _log(st, 25, l25, h25, f_w0, GEOM_W)
+        _log(st, 26, l26, h26, f_gvs, GV)
+        _log(st, 27, l27, h27, f_ns, NUM)
+        _log(st, 28, l28, h28, f_ds, DEN)
+        _log(st, 29, l29, h29, 2 * f_v, V_SQ)
+        _log(st, 30, l30, h30, 2 * f_gv, GRAD_SQ)
+        _log(st, 31, l31, h31, f_tg2 + f_vsq, GRAD_SQ)
 
 
 # --------------------------------------------------------------------------------------
@@ -953,16 +1218,20 @@ def run_p1(
     out_valid = np.empty((m, n), dtype=np.bool_)
     rtaps = np.zeros((len(RANGE_TAPS), m, n) if taps else (len(RANGE_TAPS), 1, 1), np.int64)
     f_ex = config.formats[config.ex_signal].frac
+    # the fused range stage has no taps: with taps, the row-by-row kernel
+    fused_range = FUSED and not taps and range_fits(fm, f_ex, config.recip_bits, kind)
 
     def range_band(j0: int, j1: int, s1, s2):
         stats = SignalStats(N_SITES, len(P1_SIGNALS))
         st, dst, ov = stats.arrays
         t0 = time.thread_time()
-        _range_kernel(
-            s1[0][0], s1[0][1], s1[0][2], s2[0][0], s2[0][1], s2[0][2], regs.scalars,
-            regs.rotation, f_ex, kind, lut, config.recip_bits, fm,
-            st, dst, ov, j0, j1, out_range, out_valid, rtaps, taps,
-        )  # fmt: skip
+        args = (s1[0][0], s1[0][1], s1[0][2], s2[0][0], s2[0][1], s2[0][2], regs.scalars,
+                regs.rotation, f_ex, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
+                out_range, out_valid)  # fmt: skip
+        if fused_range:
+            range_fused(*args, log)
+        else:
+            _range_kernel(*args, rtaps, taps)
         cpu.append(("range", time.thread_time() - t0))
         return stats
 
