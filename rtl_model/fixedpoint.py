@@ -538,7 +538,8 @@ class FixedFormat:
     def to_float(self, raw: int | np.ndarray) -> float | np.ndarray:
         """Value of raw code(s) as float64, ``raw * 2**-F`` (exact while ``|raw| < 2**53``)."""
         if isinstance(raw, np.ndarray):
-            return np.ldexp(raw.astype(np.float64), -self.frac)
+            out = raw.astype(np.float64)
+            return np.ldexp(out, -self.frac, out=out)
         return math.ldexp(float(_check_int("raw", raw)), -self.frac)
 
     def from_float(self, x: float) -> int:

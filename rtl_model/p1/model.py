@@ -39,6 +39,7 @@ from ..runtime import (
     divider_latency,
     divider_setup,
     format_table,
+    scratch,
 )
 from ..stream import input_cycles
 from .config import P1_SIGNALS, P1Config
@@ -496,19 +497,19 @@ def _frontend_kernel(
 BAND = 16
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _plan(frac_in, s, fm):
     """:func:`~rangefx.rtl_model.fixedpoint.cast_plan` of a cast into signal ``s``."""
     return cast_plan(frac_in - fm[s, 1], fm[s, 0], fm[s, 2] != 0, fm[s, 3], fm[s, 4])
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _short(frac_in, s, fm):
     """Whether the fused kernels take a cast into ``s`` (``|shift| <= 62``)."""
     return abs(frac_in - fm[s, 1]) <= 62
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _log(st, site, lo, hi, frac_in, s):
     """Merge a site's raw (lo, hi) kept in registers into its log."""
     st[site, 0] = min(st[site, 0], lo)
@@ -758,7 +759,7 @@ def _rotation_row(mreg, r, m_xp, yp, f_km, f_co):
     return m_xp + (_at(mreg[r, 0], f_km, f_k) + _at(mreg[r, 2] * yp, f_km + f_co, f_k))
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _range_fracs(fm):
     """Fraction bits at which the range stage's exact sums are aligned (docs/p1_datapath.md):
     ``(f_k, f_gvv, f_gww, f_gvs, f_ns, f_ds, f_co0, f_w0)``."""
@@ -776,7 +777,7 @@ def _range_fracs(fm):
     return f_k, f_gvv, f_gww, f_gvs, f_ns, f_ds, f_co0, f_w0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _range_columns(n, regs, mreg, fm, st, ov, rows):
     """The range stage's column terms, computed once for a band of ``rows`` lines: ``xp``,
     ``vx`` (cast once, their overflows counted for every line, as a pixel-by-pixel run
@@ -797,7 +798,7 @@ def _range_columns(n, regs, mreg, fm, st, ov, rows):
     return xp, vx, m_xp, vx * vx
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _range_line(j, n, regs, fm, st, ov):
     """The line terms of line ``j``: ``yp`` and ``vy``, held for the line but, like ``xp``,
     cast (and counted) once per pixel."""
@@ -1199,10 +1200,12 @@ def run_p1(
 
     cpu: list[tuple[str, float]] = []  # (kernel, CPU seconds of its thread); append is atomic
 
-    def frontend(img: np.ndarray):
+    # the streams' s1, ex, s2 (consumed by the range stage): internal, reused across runs
+    stream_outs = [[scratch(f"p1.e{s}.{k}", (m, n)) for k in range(3)] for s in (1, 2)]
+
+    def frontend(img: np.ndarray, outs: list[np.ndarray]):
         stats = SignalStats(N_SITES, len(P1_SIGNALS))
         st, dst, ov = stats.arrays
-        outs = [np.empty((m, n), dtype=np.int64) for _ in range(3)]
         tp = np.zeros(shape_t, dtype=np.int64)
         t0 = time.thread_time()
         args = (img, np.int64(regs.pole), np.int64(regs.bias), consistent, init_first, kind,
@@ -1237,11 +1240,11 @@ def run_p1(
 
     if threads == 2:
         with ThreadPoolExecutor(2) as pool:
-            r1, r2 = pool.map(frontend, (im1, im2))
+            r1, r2 = pool.map(frontend, (im1, im2), stream_outs)
             half = m // 2
             parts = list(pool.map(lambda b: range_band(*b, r1, r2), ((0, half), (half, m))))
     else:
-        r1, r2 = frontend(im1), frontend(im2)
+        r1, r2 = frontend(im1, stream_outs[0]), frontend(im2, stream_outs[1])
         parts = [range_band(0, m, r1, r2)]
 
     overflows, minmax = SignalStats.merge([r1[2], r2[2], *parts], P1_SIGNALS)
