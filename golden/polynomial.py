@@ -353,9 +353,33 @@ def polynomial_roots(coeffs: np.ndarray, solver: str = "closed") -> np.ndarray:
             if d == 1:
                 found[:, 0] = -red[:, 0] / red[:, 1]
             elif d > 1:
-                found[:, :d] = _CLOSED[d](red)
+                found[:, :d] = _polish(red, _CLOSED[d](red))
             out[rows[sel], :k] = found
     return out
+
+
+def _polish(c: np.ndarray, roots: np.ndarray, steps: int = 2) -> np.ndarray:
+    """Guarded Newton steps on the closed-form ``roots`` (N, d) of ``c`` (N, d+1): a step is
+    kept only where it lowers ``|P|``. Ferrari's formulas lose digits when the roots'
+    magnitudes differ widely (``1 + 55 x^3 + x^4/64``: roots near 0.26 and -3520 left a
+    relative residual of 1.2e-5); near a multiple root, where Newton may step away, the
+    guard keeps the formula's root."""
+    x = roots.copy()
+    for _ in range(steps):
+        p = np.zeros_like(x)
+        dp = np.zeros_like(x)
+        for k in range(c.shape[1] - 1, -1, -1):  # Horner for P and P'
+            dp = dp * x + p
+            p = p * x + c[:, k : k + 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(dp != 0, p / np.where(dp != 0, dp, 1.0), 0.0)
+        cand = x - step
+        pc = np.zeros_like(x)
+        for k in range(c.shape[1] - 1, -1, -1):
+            pc = pc * cand + c[:, k : k + 1]
+        better = np.isfinite(cand) & (np.abs(pc) < np.abs(p))
+        x = np.where(better, cand, x)
+    return x
 
 
 def choose_root(

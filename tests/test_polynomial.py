@@ -67,6 +67,8 @@ def test_closed_form_roots_match_np_roots(degree: int, seed: int) -> None:
 )
 # a double root at 0 beside roots 1e4 apart: Ferrari's formulas alone gave +-2.06e-4
 @example(coeffs=[0.0, 0.0, 24.0, 82.5625, 0.0625])
+# roots near 0.26 and -3520: Ferrari's formulas alone left a relative residual of 1.2e-5
+@example(coeffs=[1.0, 0.0, 0.0, 55.0, 0.015625])
 def test_closed_form_roots_are_roots(coeffs: list[float]) -> None:
     """Backward error: every closed-form root makes |P| small relative to its terms."""
     c = np.array([coeffs])
