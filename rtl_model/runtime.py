@@ -205,10 +205,13 @@ def check_image_pair(
     *,
     pipeline: str,
     min_shape: tuple[int, int],
+    reuse: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Both images as contiguous int64 grey levels, or ``ValueError`` naming the problem:
     not 2-D, not integer, smaller than ``min_shape`` (rows, columns) for ``pipeline``,
-    differing shapes, or not the camera's size."""
+    differing shapes, or not the camera's size. ``reuse``: an image that needs a
+    conversion is converted into a :func:`scratch` buffer of the calling thread (for a
+    model that keeps no reference to its inputs past the run)."""
     out = []
     rows, cols = min_shape
     for name, im in (("image1", image1), ("image2", image2)):
@@ -224,7 +227,12 @@ def check_image_pair(
             raise ValueError(
                 f"{name} must be at least {rows}x{cols} for {pipeline.upper()}, got shape {a.shape}"
             )
-        out.append(np.ascontiguousarray(a, dtype=np.int64))
+        if reuse and not (a.dtype == np.int64 and a.flags.c_contiguous):
+            buf = scratch(f"{pipeline}.{name}", a.shape)
+            np.copyto(buf, a, casting="unsafe")
+            out.append(buf)
+        else:
+            out.append(np.ascontiguousarray(a, dtype=np.int64))
     if out[0].shape != out[1].shape:
         raise ValueError(f"image pair shapes differ: {out[0].shape} vs {out[1].shape}")
     if out[0].shape != (camera.height, camera.width):

@@ -1181,7 +1181,8 @@ def run_p1(
         raise ValueError(f"P1 needs a P1Config, not {type(config).__name__}")
     ranging = ranging or RangingConfig()
     timing = timing or TimingConfig()
-    im1, im2 = check_image_pair(image1, image2, camera, pipeline="p1", min_shape=(2, 2))
+    im1, im2 = check_image_pair(image1, image2, camera, pipeline="p1", min_shape=(2, 2),
+                                reuse=True)  # fmt: skip
     m, n = im1.shape
     lat = stage_latencies(config)
     if n + timing.hblank <= lat["column_filter"] - 1:
