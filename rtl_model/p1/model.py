@@ -893,7 +893,9 @@ def range_fits(fm, f_ex, r_bits, kind):
     ok = ok and _short(f_ns, NUM, fm) and _short(f_ds, DEN, fm) and _short(2 * f_v, V_SQ, fm)
     ok = ok and _short(2 * f_gv, GRAD_SQ, fm) and _short(f_tg2 + f_vsq, GRAD_SQ, fm)
     if kind != DIV_RESTORING:
-        ok = ok and divide_lanes_fit(fm[NUM, 1], fm[DEN, 1], fm[DEN, 0], RANGE, r_bits, fm)
+        # the divider sees den (its word) or the 2**F_den fed where |den| < DMIN
+        d_word = max(fm[DEN, 0], fm[DEN, 1] + 1)
+        ok = ok and divide_lanes_fit(fm[NUM, 1], fm[DEN, 1], d_word, RANGE, r_bits, fm)
     return ok
 
 
