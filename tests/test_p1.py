@@ -128,18 +128,21 @@ def _run(plane, **kw):
     [TimingConfig(), TimingConfig(hblank=4, vblank=9), TimingConfig(hblank=2, gap_prob=0.3)],
 )
 @pytest.mark.parametrize("mode", ["stereo", "motion"])
-def test_cycle_stamps_are_input_cycle_plus_declared_latency(plane, timing, mode):
-    res = _run(plane, timing=timing, mode=mode)
+@pytest.mark.parametrize(("threads", "taps"), [(1, True), (2, False)])
+def test_cycle_stamps_are_input_cycle_plus_declared_latency(plane, timing, mode, threads, taps):
+    """Cycle stamps against the beats of the stream itself (the range bands fill them, and
+    the float range map, in the closed form without gaps)."""
+    res = _run(plane, timing=timing, mode=mode, threads=threads, taps=taps)
     lat = sum(stage_latencies(res.config).values())
     assert res.latency == lat
     frames = 2 if mode == "motion" else 1
+    expected_in = make_stream(np.zeros((frames, 24, 32), int), timing).pixel_cycles()[-1]
     if timing.gap_prob == 0:
-        expected_in = pixel_cycles(plane.image1.shape, timing, frames)[-1]
-    else:  # with gaps only the order is known in closed form; the stream gives the beats
-        expected_in = make_stream(np.zeros((frames, 24, 32), int), timing).pixel_cycles()[-1]
+        assert np.array_equal(pixel_cycles(plane.image1.shape, timing, frames)[-1], expected_in)
     assert np.array_equal(res.in_cycles, expected_in)
     assert np.array_equal(res.out_cycles, expected_in + lat)
     assert res.total_cycles == int(expected_in[-1, -1]) + lat + 1
+    assert np.array_equal(res.range, res.config.formats["range"].to_float(res.range_raw))
 
 
 def test_gaps_and_blanking_change_no_value(plane):
