@@ -168,8 +168,9 @@ def _p2_kernel(
 # ``want_taps`` are runtime flags of one compiled body. Configs with a cast shifting by
 # more than 62 bits (band_fits False) take _p2_kernel.
 # --------------------------------------------------------------------------------------
-#: Lines per band (the SIMD lanes of the band kernel).
-BAND = 16
+#: Lines per band (the SIMD lanes of the band kernel: four AVX-512 vectors of int64 per
+#: column; measured 21 ns/pixel against 25 for 16 lanes and 72 for 8, 512x512 lab).
+BAND = 32
 #: Whether to run the band kernel where it applies (False: _p2_kernel everywhere, for
 #: A/B measurements and the test of the general path).
 BANDED = True
