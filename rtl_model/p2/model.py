@@ -10,12 +10,17 @@ engine interleaves ``lanes`` lines so that its loop-carried recurrence (through 
 divider) issues one step per clock; ping-pong line and sweep buffers let group ``g + 1``
 arrive while group ``g`` is swept. Values do not depend on timing; cycle stamps do.
 
+The model runs bands of :data:`BAND` lines in SIMD lanes (``_p2_bands``: every stage's
+recurrence runs along a line, lines are independent); configs with a cast shifting by
+more than 62 bits take the line-by-line kernel ``_p2_kernel`` (docs/performance.md, P2).
+
 ``tests/oracle_p2.py`` is the independent slow implementation of the same page.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -513,7 +518,7 @@ def p2_schedule(
     out = np.empty((m, n), dtype=np.int64)
     b0s: list[int] = []
     f0s: list[int] = []
-    kk = np.arange(n, dtype=np.int64)
+    kk_pf = np.arange(n, dtype=np.int64) * pf
     sweep_start = np.empty(m, dtype=np.int64)
     forward_start = np.empty(m, dtype=np.int64)
     for gi in range(groups):
@@ -530,7 +535,7 @@ def p2_schedule(
                 f"would overwrite the line buffer still read by group {gi - 2}'s sweep"
             )
         lane = np.arange(len(rows), dtype=np.int64)
-        out[rows.start : rows.stop] = (f0 + OUT_LATENCY + lane)[:, None] + kk * pf
+        out[rows.start : rows.stop] = (f0 + OUT_LATENCY + lane)[:, None] + kk_pf
         sweep_start[rows.start : rows.stop] = b0 + lane
         forward_start[rows.start : rows.stop] = f0 + lane
         b0s.append(b0)
@@ -577,8 +582,12 @@ def run_p2(
     displaced ``b`` to the right), integer grey levels; ``riccati`` gives the weights
     (α, β, γ, pixel pitch), ``threshold_e`` and ``range_max`` of golden G5 (its ``form``
     must be ``"lq"`` and ``a_sampling`` ``"edge"``, the discretisation P2 implements).
-    ``log`` off: ``minmax`` is empty (P2's kernel still keeps it: not yet switchable
-    there)."""
+
+    ``threads`` (1 or 2): the two halves of the lines run concurrently (the kernels
+    release the GIL). ``log`` (as ``fipref``'s LoggingMode): keep the pre-quantisation
+    min/max of every signal (``minmax``); off, ``minmax`` is empty and the band kernel
+    skips the log. Every output, tap and overflow count is the same either way.
+    ``kernel_cpu_s["sweep"]``: CPU seconds of the kernel calls, summed over threads."""
     runtime.check_threads(threads)
     config = config or P2Config.default()
     riccati = riccati or RiccatiConfig()
@@ -601,15 +610,19 @@ def run_p2(
 
     banded = BANDED and band_fits(fm)
 
+    cpu: list[float] = []  # CPU seconds of each thread's kernel call (append is atomic)
+
     def band(j0: int, j1: int):
         stats = runtime.SignalStats(N_SITES, len(P2_SIGNALS))
         st, dst, ov = stats.arrays
+        t0 = time.thread_time()
         args = (im1, im2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
                 out_range, out_valid, tp, taps)  # fmt: skip
         if banded:
             _p2_bands(*args, log)
         else:
             _p2_kernel(*args)
+        cpu.append(time.thread_time() - t0)
         return stats
 
     if threads == 2 and m >= 2:
@@ -644,4 +657,5 @@ def run_p2(
         mode="stereo",
         config=config,
         timing=timing,
+        kernel_cpu_s={"sweep": sum(cpu)},
     )
