@@ -236,6 +236,19 @@ def divide_scalar(n, fn, d, fd, word, frac, signed, quant, ovf_mode, kind, lut, 
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _lane_out(k, n, ds, dz, v, flag, ov_pos, ov_neg, scale, out, flags, lo, hi, log):
+    """Lane ``k`` of :func:`divide_lanes`: the quotient ``v`` (or, for ``D = 0``, what
+    :func:`divide_scalar` returns then), its flag and log; returns the overflow (0/1)."""
+    out[k] = (np.int64(0) if n == 0 else (ov_pos if n > 0 else ov_neg)) if dz else v
+    flags[k] = (n != 0) if dz else flag
+    if log:
+        value = float(n) / float(ds) * scale
+        lo[k] = min(lo[k], np.inf if dz else value)
+        hi[k] = max(hi[k], -np.inf if dz else value)
+    return np.int64((n != 0) if dz else flag)
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def divide_lanes(
     num, fn, den, fd, count, word, frac, signed, quant, ovf_mode, kind, lut, r_bits,
     out, flags, lo, hi, log,
@@ -276,13 +289,8 @@ def divide_lanes(
                 q = q - np.int64(dec) + np.int64((not dec) & ((q + 1) * dd <= t))
                 raw = 2 * min(q, cap) + np.int64(t != q * dd)
                 v, flag = cast_by_plan((raw ^ negative) - negative, plan)
-                out[k] = (np.int64(0) if n == 0 else (ov_pos if n > 0 else ov_neg)) if dz else v
-                flags[k] = (n != 0) if dz else flag
-                n_ovf += (n != 0) if dz else flag
-                if log:
-                    value = float(n) / float(ds) * scale
-                    lo[k] = min(lo[k], np.inf if dz else value)
-                    hi[k] = max(hi[k], -np.inf if dz else value)
+                n_ovf += _lane_out(k, n, ds, dz, v, flag, ov_pos, ov_neg, scale, out, flags, lo,
+                                   hi, log)  # fmt: skip
         else:
             # the seed is the ROM's entry computed as reciprocal_lut does (a table read
             # does not vectorise here): round(2^(R+L+1) / (2^(L+1) + 2 idx + 1)), exact
@@ -311,13 +319,8 @@ def divide_lanes(
                 big |= np.int64(abs(sh) > 62)
                 plan = cast_plan(min(max(sh, -62), 62), word, signed, quant, ovf_mode)
                 v, flag = cast_by_plan((raw ^ negative) - negative, plan)
-                out[k] = (np.int64(0) if n == 0 else (ov_pos if n > 0 else ov_neg)) if dz else v
-                flags[k] = (n != 0) if dz else flag
-                n_ovf += (n != 0) if dz else flag
-                if log:
-                    value = float(n) / float(ds) * scale
-                    lo[k] = min(lo[k], np.inf if dz else value)
-                    hi[k] = max(hi[k], -np.inf if dz else value)
+                n_ovf += _lane_out(k, n, ds, dz, v, flag, ov_pos, ov_neg, scale, out, flags, lo,
+                                   hi, log)  # fmt: skip
         if big == 0:
             return n_ovf
     n_ovf = np.int64(0)

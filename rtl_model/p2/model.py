@@ -79,12 +79,7 @@ def _p2_kernel(
     f_c, f_m, f_s, f_den, f_r = fm[CC, 1], fm[MR, 1], fm[ST, 1], fm[DEN, 1], fm[RR, 1]
     f_h, f_q, f_w, f_lam = fm[HH, 1], fm[QQ, 1], fm[WW, 1], fm[LAM, 1]
     f_z, f_e = fm[ZZ, 1], fm[EE, 1]
-    f_den_in = max(0, f_c + f_s)
-    f_s_in = max(f_m, f_r + f_s)
-    f_h_in = max(f_q, f_s + f_g)
-    f_u = max(f_e, f_g)
-    f_w_in = max(f_s + f_u, f_q)
-    f_e_in = max(f_u, f_a + f_z)
+    f_den_in, f_s_in, f_h_in, f_u, f_w_in, f_e_in = _fracs(fm)
     d = np.zeros(n, dtype=np.int64)  # line buffer: d = E1 - E2
     g = np.zeros(n, dtype=np.int64)  # line buffer: Ĝ = E1 + E2
     sa = np.zeros(n, dtype=np.int64)  # sweep buffer: A, r, S~_k+1, Q~_k+1 of step k
