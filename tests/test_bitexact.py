@@ -34,6 +34,7 @@ from rangefx.golden.scenes import render_plane, render_scene
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p1 import model as p1_model
+from rangefx.rtl_model.p2 import model as p2_model
 from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
 
@@ -370,6 +371,10 @@ def test_bit_exact(name, spec, monkeypatch):
     if name == "p1":
         # P1's general kernels (the path of configs the fused front end does not take)
         monkeypatch.setattr(p1_model, "FUSED", False)
+        assert_bit_exact(pipeline.run(case, config, spec["timing"], taps=True), ref)
+    if name == "p2":
+        # P2's general kernel (the path of configs the band kernel does not take)
+        monkeypatch.setattr(p2_model, "BANDED", False)
         assert_bit_exact(pipeline.run(case, config, spec["timing"], taps=True), ref)
     if spec["narrow"]:
         # not vacuous: the overflow mode under test acted on some datapath signal

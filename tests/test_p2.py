@@ -168,3 +168,86 @@ def test_demo_helper(tmp_path, lab):
     assert out["overflows"]["total"] == 0 and out["valid_agreement"] >= 0.99
     for f in ("range_p2.png", "hist_p2.png", "table_p2.csv"):
         assert (tmp_path / f).is_file()
+
+
+# -- the band kernel (issue 18) ----------------------------------------------------------
+def _narrow(config: P2Config, seed: int) -> P2Config:
+    """Every datapath signal 2..9 integer bits narrower, in random modes: overflows."""
+    rng = np.random.default_rng(seed)
+    formats = {}
+    for name in P2_SIGNALS:
+        f = config.formats[name]
+        if name in ("p2_pix", "p2_ka_reg", "p2_m_reg"):
+            formats[name] = f
+            continue
+        ovf = Overflow(int(rng.integers(0, 4)))
+        ovf = Overflow.SAT if name == "p2_r" and ovf is Overflow.WRAP else ovf
+        word = max(2, f.word - int(rng.integers(2, 10)))
+        formats[name] = FixedFormat(f.signed, word, f.frac, Quant(int(rng.integers(0, 7))), ovf)
+    return config.with_(formats=formats)
+
+
+@pytest.mark.parametrize(
+    ("divider", "narrow"), [("reciprocal", False), ("restoring", False), ("reciprocal", True),
+                            ("restoring", True)],
+)  # fmt: skip
+def test_band_kernel_equals_the_general_kernel_over_bands_and_threads(lab, divider, narrow,
+                                                                      monkeypatch):  # fmt: skip
+    """37 lines (two full bands of 16 and a short one; two threads split a band) of a
+    ``lab`` crop: every tap, output, overflow count and min/max of the band kernel equal
+    the general kernel's (itself checked against the oracle in test_bitexact), with the
+    log on and off, on one and two threads."""
+    from rangefx.rtl_model.p2 import model
+
+    config = P2Config.default().with_(divider=divider)
+    config = _narrow(config, 7) if narrow else config
+    im1, im2 = lab.image1[100:137, 200:260], lab.image2[100:137, 200:260]
+    camera = PinholeCamera(60, 37, lab.camera.f_px)
+    cfg = SCENE_RICCATI["lab"]
+    assert model.band_fits(model.runtime.format_table(config))
+
+    def run(**kw):
+        return run_p2(im1, im2, camera, lab.motion, config, cfg, **kw)
+
+    monkeypatch.setattr(model, "BANDED", False)
+    ref = run(threads=1)
+    monkeypatch.setattr(model, "BANDED", True)
+    # not vacuous: valid ranges with the default formats, overflows with the narrow ones
+    assert sum(ref.overflows.values()) > 0 if narrow else ref.valid.any()
+    for threads in (1, 2):
+        for log in (True, False):
+            res = run(threads=threads, log=log)
+            assert set(res.taps) == set(ref.taps)
+            for name, want in ref.taps.items():
+                np.testing.assert_array_equal(res.taps[name], want, err_msg=name)
+            np.testing.assert_array_equal(res.range_raw, ref.range_raw)
+            np.testing.assert_array_equal(res.valid, ref.valid)
+            assert res.overflows == ref.overflows
+            assert res.minmax == (ref.minmax if log else {})
+    untapped = run(threads=2, taps=False, log=False)
+    np.testing.assert_array_equal(untapped.range_raw, ref.range_raw)
+    assert untapped.overflows == ref.overflows
+
+
+def test_a_cast_shifting_by_more_than_62_bits_takes_the_general_kernel(lab):
+    """``p2_den`` at -40 fraction bits: its cast drops 70 bits, beyond cast_by_plan; the
+    run takes the general kernel and still equals the oracle."""
+    from oracles import ORACLES
+
+    from rangefx.rtl_model.p2 import model
+    from rangefx.rtl_model.pipeline import Case
+
+    f = P2Config.default().formats["p2_den"]
+    config = P2Config.default().with_formats(
+        p2_den=FixedFormat(False, f.word, -40, f.quant, f.overflow)
+    )
+    assert not model.band_fits(model.runtime.format_table(config))
+    camera = PinholeCamera(12, 3, lab.camera.f_px)
+    case = Case(lab.image1[200:203, 300:312], lab.image2[200:203, 300:312], camera, lab.motion,
+                "stereo", riccati=SCENE_RICCATI["lab"])  # fmt: skip
+    ref = ORACLES["p2"].run(case, config)
+    res = run_p2(case.image1, case.image2, camera, case.motion, config, case.riccati)
+    for name, want in ref.taps.items():
+        np.testing.assert_array_equal(res.taps[name], want, err_msg=name)
+    assert res.overflows == ref.overflows
+    assert res.minmax == ref.minmax

@@ -10,12 +10,17 @@ engine interleaves ``lanes`` lines so that its loop-carried recurrence (through 
 divider) issues one step per clock; ping-pong line and sweep buffers let group ``g + 1``
 arrive while group ``g`` is swept. Values do not depend on timing; cycle stamps do.
 
+The model runs bands of :data:`BAND` lines in SIMD lanes (``_p2_bands``: every stage's
+recurrence runs along a line, lines are independent); configs with a cast shifting by
+more than 62 bits take the line-by-line kernel ``_p2_kernel`` (docs/performance.md, P2).
+
 ``tests/oracle_p2.py`` is the independent slow implementation of the same page.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -27,10 +32,12 @@ from rangefx.golden.riccati import RiccatiConfig, stereo_baseline
 
 from .. import runtime
 from ..config import TimingConfig
+from ..fixedpoint import cast_by_plan, cast_plan
 from ..p1.model import cast_site as _cast
 from ..p1.model import divide_into as _divide_into
+from ..p1.model import divide_lanes
 from ..pipeline import PipelineResult
-from ..stream import make_stream
+from ..stream import input_cycles
 from .config import P2_SIGNALS, P2Config, loop_latency
 
 __all__ = [
@@ -72,12 +79,7 @@ def _p2_kernel(
     f_c, f_m, f_s, f_den, f_r = fm[CC, 1], fm[MR, 1], fm[ST, 1], fm[DEN, 1], fm[RR, 1]
     f_h, f_q, f_w, f_lam = fm[HH, 1], fm[QQ, 1], fm[WW, 1], fm[LAM, 1]
     f_z, f_e = fm[ZZ, 1], fm[EE, 1]
-    f_den_in = max(0, f_c + f_s)
-    f_s_in = max(f_m, f_r + f_s)
-    f_h_in = max(f_q, f_s + f_g)
-    f_u = max(f_e, f_g)
-    f_w_in = max(f_s + f_u, f_q)
-    f_e_in = max(f_u, f_a + f_z)
+    f_den_in, f_s_in, f_h_in, f_u, f_w_in, f_e_in = _fracs(fm)
     d = np.zeros(n, dtype=np.int64)  # line buffer: d = E1 - E2
     g = np.zeros(n, dtype=np.int64)  # line buffer: Ĝ = E1 + E2
     sa = np.zeros(n, dtype=np.int64)  # sweep buffer: A, r, S~_k+1, Q~_k+1 of step k
@@ -152,6 +154,275 @@ def _p2_kernel(
         out_range[j, n - 1] = rmax
         if want_taps:
             taps[14, j, n - 1] = rmax
+
+
+# --------------------------------------------------------------------------------------
+# the band kernel (issue 18): the values, taps, overflow counts and min/max log of
+# _p2_kernel in less time. Lines are independent and every recurrence runs along a line,
+# so a band of BAND lines is processed in SIMD lanes: the band's buffers are
+# column-major (``dT[i, k]``: column ``i`` of line ``k`` of the band), each loop over the
+# lanes of one column is contiguous and branch-free (cast_by_plan, the plans hoisted out
+# of the loops), each lane carries its own recurrence state, and the min/max log and the
+# overflow counts are kept in local scalars and merged once per call. The divider runs
+# on the lanes between the two halves of a backward step (divide_lanes). ``log`` and
+# ``want_taps`` are runtime flags of one compiled body. Configs with a cast shifting by
+# more than 62 bits (band_fits False) take _p2_kernel.
+# --------------------------------------------------------------------------------------
+#: Lines per band (the SIMD lanes of the band kernel: four AVX-512 vectors of int64 per
+#: column; measured 21 ns/pixel against 25 for 16 lanes and 72 for 8, 512x512 lab).
+BAND = 32
+#: Whether to run the band kernel where it applies (False: _p2_kernel everywhere, for
+#: A/B measurements and the test of the general path).
+BANDED = True
+_BIG, _SMALL = np.iinfo(np.int64).max, np.iinfo(np.int64).min
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _plan(frac_in, s, fm):
+    """:func:`~rangefx.rtl_model.fixedpoint.cast_plan` of a cast into signal ``s``."""
+    return cast_plan(frac_in - fm[s, 1], fm[s, 0], fm[s, 2] != 0, fm[s, 3], fm[s, 4])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _fracs(fm):
+    """The aligned fraction bits of the sums in the datapath (docs/p2_datapath.md):
+    ``(den, s, h, u, w, e)``."""
+    f_g, f_a, f_c, f_m = fm[GH, 1], fm[AA, 1], fm[CC, 1], fm[MR, 1]
+    f_s, f_r, f_q, f_e, f_z = fm[ST, 1], fm[RR, 1], fm[QQ, 1], fm[EE, 1], fm[ZZ, 1]
+    f_u = max(f_e, f_g)
+    return (max(0, f_c + f_s), max(f_m, f_r + f_s), max(f_q, f_s + f_g), f_u,
+            max(f_s + f_u, f_q), max(f_u, f_a + f_z))  # fmt: skip
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _log(st, site, lo, hi, frac_in, s):
+    """Merge a site's raw (lo, hi) kept in registers into its log."""
+    st[site, 0] = min(st[site, 0], lo)
+    st[site, 1] = max(st[site, 1], hi)
+    st[site, 2] = frac_in
+    st[site, 3] = s
+
+
+@njit(cache=True, nogil=True)
+def band_fits(fm):
+    """Whether every cast of P2 shifts by at most 62 bits (the band kernel's casts)."""
+    f_pix, f_d, f_ka, f_a = fm[PIX, 1], fm[DD, 1], fm[KA, 1], fm[AA, 1]
+    f_r, f_h, f_w, f_lam = fm[RR, 1], fm[HH, 1], fm[WW, 1], fm[LAM, 1]
+    f_den, f_s, f_h_in, _, f_w_in, f_e = _fracs(fm)
+    ins = ((0, PIX), (f_pix, DD), (f_pix, GH), (f_ka + f_d, AA), (2 * f_a, CC),
+           (f_den, DEN), (f_s, ST), (f_h_in, HH), (f_r + f_h, QQ), (f_w_in, WW),
+           (f_r + f_w, LAM), (f_a + f_lam, ZZ), (f_e, EE))  # fmt: skip
+    ok = True
+    for frac_in, s in ins:
+        ok = ok and abs(frac_in - fm[s, 1]) <= 62
+    return ok
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _p2_bands(
+    im1, im2, regs, kind, lut, r_bits, fm, st, dst, ov, j0, j1,
+    out_range, out_valid, taps, want_taps, log,
+):  # fmt: skip
+    """Lines ``j0 <= j < j1`` of :func:`_p2_kernel` in bands of :data:`BAND` lines."""
+    n = im1.shape[1]
+    ka, m_reg, cmin, s_end, td, rmax = regs[0], regs[1], regs[2], regs[3], regs[4], regs[5]
+    f_pix, f_d, f_g, f_ka, f_a = fm[PIX, 1], fm[DD, 1], fm[GH, 1], fm[KA, 1], fm[AA, 1]
+    f_c, f_m, f_s, f_den, f_r = fm[CC, 1], fm[MR, 1], fm[ST, 1], fm[DEN, 1], fm[RR, 1]
+    f_h, f_q, f_w, f_lam = fm[HH, 1], fm[QQ, 1], fm[WW, 1], fm[LAM, 1]
+    f_z, f_e = fm[ZZ, 1], fm[EE, 1]
+    f_den_in, f_s_in, f_h_in, f_u, f_w_in, f_e_in = _fracs(fm)
+    pl_x, pl_d, pl_g = _plan(0, PIX, fm), _plan(f_pix, DD, fm), _plan(f_pix, GH, fm)
+    pl_a, pl_c = _plan(f_ka + f_d, AA, fm), _plan(2 * f_a, CC, fm)
+    pl_den, pl_s = _plan(f_den_in, DEN, fm), _plan(f_s_in, ST, fm)
+    pl_h, pl_q = _plan(f_h_in, HH, fm), _plan(f_r + f_h, QQ, fm)
+    pl_w, pl_lam = _plan(f_w_in, WW, fm), _plan(f_r + f_w, LAM, fm)
+    pl_z, pl_e = _plan(f_a + f_lam, ZZ, fm), _plan(f_e_in, EE, fm)
+    w_r, sg_r, qn_r, of_r = fm[RR, 0], fm[RR, 2] != 0, fm[RR, 3], fm[RR, 4]
+    one = np.int64(1)
+    # the band's buffers, column-major; those only taps read are allocated with taps
+    nt = n if want_taps else 1
+    t_step = 1 if want_taps else 0  # without taps, their stores go to row 0 (no branch)
+    dT, gT = np.empty((n, BAND), np.int64), np.empty((n, BAND), np.int64)
+    aT, rT = np.empty((n, BAND), np.int64), np.empty((n, BAND), np.int64)
+    sT, qT = np.empty((n, BAND), np.int64), np.empty((n, BAND), np.int64)
+    rgT, okT = np.empty((n, BAND), np.int64), np.empty((n, BAND), np.bool_)
+    cT, denT, hT = np.zeros((nt, BAND), np.int64), np.zeros((nt, BAND), np.int64), np.zeros(
+        (nt, BAND), np.int64)  # fmt: skip
+    zT, wT, lamT = np.zeros((nt, BAND), np.int64), np.zeros((nt, BAND), np.int64), np.zeros(
+        (nt, BAND), np.int64)  # fmt: skip
+    eT = np.zeros((nt, BAND), np.int64)
+    s1v, q1v, ev = np.empty(BAND, np.int64), np.empty(BAND, np.int64), np.empty(BAND, np.int64)
+    denv, rv = np.empty(BAND, np.int64), np.empty(BAND, np.int64)
+    onev, rflags, real = np.ones(BAND, np.int64), np.empty(BAND, np.bool_), np.empty(BAND, np.bool_)
+    rlo, rhi = np.full(BAND, np.inf), np.full(BAND, -np.inf)
+    lo0, hi0, lo1, hi1, lo2, hi2, lo3, hi3 = _BIG, _SMALL, _BIG, _SMALL, _BIG, _SMALL, _BIG, _SMALL
+    lo4, hi4, lo5, hi5, lo6, hi6, lo7, hi7 = _BIG, _SMALL, _BIG, _SMALL, _BIG, _SMALL, _BIG, _SMALL
+    lo8, hi8, lo9, hi9, lo10, hi10 = _BIG, _SMALL, _BIG, _SMALL, _BIG, _SMALL
+    lo11, hi11, lo12, hi12, lo13, hi13 = _BIG, _SMALL, _BIG, _SMALL, _BIG, _SMALL
+    c_x, c_d, c_g, c_a, c_c, c_den, c_r, c_s = 0, 0, 0, 0, 0, 0, 0, 0
+    c_h, c_q, c_w, c_lam, c_z, c_e = 0, 0, 0, 0, 0, 0
+    for jb in range(j0, j1, BAND):
+        bw = min(BAND, j1 - jb)
+        # input stage: d = E1 - E2 and Ĝ = E1 + E2 into the band's line buffers
+        for k in range(bw):
+            for i in range(n):
+                raw1, raw2 = im1[jb + k, i], im2[jb + k, i]
+                x1, f0 = cast_by_plan(raw1, pl_x)
+                x2, f1 = cast_by_plan(raw2, pl_x)
+                d, f2 = cast_by_plan(x1 - x2, pl_d)
+                g, f3 = cast_by_plan(x1 + x2, pl_g)
+                c_x += f0 + f1
+                c_d += f2
+                c_g += f3
+                if log:
+                    lo0, hi0 = min(lo0, raw1), max(hi0, raw1)
+                    lo1, hi1 = min(lo1, raw2), max(hi1, raw2)
+                    lo2, hi2 = min(lo2, x1 - x2), max(hi2, x1 - x2)
+                    lo3, hi3 = min(lo3, x1 + x2), max(hi3, x1 + x2)
+                dT[i, k] = d
+                gT[i, k] = g
+        # a short band's spare lanes repeat its last line: their values change no log
+        # (min/max), and ``real`` keeps them out of the overflow counts
+        for k in range(BAND):
+            real[k] = k < bw
+        for i in range(n):
+            for k in range(bw, BAND):
+                dT[i, k] = dT[i, bw - 1]
+                gT[i, k] = gT[i, bw - 1]
+        # backward sweep, right edge to left edge; per column: A, c and the divider's
+        # denominator on the lanes, the divider, then S~, h and Q~
+        for k in range(BAND):
+            s1v[k] = s_end
+            q1v[k] = 0
+        for step in range(n - 1):  # (a negative-step range measured 2x slower: no SIMD)
+            i = n - 2 - step
+            it = i * t_step
+            for k in range(BAND):
+                asum = ka * (dT[i, k] + dT[i + 1, k])
+                a, f0 = cast_by_plan(asum, pl_a)
+                c, f1 = cast_by_plan(a * a, pl_c)
+                c = max(c, cmin)
+                den_in = (one << f_den_in) + (c * s1v[k] << (f_den_in - f_c - f_s))
+                den, f2 = cast_by_plan(den_in, pl_den)
+                c_a += f0 & real[k]
+                c_c += f1 & real[k]
+                c_den += f2 & real[k]
+                if log:
+                    lo4, hi4 = min(lo4, asum), max(hi4, asum)
+                    lo5, hi5 = min(lo5, a * a), max(hi5, a * a)
+                    lo6, hi6 = min(lo6, den_in), max(hi6, den_in)
+                aT[i, k] = a
+                denv[k] = den
+                cT[it, k] = c
+                denT[it, k] = den
+            divide_lanes(onev, 0, denv, f_den, BAND, w_r, f_r, sg_r, qn_r, of_r, kind, lut,
+                                r_bits, rv, rflags, rlo, rhi, log)  # fmt: skip
+            for k in range(BAND):
+                s1, q1, r = s1v[k], q1v[k], rv[k]
+                c_r += rflags[k] & real[k]
+                dg = gT[i + 1, k] - gT[i, k]
+                s_in = (m_reg << (f_s_in - f_m)) + (r * s1 << (f_s_in - f_r - f_s))
+                s0, f0 = cast_by_plan(s_in, pl_s)
+                h_in = (q1 << (f_h_in - f_q)) - (s1 * dg << (f_h_in - f_s - f_g))
+                h, f1 = cast_by_plan(h_in, pl_h)
+                q0, f2 = cast_by_plan(r * h, pl_q)
+                c_s += f0 & real[k]
+                c_h += f1 & real[k]
+                c_q += f2 & real[k]
+                if log:
+                    lo7, hi7 = min(lo7, s_in), max(hi7, s_in)
+                    lo8, hi8 = min(lo8, h_in), max(hi8, h_in)
+                    lo9, hi9 = min(lo9, r * h), max(hi9, r * h)
+                rT[i, k] = r
+                sT[i, k] = s1
+                qT[i, k] = q1
+                hT[it, k] = h
+                s1v[k] = s0
+                q1v[k] = q0
+        # forward pass, left edge to right edge
+        for k in range(BAND):
+            ev[k] = 0
+        for i in range(n - 1):
+            it, it1 = i * t_step, (i + 1) * t_step
+            for k in range(BAND):
+                a, e = aT[i, k], ev[k]
+                dg = gT[i + 1, k] - gT[i, k]
+                u = (e << (f_u - f_e)) - (dg << (f_u - f_g))
+                w_in = (sT[i, k] * u << (f_w_in - f_s - f_u)) + (qT[i, k] << (f_w_in - f_q))
+                w, f0 = cast_by_plan(w_in, pl_w)
+                lam_in = rT[i, k] * w
+                lam, f1 = cast_by_plan(lam_in, pl_lam)
+                z_in = -(a * lam)
+                z, f2 = cast_by_plan(z_in, pl_z)
+                e_in = (u << (f_e_in - f_u)) + (a * z << (f_e_in - f_a - f_z))
+                e, f3 = cast_by_plan(e_in, pl_e)
+                c_w += f0 & real[k]
+                c_lam += f1 & real[k]
+                c_z += f2 & real[k]
+                c_e += f3 & real[k]
+                if log:
+                    lo10, hi10 = min(lo10, w_in), max(hi10, w_in)
+                    lo11, hi11 = min(lo11, lam_in), max(hi11, lam_in)
+                    lo12, hi12 = min(lo12, z_in), max(hi12, z_in)
+                    lo13, hi13 = min(lo13, e_in), max(hi13, e_in)
+                ok = (abs(dT[i, k] + dT[i + 1, k]) >= td) & (z > 0) & (z <= rmax)
+                rgT[i, k] = z if ok else rmax
+                okT[i, k] = ok
+                ev[k] = e
+                wT[it, k] = w
+                lamT[it, k] = lam
+                zT[it, k] = z
+                eT[it1, k] = e
+        # the band's outputs (and taps) back to scan order
+        for k in range(bw):
+            j = jb + k
+            for i in range(n - 1):
+                out_range[j, i] = rgT[i, k]
+                out_valid[j, i] = okT[i, k]
+            out_range[j, n - 1] = rmax
+            out_valid[j, n - 1] = False
+            if want_taps:
+                for i in range(n):
+                    taps[0, j, i] = dT[i, k]
+                    taps[1, j, i] = gT[i, k]
+                for i in range(n - 1):
+                    taps[2, j, i] = aT[i, k]
+                    taps[3, j, i] = cT[i, k]
+                    taps[4, j, i] = denT[i, k]
+                    taps[5, j, i] = rT[i, k]
+                    taps[6, j, i + 1] = sT[i, k]
+                    taps[7, j, i] = hT[i, k]
+                    taps[8, j, i + 1] = qT[i, k]
+                    taps[9, j, i] = wT[i, k]
+                    taps[10, j, i] = lamT[i, k]
+                    taps[11, j, i] = zT[i, k]
+                    taps[12, j, i + 1] = eT[i + 1, k]
+                    taps[13, j, i] = okT[i, k]
+                    taps[14, j, i] = rgT[i, k]
+                taps[6, j, 0] = s1v[k]
+                taps[8, j, 0] = q1v[k]
+                taps[14, j, n - 1] = rmax
+    for s, count in ((PIX, c_x), (DD, c_d), (GH, c_g), (AA, c_a), (CC, c_c), (DEN, c_den),
+                     (RR, c_r), (ST, c_s), (HH, c_h), (QQ, c_q), (WW, c_w), (LAM, c_lam),
+                     (ZZ, c_z), (EE, c_e)):  # fmt: skip
+        ov[s] += count
+    if log and j1 > j0:
+        _log(st, 0, lo0, hi0, 0, PIX)
+        _log(st, 1, lo1, hi1, 0, PIX)
+        _log(st, 2, lo2, hi2, f_pix, DD)
+        _log(st, 3, lo3, hi3, f_pix, GH)
+        _log(st, 4, lo4, hi4, f_ka + f_d, AA)
+        _log(st, 5, lo5, hi5, 2 * f_a, CC)
+        _log(st, 6, lo6, hi6, f_den_in, DEN)
+        _log(st, 7, lo7, hi7, f_s_in, ST)
+        _log(st, 8, lo8, hi8, f_h_in, HH)
+        _log(st, 9, lo9, hi9, f_r + f_h, QQ)
+        _log(st, 10, lo10, hi10, f_w_in, WW)
+        _log(st, 11, lo11, hi11, f_r + f_w, LAM)
+        _log(st, 12, lo12, hi12, f_a + f_lam, ZZ)
+        _log(st, 13, lo13, hi13, f_e_in, EE)
+        dst[RR, 0] = min(dst[RR, 0], rlo.min())
+        dst[RR, 1] = max(dst[RR, 1], rhi.max())
 
 
 # --------------------------------------------------------------------------------------
@@ -242,7 +513,7 @@ def p2_schedule(
     out = np.empty((m, n), dtype=np.int64)
     b0s: list[int] = []
     f0s: list[int] = []
-    kk = np.arange(n, dtype=np.int64)
+    kk_pf = np.arange(n, dtype=np.int64) * pf
     sweep_start = np.empty(m, dtype=np.int64)
     forward_start = np.empty(m, dtype=np.int64)
     for gi in range(groups):
@@ -258,10 +529,10 @@ def p2_schedule(
                 f"P2 cannot sustain one pixel per clock: group {gi} (lines {rows[0]}..) "
                 f"would overwrite the line buffer still read by group {gi - 2}'s sweep"
             )
-        for lane, j in enumerate(rows):
-            out[j] = f0 + kk * pf + lane + OUT_LATENCY
-            sweep_start[j] = b0 + lane
-            forward_start[j] = f0 + lane
+        lane = np.arange(len(rows), dtype=np.int64)
+        out[rows.start : rows.stop] = (f0 + OUT_LATENCY + lane)[:, None] + kk_pf
+        sweep_start[rows.start : rows.stop] = b0 + lane
+        forward_start[rows.start : rows.stop] = f0 + lane
         b0s.append(b0)
         f0s.append(f0)
     info = {
@@ -306,8 +577,12 @@ def run_p2(
     displaced ``b`` to the right), integer grey levels; ``riccati`` gives the weights
     (α, β, γ, pixel pitch), ``threshold_e`` and ``range_max`` of golden G5 (its ``form``
     must be ``"lq"`` and ``a_sampling`` ``"edge"``, the discretisation P2 implements).
-    ``log`` off: ``minmax`` is empty (P2's kernel still keeps it: not yet switchable
-    there)."""
+
+    ``threads`` (1 or 2): the two halves of the lines run concurrently (the kernels
+    release the GIL). ``log`` (as ``fipref``'s LoggingMode): keep the pre-quantisation
+    min/max of every signal (``minmax``); off, ``minmax`` is empty and the band kernel
+    skips the log. Every output, tap and overflow count is the same either way.
+    ``kernel_cpu_s["sweep"]``: CPU seconds of the kernel calls, summed over threads."""
     runtime.check_threads(threads)
     config = config or P2Config.default()
     riccati = riccati or RiccatiConfig()
@@ -320,8 +595,7 @@ def run_p2(
     m, n = im1.shape
     regs = p2_registers(camera, motion, riccati, config)
     # timing first: an impossible schedule is rejected before any work
-    stream = make_stream(im2, timing)
-    in_cycles = stream.pixel_cycles()[-1]
+    in_cycles = input_cycles((m, n), timing)[-1]  # the beats of make_stream(im2, timing)
     out_cycles, sched, _ = p2_schedule(in_cycles, config, timing.hblank)
     fm = runtime.format_table(config)
     kind, lut = runtime.divider_setup(config)
@@ -329,13 +603,21 @@ def run_p2(
     out_valid = np.empty((m, n), dtype=np.bool_)
     tp = np.zeros((len(P2_TAPS), m, n) if taps else (len(P2_TAPS), 0, 0), dtype=np.int64)
 
+    banded = BANDED and band_fits(fm)
+
+    cpu: list[float] = []  # CPU seconds of each thread's kernel call (append is atomic)
+
     def band(j0: int, j1: int):
         stats = runtime.SignalStats(N_SITES, len(P2_SIGNALS))
         st, dst, ov = stats.arrays
-        _p2_kernel(
-            im1, im2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
-            out_range, out_valid, tp, taps,
-        )  # fmt: skip
+        t0 = time.thread_time()
+        args = (im1, im2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
+                out_range, out_valid, tp, taps)  # fmt: skip
+        if banded:
+            _p2_bands(*args, log)
+        else:
+            _p2_kernel(*args)
+        cpu.append(time.thread_time() - t0)
         return stats
 
     if threads == 2 and m >= 2:
@@ -370,4 +652,5 @@ def run_p2(
         mode="stereo",
         config=config,
         timing=timing,
+        kernel_cpu_s={"sweep": sum(cpu)},
     )

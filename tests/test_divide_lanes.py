@@ -1,0 +1,89 @@
+"""The divider on SIMD lanes (``divide_lanes``, issue 18) against the scalar divider it
+replaces in the band kernels (``divide_scalar``): value, overflow flag and logged
+value, element by element, over formats, modes, both divider kinds, ``D = 0``, negative
+operands and operands large enough to take the scalar fallback."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numba import njit
+
+from rangefx.rtl_model.fixedpoint import Overflow, Quant
+from rangefx.rtl_model.p1.model import divide_lanes, divide_scalar
+from rangefx.rtl_model.runtime import DIV_RECIPROCAL, DIV_RESTORING, reciprocal_lut
+
+
+@njit(error_model="numpy")
+def _lanes(num, fn, den, fd, word, frac, signed, quant, ovf, kind, lut, r_bits):
+    k = num.shape[0]
+    out, flags = np.empty(k, np.int64), np.empty(k, np.bool_)
+    lo, hi = np.full(k, np.inf), np.full(k, -np.inf)
+    count = divide_lanes(num, fn, den, fd, k, word, frac, signed, quant, ovf, kind, lut, r_bits,
+                         out, flags, lo, hi, True)  # fmt: skip
+    return out, flags, lo, hi, count
+
+
+@njit
+def _scalar(num, fn, den, fd, word, frac, signed, quant, ovf, kind, lut, r_bits):
+    k = num.shape[0]
+    out, flags = np.empty(k, np.int64), np.empty(k, np.bool_)
+    lo, hi = np.empty(k), np.empty(k)
+    for i in range(k):
+        out[i], flags[i], lo[i], hi[i] = divide_scalar(num[i], fn, den[i], fd, word, frac, signed,
+                                                       quant, ovf, kind, lut, r_bits)  # fmt: skip
+    return out, flags, lo, hi
+
+
+def _draws(seed: int):
+    rng = np.random.default_rng(seed)
+    for _ in range(60):
+        kind = DIV_RESTORING if rng.random() < 0.5 else DIV_RECIPROCAL
+        word, frac = int(rng.integers(2, 40)), int(rng.integers(-8, 40))
+        fn, fd = int(rng.integers(-20, 30)), int(rng.integers(-20, 30))
+        lut_bits, r_bits = int(rng.integers(3, 11)), int(rng.integers(8, 29))
+        # operand bits the divider's exact intermediates allow (as the configs check them)
+        sh = frac + 1 + fd - fn
+        n_bits = int(rng.integers(1, 20))
+        d_bits = int(rng.integers(1, 40))
+        if kind == DIV_RESTORING:
+            n_bits = min(n_bits, 61 - max(sh, 0))
+            d_bits = min(d_bits, 61 - max(-sh, 0))
+        else:
+            n_bits = min(n_bits, 58 - r_bits)
+        if n_bits < 1 or d_bits < 1:
+            continue
+        k = int(rng.integers(1, 40))
+        num = rng.integers(-(1 << n_bits), 1 << n_bits, k).astype(np.int64)
+        den = rng.integers(-(1 << d_bits), 1 << d_bits, k).astype(np.int64)
+        num[rng.random(k) < 0.15] = 0
+        den[rng.random(k) < 0.15] = 0
+        signed, quant = bool(rng.random() < 0.5), int(rng.choice(list(Quant)))
+        ovf, lut = int(rng.choice(list(Overflow))), reciprocal_lut(lut_bits, r_bits)
+        yield num, fn, den, fd, word, frac, signed, quant, ovf, kind, lut, r_bits
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_divide_lanes_equals_divide_scalar(seed):
+    for args in _draws(seed):
+        out, flags, lo, hi, count = _lanes(*args)
+        want_out, want_flags, want_lo, want_hi = _scalar(*args)
+        np.testing.assert_array_equal(out, want_out)
+        np.testing.assert_array_equal(flags, want_flags)
+        np.testing.assert_array_equal(lo, want_lo)
+        np.testing.assert_array_equal(hi, want_hi)
+        assert count == want_flags.sum()
+
+
+def test_divide_lanes_covers_its_fallback_and_zero_denominators():
+    """Operands of 2**53 and more (the restoring divider's float quotient is not exact
+    there) take the scalar fallback; D = 0 gives the scalar divider's saturated code."""
+    lut = reciprocal_lut(8, 20)
+    num = np.array([1, -3, 0, 5, 7], np.int64)
+    for den in (np.array([1 << 54, 3, 0, 0, -5], np.int64), np.array([9, 3, 0, 0, -5], np.int64)):
+        for kind in (DIV_RESTORING, DIV_RECIPROCAL):
+            args = (num, 0, den, 0, 20, 10, True, int(Quant.RND), int(Overflow.SAT), kind, lut, 20)
+            got, want = _lanes(*args), _scalar(*args)
+            for g, w in zip(got[:4], want, strict=True):
+                np.testing.assert_array_equal(g, w)
+            assert got[1][3] and got[0][3] == (1 << 19) - 1  # 5 / 0 saturates
