@@ -337,8 +337,15 @@ def test_bench_reports_the_cost_breakdown():
                 "calib_rowcol_mpix_s", "p1_over_calib", "p2_over_calib",
                 "p1_stereo_consistent_1thread_over_calib",
                 "p1_stereo_paper_logged_mpix_s", "p2_stereo_logged_1thread_over_calib",
-                "p2_stereo_taps_over_calib"):  # fmt: skip
+                "p2_stereo_taps_over_calib", "calib_rowcol_2threads_mpix_s",
+                "calib_two_thread_scaling", "p1_stereo_paper_two_thread_scaling",
+                "p2_stereo_two_thread_scaling"):  # fmt: skip
         assert figures[key] > 0, key
+    # the scaling figures are the ratios of the figures they name
+    assert figures["p2_stereo_two_thread_scaling"] == pytest.approx(
+        figures["p2_stereo_mpix_s"] / figures["p2_stereo_1thread_mpix_s"]
+    )
+    assert "p1_stereo_paper_logged_two_thread_scaling" in figures
 
 
 # -- the divider in SIMD lanes ----------------------------------------------------------

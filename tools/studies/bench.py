@@ -14,6 +14,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -36,6 +37,7 @@ __all__ = [
     "median_time",
     "minmax_loop",
     "over_calib",
+    "thread_scaling",
 ]
 
 
@@ -115,8 +117,12 @@ def bench_figures(
     if "p1" in names:  # the headline figures: P1 paper
         out["p1_stereo_mpix_s"] = out["p1_stereo_paper_mpix_s"]
         out["golden_p1_mpix_s"] = out["golden_p1_paper_mpix_s"]
-    out["calib_rowcol_mpix_s"] = _calib_mpix_s(np.asarray(case.image1, dtype=np.int64), repeats)
+    image = np.asarray(case.image1, dtype=np.int64)
+    out["calib_rowcol_mpix_s"] = _calib_mpix_s(image, repeats)
+    # the machine's own two-thread scaling: the calibration kernel on two streams at once
+    out["calib_rowcol_2threads_mpix_s"] = _calib_mpix_s(image, repeats, threads=2)
     out.update(over_calib(out))
+    out.update(thread_scaling(out))
     out["cast_ns"], out["cast_overflowing_row_ns"] = _cast_ns()
     out["log_floor_ns"] = _floor_ns(minmax_loop)
     out["constant_cast_floor_ns"] = _floor_ns(constant_cast_loop)
@@ -171,12 +177,35 @@ def calib_rowcol(image, pole_raw, out):
     return sat
 
 
-def _calib_mpix_s(image: np.ndarray, repeats: int) -> float:
-    """Mpixel/s of :func:`calib_rowcol` on ``image`` (median of ``repeats``, one thread)."""
-    out = np.empty_like(image)
-    calib_rowcol(image, CALIB_POLE_RAW, out)  # JIT warm-up
-    t = median_time(lambda: calib_rowcol(image, CALIB_POLE_RAW, out), repeats)
-    return image.size / t / 1e6
+def _calib_mpix_s(image: np.ndarray, repeats: int, threads: int = 1) -> float:
+    """Mpixel/s of :func:`calib_rowcol` on ``image`` (median of ``repeats``): one stream on
+    one thread, or two streams at once on two threads (pixels of both counted)."""
+    outs = [np.empty_like(image) for _ in range(threads)]
+    calib_rowcol(image, CALIB_POLE_RAW, outs[0])  # JIT warm-up
+    if threads == 1:
+        t = median_time(lambda: calib_rowcol(image, CALIB_POLE_RAW, outs[0]), repeats)
+        return image.size / t / 1e6
+    with ThreadPoolExecutor(threads) as pool:
+
+        def both() -> None:
+            list(pool.map(lambda o: calib_rowcol(image, CALIB_POLE_RAW, o), outs))
+
+        t = median_time(both, repeats)
+    return threads * image.size / t / 1e6
+
+
+def thread_scaling(figures: dict[str, Any]) -> dict[str, float]:
+    """Two threads over one: the calibration kernel's (``calib_two_thread_scaling``: what
+    this machine gives a kernel with nothing to share, at this moment) and every
+    pipeline variant's (``<name>_stereo[_<variant>]_two_thread_scaling``, no taps, log
+    off), to be read against it."""
+    out = {"calib_two_thread_scaling": figures["calib_rowcol_2threads_mpix_s"]
+           / figures["calib_rowcol_mpix_s"]}  # fmt: skip
+    for key, value in figures.items():
+        one = key.replace("_mpix_s", "_1thread_mpix_s")
+        if key.endswith("_mpix_s") and "_stereo" in key and one in figures and one != key:
+            out[key.removesuffix("_mpix_s") + "_two_thread_scaling"] = value / figures[one]
+    return out
 
 
 def over_calib(figures: dict[str, Any]) -> dict[str, float]:
