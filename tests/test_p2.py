@@ -227,6 +227,10 @@ def test_band_kernel_equals_the_general_kernel_over_bands_and_threads(lab, divid
     untapped = run(threads=2, taps=False, log=False)
     np.testing.assert_array_equal(untapped.range_raw, ref.range_raw)
     assert untapped.overflows == ref.overflows
+    # the float range map, filled by the bands, is the raw map's value
+    zf = config.formats["p2_z"]
+    np.testing.assert_array_equal(untapped.range, zf.to_float(ref.range_raw))
+    np.testing.assert_array_equal(ref.range, zf.to_float(ref.range_raw))
 
 
 def test_a_cast_shifting_by_more_than_62_bits_takes_the_general_kernel(lab):

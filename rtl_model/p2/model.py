@@ -591,7 +591,8 @@ def run_p2(
     timing = timing or TimingConfig()
     if not isinstance(config, P2Config):
         raise ValueError(f"P2 needs a P2Config, not {type(config).__name__}")
-    im1, im2 = runtime.check_image_pair(image1, image2, camera, pipeline="p2", min_shape=(1, 2))
+    im1, im2 = runtime.check_image_pair(image1, image2, camera, pipeline="p2", min_shape=(1, 2),
+                                        reuse=True)  # fmt: skip
     m, n = im1.shape
     regs = p2_registers(camera, motion, riccati, config)
     # timing first: an impossible schedule is rejected before any work
@@ -604,6 +605,8 @@ def run_p2(
     tp = np.zeros((len(P2_TAPS), m, n) if taps else (len(P2_TAPS), 0, 0), dtype=np.int64)
 
     banded = BANDED and band_fits(fm)
+    zf = config.formats["p2_z"]
+    range_f = np.empty((m, n), dtype=np.float64)
 
     cpu: list[float] = []  # CPU seconds of each thread's kernel call (append is atomic)
 
@@ -618,6 +621,8 @@ def run_p2(
         else:
             _p2_kernel(*args)
         cpu.append(time.thread_time() - t0)
+        # the band's rows of the float range map, on the same thread (= zf.to_float)
+        np.ldexp(out_range[j0:j1], -zf.frac, out=range_f[j0:j1])
         return stats
 
     if threads == 2 and m >= 2:
@@ -628,11 +633,10 @@ def run_p2(
     overflows, minmax = runtime.SignalStats.merge(parts, P2_SIGNALS)
     minmax = minmax if log else {}
     tap_dict = {name: tp[k] for k, name in enumerate(P2_TAPS)} if taps else {}
-    zf = config.formats["p2_z"]
     latency = int((out_cycles - in_cycles).max())
     return PipelineResult(
         pipeline="p2",
-        range=zf.to_float(out_range),
+        range=range_f,
         valid=out_valid,
         range_raw=out_range,
         taps=tap_dict,
