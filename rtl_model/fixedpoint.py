@@ -535,10 +535,14 @@ class FixedFormat:
     def __str__(self) -> str:
         return f"{'s' if self.signed else 'u'}{self.word}.{self.frac}"
 
-    def to_float(self, raw: int | np.ndarray) -> float | np.ndarray:
-        """Value of raw code(s) as float64, ``raw * 2**-F`` (exact while ``|raw| < 2**53``)."""
+    def to_float(self, raw: int | np.ndarray, out: np.ndarray | None = None) -> float | np.ndarray:
+        """Value of raw code(s) as float64, ``raw * 2**-F`` (exact while ``|raw| < 2**53``);
+        an array's values go into ``out`` (float64, the same shape) when given."""
         if isinstance(raw, np.ndarray):
-            out = raw.astype(np.float64)
+            if out is None:
+                out = raw.astype(np.float64)
+            else:
+                np.copyto(out, raw, casting="unsafe")
             return np.ldexp(out, -self.frac, out=out)
         return math.ldexp(float(_check_int("raw", raw)), -self.frac)
 

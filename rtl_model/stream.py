@@ -13,7 +13,7 @@ import numpy as np
 
 from .config import TimingConfig
 
-__all__ = ["Stream", "input_cycles", "make_stream", "pixel_cycles"]
+__all__ = ["Stream", "input_cycles", "line_cycles", "make_stream", "pixel_cycles"]
 
 
 @dataclass(frozen=True)
@@ -107,7 +107,21 @@ def pixel_cycles(shape: tuple[int, int], timing: TimingConfig, frames: int = 1) 
     if timing.gap_prob:
         raise ValueError("pixel_cycles has a closed form only without input gaps")
     m, n = shape
-    f = np.arange(frames, dtype=np.int64)[:, None, None]
-    j = np.arange(m, dtype=np.int64)[None, :, None]
-    i = np.arange(n, dtype=np.int64)[None, None, :]
-    return (f * (m * (n + timing.hblank) + timing.vblank) + j * (n + timing.hblank)) + i
+    out = np.empty((frames, m, n), dtype=np.int64)
+    for f in range(frames):
+        line_cycles(shape, timing, f, 0, m, out[f])
+    return out
+
+
+def line_cycles(
+    shape: tuple[int, int], timing: TimingConfig, frame: int, j0: int, j1: int, out: np.ndarray
+) -> np.ndarray:
+    """The closed form of :func:`pixel_cycles` for lines ``j0 <= j < j1`` of frame
+    ``frame``, written into ``out`` (shape (j1 - j0, n)): a model fills its result's rows
+    band by band."""
+    if timing.gap_prob:
+        raise ValueError("line_cycles has a closed form only without input gaps")
+    m, n = shape
+    base = frame * (m * (n + timing.hblank) + timing.vblank)
+    lines = np.arange(j0, j1, dtype=np.int64)[:, None] * (n + timing.hblank) + base
+    return np.add(lines, np.arange(n, dtype=np.int64), out=out)

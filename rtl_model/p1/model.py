@@ -41,7 +41,7 @@ from ..runtime import (
     format_table,
     scratch,
 )
-from ..stream import input_cycles
+from ..stream import input_cycles, line_cycles
 from .config import P1_SIGNALS, P1Config
 
 __all__ = [
@@ -1353,11 +1353,9 @@ def run_p1(
         cpu.append(("range", time.thread_time() - t0))
         # the band's share of the result's host-side arrays, on the same thread (run
         # serially after the kernels they took ~2 ms of a 9 ms two-thread run)
-        np.ldexp(out_range[j0:j1], -rfmt.frac, out=range_f[j0:j1])  # = rfmt.to_float
+        rfmt.to_float(out_range[j0:j1], out=range_f[j0:j1])
         if closed_cycles:
-            frame0 = (m * (n + timing.hblank) + timing.vblank) if mode == "motion" else 0
-            lines = np.arange(j0, j1, dtype=np.int64)[:, None] * (n + timing.hblank) + frame0
-            np.add(lines, np.arange(n, dtype=np.int64), out=in_cycles[j0:j1])
+            line_cycles((m, n), timing, frames - 1, j0, j1, in_cycles[j0:j1])
         np.add(in_cycles[j0:j1], latency, out=out_cycles[j0:j1])
         return stats
 

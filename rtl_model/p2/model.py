@@ -621,8 +621,8 @@ def run_p2(
         else:
             _p2_kernel(*args)
         cpu.append(time.thread_time() - t0)
-        # the band's rows of the float range map, on the same thread (= zf.to_float)
-        np.ldexp(out_range[j0:j1], -zf.frac, out=range_f[j0:j1])
+        # the band's rows of the float range map, on the same thread
+        zf.to_float(out_range[j0:j1], out=range_f[j0:j1])
         return stats
 
     if threads == 2 and m >= 2:
