@@ -32,6 +32,12 @@ from ..fixedpoint import cast_by_plan, cast_plan, cast_row, cast_shifted, overfl
 from ..pipeline import PipelineResult
 from ..runtime import (
     DIV_RESTORING,
+    KERNEL_BOOL,
+    KERNEL_FLAGS,
+    KERNEL_FLOAT_PLANE,
+    KERNEL_INT,
+    KERNEL_PLANE,
+    KERNEL_ROW,
     RegisterFile,
     SignalStats,
     check_image_pair,
@@ -65,13 +71,19 @@ __all__ = [
     "frontend_fits",
     "frontend_fused",
     "line_buffer_words",
+    "log_site",
     "range_fits",
     "range_fused",
     "run_p1",
+    "signal_plan",
     "stage_latencies",
 ]
 
 _I64_MAX, _I64_MIN = np.iinfo(np.int64).max, np.iinfo(np.int64).min
+# short names of the argument types of the helpers with an explicit signature (see
+# rangefx.rtl_model.runtime.KERNEL_INT: one compiled copy, not one per constant index)
+_I, _B, _R, _P = KERNEL_INT, KERNEL_BOOL, KERNEL_ROW, KERNEL_PLANE
+_FP, _FL = KERNEL_FLOAT_PLANE, KERNEL_FLAGS
 _SIG = {name: k for k, name in enumerate(P1_SIGNALS)}
 PIX_IN, BIAS_IN, ROW_STATE, ROW_R1, ROW_R2 = (
     _SIG[s] for s in ("pix_in", "bias_in", "row_state", "row_r1", "row_r2")
@@ -352,7 +364,7 @@ def divide_into(n, fn, d, fd, s, kind, lut, r_bits, fm, dst, ov):
     return out, flag
 
 
-@njit(cache=True, nogil=True)
+@njit((_R, _I, _R, _I, _I, _I, _R, _I, _P, _FP, _R, _R, _FL), cache=True, nogil=True)
 def divide_row(num, fn, den, fd, s, kind, lut, r_bits, fm, dst, ov, out, flags):
     """:func:`divide_scalar` of a row into signal ``s`` (``out``, overflow ``flags``); the log
     and the overflow count are kept in registers and written once per row (updating them
@@ -371,7 +383,7 @@ def divide_row(num, fn, den, fd, s, kind, lut, r_bits, fm, dst, ov, out, flags):
     ov[s] += count
 
 
-@njit(cache=True, nogil=True)
+@njit((_I, _I, _I, _I, _I, _P), cache=True, nogil=True)
 def divide_lanes_fit(fn, fd, d_word, s, r_bits, fm):
     """Whether :func:`divide_row_lanes` takes a division into signal ``s`` of a numerator
     at ``fn`` by a denominator at ``fd`` of at most ``d_word`` bits: every final cast of
@@ -381,7 +393,7 @@ def divide_lanes_fit(fn, fd, d_word, s, r_bits, fm):
     return base >= 0 and base + d_word - 1 <= 62 and abs(fd - fn) <= 1022
 
 
-@njit(cache=True, nogil=True)
+@njit((_R, _I, _R, _I, _I, _R, _I, _P, _FP, _R, _R, _FL, _B), cache=True, nogil=True)
 def divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, log):
     """:func:`divide_row` for the reciprocal divider, in SIMD lanes: the same quotients,
     flags, overflow count and log (``log`` off: none), with ``D = 0`` by selects instead
@@ -438,7 +450,7 @@ def divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, 
     ov[s] += count
 
 
-@njit(cache=True, nogil=True)
+@njit((_R, _I, _I, _I, _P, _P, _R), cache=True, nogil=True)
 def cast_row_site(raw, frac_in, s, site, fm, st, ov):
     """:func:`cast_site` of a whole row (one loop per cast: the format is loop-invariant)."""
     out = np.empty_like(raw)
@@ -599,20 +611,20 @@ def _frontend_kernel(
 BAND = 16
 
 
-@njit(cache=True, nogil=True)
-def _plan(frac_in, s, fm):
+@njit((_I, _I, _P), cache=True, nogil=True)
+def signal_plan(frac_in, s, fm):
     """:func:`~rangefx.rtl_model.fixedpoint.cast_plan` of a cast into signal ``s``."""
     return cast_plan(frac_in - fm[s, 1], fm[s, 0], fm[s, 2] != 0, fm[s, 3], fm[s, 4])
 
 
-@njit(cache=True, nogil=True)
+@njit((_I, _I, _P), cache=True, nogil=True)
 def _short(frac_in, s, fm):
     """Whether the fused kernels take a cast into ``s`` (``|shift| <= 62``)."""
     return abs(frac_in - fm[s, 1]) <= 62
 
 
-@njit(cache=True, nogil=True)
-def _log(st, site, lo, hi, frac_in, s):
+@njit((_P, _I, _I, _I, _I, _I), cache=True, nogil=True)
+def log_site(st, site, lo, hi, frac_in, s):
     """Merge a site's raw (lo, hi) kept in registers into its log."""
     st[site, 0] = min(st[site, 0], lo)
     st[site, 1] = max(st[site, 1], hi)
@@ -633,9 +645,13 @@ def _row_band(
     fx = max(f_pix, f_breg)
     fe = max(f_b, f_p)
     fs = max(f_p, f_c + fe)
-    pl_x, pl_b, pl_p0 = _plan(0, PIX_IN, fm), _plan(fx, BIAS_IN, fm), _plan(f_b, ROW_STATE, fm)
-    pl_p, pl_r2 = _plan(fs, ROW_STATE, fm), _plan(f_c + fe, ROW_R2, fm)
-    pl_r1 = _plan(f_p + 1, ROW_R1, fm) if consistent else _plan(f_p, ROW_R1, fm)
+    pl_x, pl_b, pl_p0 = (
+        signal_plan(0, PIX_IN, fm),
+        signal_plan(fx, BIAS_IN, fm),
+        signal_plan(f_b, ROW_STATE, fm),
+    )
+    pl_p, pl_r2 = signal_plan(fs, ROW_STATE, fm), signal_plan(f_c + fe, ROW_R2, fm)
+    pl_r1 = signal_plan(f_p + 1, ROW_R1, fm) if consistent else signal_plan(f_p, ROW_R1, fm)
     big, small = np.int64(_I64_MAX), np.int64(_I64_MIN)
     lo0, hi0, lo1, hi1, lo2, hi2, lo3, hi3 = big, small, big, small, big, small, big, small
     lo4, hi4, lo5, hi5 = big, small, big, small
@@ -687,16 +703,16 @@ def _row_band(
     ov[ROW_R2] += c_r2
     ov[ROW_R1] += c_r1
     if init_first:
-        _log(st, 2, lo2, hi2, f_b, ROW_STATE)
+        log_site(st, 2, lo2, hi2, f_b, ROW_STATE)
     if log:
-        _log(st, 0, lo0, hi0, 0, PIX_IN)
-        _log(st, 1, lo1, hi1, fx, BIAS_IN)
-        _log(st, 3, lo3, hi3, f_c + fe, ROW_R2)
-        _log(st, 4, lo4, hi4, fs, ROW_STATE)
+        log_site(st, 0, lo0, hi0, 0, PIX_IN)
+        log_site(st, 1, lo1, hi1, fx, BIAS_IN)
+        log_site(st, 3, lo3, hi3, f_c + fe, ROW_R2)
+        log_site(st, 4, lo4, hi4, fs, ROW_STATE)
         if consistent:
-            _log(st, 5, lo5, hi5, f_p + 1, ROW_R1)
+            log_site(st, 5, lo5, hi5, f_p + 1, ROW_R1)
         else:
-            _log(st, 6, lo5, hi5, f_p, ROW_R1)
+            log_site(st, 6, lo5, hi5, f_p, ROW_R1)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -713,9 +729,9 @@ def _col_line(
     fs = max(f_q, f_c + fe)
     fe2 = max(f_r2, f_q2)
     fs2 = max(f_q2, f_c + fe2)
-    pl_s2, pl_q = _plan(f_c + fe, COL_S2, fm), _plan(fs, COL_STATE, fm)
-    pl_s1 = _plan(f_q + 1, COL_S1, fm) if consistent else _plan(f_q, COL_S1, fm)
-    pl_q2, pl_ex = _plan(fs2, COL2_STATE, fm), _plan(f_q2 + 1, COL2_OUT, fm)
+    pl_s2, pl_q = signal_plan(f_c + fe, COL_S2, fm), signal_plan(fs, COL_STATE, fm)
+    pl_s1 = signal_plan(f_q + 1, COL_S1, fm) if consistent else signal_plan(f_q, COL_S1, fm)
+    pl_q2, pl_ex = signal_plan(fs2, COL2_STATE, fm), signal_plan(f_q2 + 1, COL2_OUT, fm)
     big, small = np.int64(_I64_MAX), np.int64(_I64_MIN)
     lo8, hi8, lo9, hi9, lo10, hi10 = big, small, big, small, big, small
     lo13, hi13, lo14, hi14 = big, small, big, small
@@ -762,14 +778,14 @@ def _col_line(
     ov[COL2_STATE] += c_q2
     ov[COL2_OUT] += c_ex
     if log:
-        _log(st, 8, lo8, hi8, f_c + fe, COL_S2)
-        _log(st, 9, lo9, hi9, fs, COL_STATE)
+        log_site(st, 8, lo8, hi8, f_c + fe, COL_S2)
+        log_site(st, 9, lo9, hi9, fs, COL_STATE)
         if consistent:
-            _log(st, 10, lo10, hi10, f_q + 1, COL_S1)
-            _log(st, 13, lo13, hi13, fs2, COL2_STATE)
-            _log(st, 14, lo14, hi14, f_q2 + 1, COL2_OUT)
+            log_site(st, 10, lo10, hi10, f_q + 1, COL_S1)
+            log_site(st, 13, lo13, hi13, fs2, COL2_STATE)
+            log_site(st, 14, lo14, hi14, f_q2 + 1, COL2_OUT)
         else:
-            _log(st, 11, lo10, hi10, f_q, COL_S1)
+            log_site(st, 11, lo10, hi10, f_q, COL_S1)
 
 
 @njit(cache=True, nogil=True)
@@ -1022,11 +1038,19 @@ def range_fused(
         return
     xp, vx, m_xp, vx_sq = _range_columns(n, regs, mreg, fm, st, ov, j1 - j0)
     m0, m1, m2 = m_xp[0], m_xp[1], m_xp[2]
-    pl_c1, pl_a = _plan(f_s1, C1, fm), _plan(f_ex + 1, GRAD_A, fm)
-    pl_b, pl_k = _plan(f_ey + 1, GRAD_B, fm), _plan(f_k, K_ROT, fm)
-    pl_w, pl_w0, pl_gv = _plan(f_gww, GEOM_W, fm), _plan(f_w0, GEOM_W, fm), _plan(f_gvs, GV, fm)
-    pl_num, pl_den, pl_vsq = _plan(f_ns, NUM, fm), _plan(f_ds, DEN, fm), _plan(2 * f_v, V_SQ, fm)
-    pl_gsq, pl_thr = _plan(2 * f_gv, GRAD_SQ, fm), _plan(f_tg2 + f_vsq, GRAD_SQ, fm)
+    pl_c1, pl_a = signal_plan(f_s1, C1, fm), signal_plan(f_ex + 1, GRAD_A, fm)
+    pl_b, pl_k = signal_plan(f_ey + 1, GRAD_B, fm), signal_plan(f_k, K_ROT, fm)
+    pl_w, pl_w0, pl_gv = (
+        signal_plan(f_gww, GEOM_W, fm),
+        signal_plan(f_w0, GEOM_W, fm),
+        signal_plan(f_gvs, GV, fm),
+    )
+    pl_num, pl_den, pl_vsq = (
+        signal_plan(f_ns, NUM, fm),
+        signal_plan(f_ds, DEN, fm),
+        signal_plan(2 * f_v, V_SQ, fm),
+    )
+    pl_gsq, pl_thr = signal_plan(2 * f_gv, GRAD_SQ, fm), signal_plan(f_tg2 + f_vsq, GRAD_SQ, fm)
     # the exact sums' alignments (shifts of _at)
     s_wf, s_wx, s_w0 = f_gww - f_f - f_kr, f_gww - f_co - f_kr, f_w0 - f_kr
     s_ga, s_gb, s_nk, s_ng = f_gvs - f_a - f_v, f_gvs - f_b - f_v, f_ns - f_kt - f_c1, f_ns - f_gv
@@ -1129,19 +1153,19 @@ def range_fused(
     ov[V_SQ] += c_vsq
     ov[GRAD_SQ] += c_gsq
     if log:
-        _log(st, 17, l17, h17, f_s1, C1)
-        _log(st, 18, l18, h18, f_ex + 1, GRAD_A)
-        _log(st, 19, l19, h19, f_ey + 1, GRAD_B)
-        _log(st, 20, l20, h20, f_k, K_ROT)
-        _log(st, 23, l23, h23, f_gww, GEOM_W)
-        _log(st, 24, l24, h24, f_gww, GEOM_W)
-        _log(st, 25, l25, h25, f_w0, GEOM_W)
-        _log(st, 26, l26, h26, f_gvs, GV)
-        _log(st, 27, l27, h27, f_ns, NUM)
-        _log(st, 28, l28, h28, f_ds, DEN)
-        _log(st, 29, l29, h29, 2 * f_v, V_SQ)
-        _log(st, 30, l30, h30, 2 * f_gv, GRAD_SQ)
-        _log(st, 31, l31, h31, f_tg2 + f_vsq, GRAD_SQ)
+        log_site(st, 17, l17, h17, f_s1, C1)
+        log_site(st, 18, l18, h18, f_ex + 1, GRAD_A)
+        log_site(st, 19, l19, h19, f_ey + 1, GRAD_B)
+        log_site(st, 20, l20, h20, f_k, K_ROT)
+        log_site(st, 23, l23, h23, f_gww, GEOM_W)
+        log_site(st, 24, l24, h24, f_gww, GEOM_W)
+        log_site(st, 25, l25, h25, f_w0, GEOM_W)
+        log_site(st, 26, l26, h26, f_gvs, GV)
+        log_site(st, 27, l27, h27, f_ns, NUM)
+        log_site(st, 28, l28, h28, f_ds, DEN)
+        log_site(st, 29, l29, h29, 2 * f_v, V_SQ)
+        log_site(st, 30, l30, h30, 2 * f_gv, GRAD_SQ)
+        log_site(st, 31, l31, h31, f_tg2 + f_vsq, GRAD_SQ)
 
 
 # --------------------------------------------------------------------------------------

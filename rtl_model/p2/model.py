@@ -32,10 +32,10 @@ from rangefx.golden.riccati import RiccatiConfig, stereo_baseline
 
 from .. import runtime
 from ..config import TimingConfig
-from ..fixedpoint import cast_by_plan, cast_plan
+from ..fixedpoint import cast_by_plan
 from ..p1.model import cast_site as _cast
 from ..p1.model import divide_into as _divide_into
-from ..p1.model import divide_lanes
+from ..p1.model import divide_lanes, log_site, signal_plan
 from ..pipeline import PipelineResult
 from ..stream import input_cycles
 from .config import P2_SIGNALS, P2Config, loop_latency
@@ -177,13 +177,7 @@ BANDED = True
 _BIG, _SMALL = np.iinfo(np.int64).max, np.iinfo(np.int64).min
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _plan(frac_in, s, fm):
-    """:func:`~rangefx.rtl_model.fixedpoint.cast_plan` of a cast into signal ``s``."""
-    return cast_plan(frac_in - fm[s, 1], fm[s, 0], fm[s, 2] != 0, fm[s, 3], fm[s, 4])
-
-
-@njit(cache=True, nogil=True, inline="always")
+@njit((runtime.KERNEL_PLANE,), cache=True, nogil=True)
 def _fracs(fm):
     """The aligned fraction bits of the sums in the datapath (docs/p2_datapath.md):
     ``(den, s, h, u, w, e)``."""
@@ -192,15 +186,6 @@ def _fracs(fm):
     f_u = max(f_e, f_g)
     return (max(0, f_c + f_s), max(f_m, f_r + f_s), max(f_q, f_s + f_g), f_u,
             max(f_s + f_u, f_q), max(f_u, f_a + f_z))  # fmt: skip
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _log(st, site, lo, hi, frac_in, s):
-    """Merge a site's raw (lo, hi) kept in registers into its log."""
-    st[site, 0] = min(st[site, 0], lo)
-    st[site, 1] = max(st[site, 1], hi)
-    st[site, 2] = frac_in
-    st[site, 3] = s
 
 
 @njit(cache=True, nogil=True)
@@ -231,12 +216,16 @@ def _p2_bands(
     f_h, f_q, f_w, f_lam = fm[HH, 1], fm[QQ, 1], fm[WW, 1], fm[LAM, 1]
     f_z, f_e = fm[ZZ, 1], fm[EE, 1]
     f_den_in, f_s_in, f_h_in, f_u, f_w_in, f_e_in = _fracs(fm)
-    pl_x, pl_d, pl_g = _plan(0, PIX, fm), _plan(f_pix, DD, fm), _plan(f_pix, GH, fm)
-    pl_a, pl_c = _plan(f_ka + f_d, AA, fm), _plan(2 * f_a, CC, fm)
-    pl_den, pl_s = _plan(f_den_in, DEN, fm), _plan(f_s_in, ST, fm)
-    pl_h, pl_q = _plan(f_h_in, HH, fm), _plan(f_r + f_h, QQ, fm)
-    pl_w, pl_lam = _plan(f_w_in, WW, fm), _plan(f_r + f_w, LAM, fm)
-    pl_z, pl_e = _plan(f_a + f_lam, ZZ, fm), _plan(f_e_in, EE, fm)
+    pl_x, pl_d, pl_g = (
+        signal_plan(0, PIX, fm),
+        signal_plan(f_pix, DD, fm),
+        signal_plan(f_pix, GH, fm),
+    )
+    pl_a, pl_c = signal_plan(f_ka + f_d, AA, fm), signal_plan(2 * f_a, CC, fm)
+    pl_den, pl_s = signal_plan(f_den_in, DEN, fm), signal_plan(f_s_in, ST, fm)
+    pl_h, pl_q = signal_plan(f_h_in, HH, fm), signal_plan(f_r + f_h, QQ, fm)
+    pl_w, pl_lam = signal_plan(f_w_in, WW, fm), signal_plan(f_r + f_w, LAM, fm)
+    pl_z, pl_e = signal_plan(f_a + f_lam, ZZ, fm), signal_plan(f_e_in, EE, fm)
     w_r, sg_r, qn_r, of_r = fm[RR, 0], fm[RR, 2] != 0, fm[RR, 3], fm[RR, 4]
     one = np.int64(1)
     # the band's buffers, column-major; those only taps read are allocated with taps
@@ -407,20 +396,20 @@ def _p2_bands(
                      (ZZ, c_z), (EE, c_e)):  # fmt: skip
         ov[s] += count
     if log and j1 > j0:
-        _log(st, 0, lo0, hi0, 0, PIX)
-        _log(st, 1, lo1, hi1, 0, PIX)
-        _log(st, 2, lo2, hi2, f_pix, DD)
-        _log(st, 3, lo3, hi3, f_pix, GH)
-        _log(st, 4, lo4, hi4, f_ka + f_d, AA)
-        _log(st, 5, lo5, hi5, 2 * f_a, CC)
-        _log(st, 6, lo6, hi6, f_den_in, DEN)
-        _log(st, 7, lo7, hi7, f_s_in, ST)
-        _log(st, 8, lo8, hi8, f_h_in, HH)
-        _log(st, 9, lo9, hi9, f_r + f_h, QQ)
-        _log(st, 10, lo10, hi10, f_w_in, WW)
-        _log(st, 11, lo11, hi11, f_r + f_w, LAM)
-        _log(st, 12, lo12, hi12, f_a + f_lam, ZZ)
-        _log(st, 13, lo13, hi13, f_e_in, EE)
+        log_site(st, 0, lo0, hi0, 0, PIX)
+        log_site(st, 1, lo1, hi1, 0, PIX)
+        log_site(st, 2, lo2, hi2, f_pix, DD)
+        log_site(st, 3, lo3, hi3, f_pix, GH)
+        log_site(st, 4, lo4, hi4, f_ka + f_d, AA)
+        log_site(st, 5, lo5, hi5, 2 * f_a, CC)
+        log_site(st, 6, lo6, hi6, f_den_in, DEN)
+        log_site(st, 7, lo7, hi7, f_s_in, ST)
+        log_site(st, 8, lo8, hi8, f_h_in, HH)
+        log_site(st, 9, lo9, hi9, f_r + f_h, QQ)
+        log_site(st, 10, lo10, hi10, f_w_in, WW)
+        log_site(st, 11, lo11, hi11, f_r + f_w, LAM)
+        log_site(st, 12, lo12, hi12, f_a + f_lam, ZZ)
+        log_site(st, 13, lo13, hi13, f_e_in, EE)
         dst[RR, 0] = min(dst[RR, 0], rlo.min())
         dst[RR, 1] = max(dst[RR, 1], rhi.max())
 
