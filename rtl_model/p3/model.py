@@ -32,8 +32,13 @@ from ..p1.model import at_frac as _at
 from ..p1.model import cast_site as _cast
 from ..p1.model import divide_into as _divide_into
 from ..pipeline import PipelineResult
+from ..runtime import KERNEL_INT, KERNEL_PLANE, KERNEL_ROW
 from ..stream import input_cycles
 from .config import P3_SIGNALS, P3Config
+
+# argument types of the window helpers: an explicit signature, so that the constant signal
+# and site indices they are called with do not compile one copy each
+_I, _R, _P = KERNEL_INT, KERNEL_ROW, KERNEL_PLANE
 
 __all__ = [
     "N_SITES",
@@ -139,7 +144,7 @@ def _expand_kernel(uc, m, n, fm, st, ov):
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit((_P, _I, _R, _I, _I, _P, _P, _R), cache=True, nogil=True)
 def _window_rows(p, f_p, win, s, site, fm, st, ov):
     """Row pass of the window: ``Σ_k w_|k| p[x + k]``, replicated borders, cast into ``s``."""
     m, n = p.shape
@@ -155,7 +160,7 @@ def _window_rows(p, f_p, win, s, site, fm, st, ov):
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit((_P, _R, _I, _I, _I, _P, _P, _R), cache=True, nogil=True)
 def _window_cols(p, win, s_in, s, site, fm, st, ov):
     """Column pass of the window on the row sums of signal ``s_in``, cast into ``s``."""
     m, n = p.shape
@@ -231,12 +236,12 @@ def _level_kernel(
         du = np.empty((m, n), dtype=np.int64)
         for y in range(m):
             for x in range(n):
-                if sgg[y, x] > 0:  # the normal equation of eq 10
-                    q, _ = _divide_into(-sge[y, x], f_sge, sgg[y, x], f_sgg, DU, kind, lut,
-                                        r_bits, fm, dst, ov)  # fmt: skip
-                else:  # no gradient in the window: the divider is fed 0 / 1
-                    q, _ = _divide_into(np.int64(0), f_sge, np.int64(1), f_sgg, DU, kind, lut,
-                                        r_bits, fm, dst, ov)  # fmt: skip
+                # the normal equation of eq 10; no gradient in the window: the divider is
+                # fed 0 / 1 (operands selected, one divider: one inlined copy to compile)
+                grad = sgg[y, x] > 0
+                q, _ = _divide_into(-sge[y, x] if grad else np.int64(0), f_sge,
+                                    sgg[y, x] if grad else np.int64(1), f_sgg, DU, kind, lut,
+                                    r_bits, fm, dst, ov)  # fmt: skip
                 du[y, x] = q
                 v = _at(u[y, x], f_u, fu2) + _at(q, f_du, fu2)
                 un = _cast(v, fu2, U, base + L_U, fm, st, ov)
@@ -268,11 +273,10 @@ def _final_kernel(
             rthr = _cast(tr2 * gg, f_tr2 + f_sgg, RES, S_RTHR, fm, st, ov)
             src = (np.int64(x) << f_u) - uu
             gate = uu > 0 and uu >= umin
-            if gate:
-                rq, flag = _divide_into(fb, f_fb, uu, f_u, RANGE, kind, lut, r_bits, fm, dst, ov)
-            else:
-                rq, flag = _divide_into(np.int64(0), f_fb, np.int64(1), f_u, RANGE, kind, lut,
-                                        r_bits, fm, dst, ov)  # fmt: skip
+            # gated off, the divider is fed 0 / 1 (operands selected: one inlined divider)
+            rq, flag = _divide_into(fb if gate else np.int64(0), f_fb,
+                                    uu if gate else np.int64(1), f_u, RANGE, kind, lut, r_bits,
+                                    fm, dst, ov)  # fmt: skip
             ok = (gg >= tg2 and res <= rthr and src >= 0 and src <= right and gate
                   and uu <= umax and not flag and rq > 0 and rq <= rmax)  # fmt: skip
             out_valid[y, x] = ok
