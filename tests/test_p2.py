@@ -16,8 +16,8 @@ from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.rtl_model.p2.config import P2_SIGNALS, P2Config, loop_latency
-from rangefx.rtl_model.p2.model import IN_LATENCY, OUT_LATENCY, run_p2
-from rangefx.rtl_model.stream import pixel_cycles
+from rangefx.rtl_model.p2.model import IN_LATENCY, OUT_LATENCY, p2_schedule, run_p2
+from rangefx.rtl_model.stream import input_cycles, pixel_cycles
 from rangefx.tools.cli import main
 from rangefx.tools.studies.runner import compare_ranges
 
@@ -121,6 +121,26 @@ def test_cycle_stamps_closed_form(hblank):
     assert res.line_buffer_bits == 2 * lanes * n * (w["p2_d"] + w["p2_ghat"])
     sweep = w["p2_a"] + w["p2_r"] + w["p2_st"] + w["p2_q"] + (w["p2_ghat"] + 1) + 1
     assert res.sweep_buffer_bits == 2 * lanes * n * sweep
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("gap_prob", [0.0, 0.3])
+def test_band_cycle_maps_equal_the_whole_frame_schedule(threads, gap_prob):
+    """The bands fill their rows of both cycle maps (closed form without gaps): the same
+    as the input beats and :func:`p2_schedule` over the whole frame, for a line count that
+    splits a group of lanes between the two threads' bands."""
+    cfg = P2Config.default()
+    m, n = 3 * cfg.effective_lanes() + 1, 20
+    timing = TimingConfig(hblank=4, vblank=3, gap_prob=gap_prob, seed=5)
+    im1 = np.random.default_rng(2).integers(0, 256, (m, n))
+    res = run_p2(im1, np.roll(im1, 1, axis=1), PinholeCamera(n, m, 600.0),
+                 MotionIncrement.stereo(0.1), cfg, SCENE_RICCATI["lab"], timing=timing,
+                 taps=False, threads=threads)  # fmt: skip
+    tin = input_cycles((m, n), timing)[-1]
+    want, info, _ = p2_schedule(tin, cfg, timing.hblank)
+    assert np.array_equal(res.in_cycles, tin)
+    assert np.array_equal(res.out_cycles, want)
+    assert res.latency == int((want - tin).max()) and res.schedule == info
 
 
 def test_throughput_assertion():

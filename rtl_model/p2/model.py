@@ -37,7 +37,7 @@ from ..p1.model import cast_site as _cast
 from ..p1.model import divide_into as _divide_into
 from ..p1.model import divide_lanes, log_site, signal_plan
 from ..pipeline import PipelineResult
-from ..stream import input_cycles
+from ..stream import input_cycles, line_cycles
 from .config import P2_SIGNALS, P2Config, loop_latency
 
 __all__ = [
@@ -45,9 +45,11 @@ __all__ = [
     "P2_TAPS",
     "P2Registers",
     "buffer_bits",
+    "group_starts",
     "p2_registers",
     "p2_schedule",
     "run_p2",
+    "schedule_rows",
     "stage_latencies",
 ]
 
@@ -487,6 +489,22 @@ def p2_schedule(
     (this only delays a short last group of a frame).
     """
     m, n = in_cycles.shape
+    starts, info = group_starts(in_cycles[:, 0], in_cycles[:, n - 1], n, config, hblank)
+    out = np.empty((m, n), dtype=np.int64)
+    sweep_start = np.empty(m, dtype=np.int64)
+    forward_start = np.empty(m, dtype=np.int64)
+    schedule_rows(starts, info, 0, m, out, sweep_start, forward_start)
+    return out, info, {"sweep_start": sweep_start, "forward_start": forward_start}
+
+
+def group_starts(
+    line_first: np.ndarray, line_last: np.ndarray, n: int, config: P2Config, hblank: int
+) -> tuple[np.ndarray, dict[str, int]]:
+    """The recurrence of :func:`p2_schedule` over the groups of lines: each group's
+    backward-sweep and forward-pass start cycles, shape (groups, 2), from the input cycle
+    of every line's first and last pixel; and the schedule's periods (``info``). Raises
+    the same ``ValueError`` as :func:`p2_schedule`."""
+    m = line_first.shape[0]
     lanes = config.effective_lanes()
     tb, tf = loop_latency(config), FWD_LOOP
     pb, pf = max(lanes, tb), max(lanes, tf)
@@ -499,31 +517,21 @@ def p2_schedule(
             f"forward pass {fwd}; use lanes >= {tb} or more horizontal blanking"
         )
     groups = -(-m // lanes)
-    out = np.empty((m, n), dtype=np.int64)
-    b0s: list[int] = []
-    f0s: list[int] = []
-    kk_pf = np.arange(n, dtype=np.int64) * pf
-    sweep_start = np.empty(m, dtype=np.int64)
-    forward_start = np.empty(m, dtype=np.int64)
+    starts = np.empty((groups, 2), dtype=np.int64)
     for gi in range(groups):
-        rows = range(gi * lanes, min(m, (gi + 1) * lanes))
-        ready = int(in_cycles[rows[-1], n - 1]) + 1 + IN_LATENCY
-        b0 = ready if gi == 0 else max(ready, b0s[-1] + back)
+        first, last = gi * lanes, min(m, (gi + 1) * lanes) - 1
+        ready = int(line_last[last]) + 1 + IN_LATENCY
+        b0 = ready if gi == 0 else max(ready, int(starts[gi - 1, 0]) + back)
         if gi >= 2:  # the sweep buffer it writes is free once group gi - 2 is read out
-            b0 = max(b0, f0s[gi - 2] + fwd)
+            b0 = max(b0, int(starts[gi - 2, 1]) + fwd)
         f0 = b0 + back + tb
-        f0 = f0 if gi == 0 else max(f0, f0s[-1] + fwd)
-        if gi >= 2 and b0s[gi - 2] + back > int(in_cycles[rows[0], 0]):
+        f0 = f0 if gi == 0 else max(f0, int(starts[gi - 1, 1]) + fwd)
+        if gi >= 2 and int(starts[gi - 2, 0]) + back > int(line_first[first]):
             raise ValueError(
-                f"P2 cannot sustain one pixel per clock: group {gi} (lines {rows[0]}..) "
+                f"P2 cannot sustain one pixel per clock: group {gi} (lines {first}..) "
                 f"would overwrite the line buffer still read by group {gi - 2}'s sweep"
             )
-        lane = np.arange(len(rows), dtype=np.int64)
-        out[rows.start : rows.stop] = (f0 + OUT_LATENCY + lane)[:, None] + kk_pf
-        sweep_start[rows.start : rows.stop] = b0 + lane
-        forward_start[rows.start : rows.stop] = f0 + lane
-        b0s.append(b0)
-        f0s.append(f0)
+        starts[gi] = b0, f0
     info = {
         "lanes": lanes,
         "backward_period": pb,
@@ -532,7 +540,32 @@ def p2_schedule(
         "forward_cycles": fwd,
         "group_period": period,
     }
-    return out, info, {"sweep_start": sweep_start, "forward_start": forward_start}
+    return starts, info
+
+
+def schedule_rows(
+    starts: np.ndarray,
+    info: dict[str, int],
+    j0: int,
+    j1: int,
+    out: np.ndarray,
+    sweep_start: np.ndarray | None = None,
+    forward_start: np.ndarray | None = None,
+) -> None:
+    """Lines ``j0 <= j < j1`` of :func:`p2_schedule` from :func:`group_starts`: each
+    pixel's output cycle into ``out`` (shape (j1 - j0, n)), each line's sweep and forward
+    start into the optional ``sweep_start`` / ``forward_start`` (length j1 - j0); a model
+    fills its result's rows band by band."""
+    lanes, pf = info["lanes"], info["forward_period"]
+    lines = np.arange(j0, j1, dtype=np.int64)
+    group, lane = lines // lanes, lines % lanes
+    kk_pf = np.arange(out.shape[1], dtype=np.int64) * pf
+    forward = starts[group, 1] + lane
+    np.add((forward + OUT_LATENCY)[:, None], kk_pf, out=out)
+    if sweep_start is not None:
+        sweep_start[:] = starts[group, 0] + lane
+    if forward_start is not None:
+        forward_start[:] = forward
 
 
 def buffer_bits(config: P2Config, width: int) -> dict[str, int]:
@@ -584,9 +617,20 @@ def run_p2(
                                         reuse=True)  # fmt: skip
     m, n = im1.shape
     regs = p2_registers(camera, motion, riccati, config)
-    # timing first: an impossible schedule is rejected before any work
-    in_cycles = input_cycles((m, n), timing)[-1]  # the beats of make_stream(im2, timing)
-    out_cycles, sched, _ = p2_schedule(in_cycles, config, timing.hblank)
+    # timing first: an impossible schedule is rejected before any work. Without input
+    # gaps the input cycles have a closed form and the bands fill their rows of both
+    # cycle maps (serially they took ~0.7 ms of a 5 ms two-thread run); with gaps, the
+    # beats of make_stream(im2, timing) are summed here.
+    closed_cycles = timing.gap_prob == 0
+    if closed_cycles:
+        in_cycles = np.empty((m, n), dtype=np.int64)
+        first = np.arange(m, dtype=np.int64) * (n + timing.hblank)
+        starts, sched = group_starts(first, first + (n - 1), n, config, timing.hblank)
+    else:
+        in_cycles = input_cycles((m, n), timing)[-1]
+        starts, sched = group_starts(in_cycles[:, 0], in_cycles[:, -1], n, config, timing.hblank)
+    out_cycles = np.empty((m, n), dtype=np.int64)
+    band_latency: list[int] = []
     fm = runtime.format_table(config)
     kind, lut = runtime.divider_setup(config)
     out_range = np.empty((m, n), dtype=np.int64)
@@ -610,8 +654,13 @@ def run_p2(
         else:
             _p2_kernel(*args)
         cpu.append(time.thread_time() - t0)
-        # the band's rows of the float range map, on the same thread
+        # the band's rows of the float range map and the cycle maps, on the same thread
         zf.to_float(out_range[j0:j1], out=range_f[j0:j1])
+        if closed_cycles:
+            line_cycles((m, n), timing, 0, j0, j1, in_cycles[j0:j1])
+        schedule_rows(starts, sched, j0, j1, out_cycles[j0:j1])
+        if j1 > j0:
+            band_latency.append(int((out_cycles[j0:j1] - in_cycles[j0:j1]).max()))
         return stats
 
     if threads == 2 and m >= 2:
@@ -622,7 +671,7 @@ def run_p2(
     overflows, minmax = runtime.SignalStats.merge(parts, P2_SIGNALS)
     minmax = minmax if log else {}
     tap_dict = {name: tp[k] for k, name in enumerate(P2_TAPS)} if taps else {}
-    latency = int((out_cycles - in_cycles).max())
+    latency = max(band_latency)
     return PipelineResult(
         pipeline="p2",
         range=range_f,
