@@ -635,10 +635,13 @@ def log_site(st, site, lo, hi, frac_in, s):
 @njit(cache=True, nogil=True, inline="always")
 def _row_band(
     imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T, r2T, log, consistent,
+    t_step,
 ):  # fmt: skip
     """Input cast, bias, row filter and ``r1``/``r2`` of lines ``0 <= k < bw`` of a band in
     column-major layout (``imgT[i, k]``): for each column one loop over the lines (the
-    lanes), each carrying its own row-filter state in ``pT``."""
+    lanes), each carrying its own row-filter state in ``pT``. ``b`` and the state go to
+    row ``i * t_step`` of ``bT`` / ``pnT`` (the taps; ``t_step = 0`` without taps: one
+    row, no branch)."""
     n = imgT.shape[0]
     f_pix, f_b, f_p = fm[PIX_IN, 1], fm[BIAS_IN, 1], fm[ROW_STATE, 1]
     f_c, f_breg = fm[POLE_COEF, 1], fm[BIAS_REG, 1]
@@ -693,8 +696,8 @@ def _row_band(
             c_r2 += f3
             c_r1 += f4
             pT[k] = p_new
-            bT[i, k] = b
-            pnT[i, k] = p_new
+            bT[i * t_step, k] = b
+            pnT[i * t_step, k] = p_new
             r1T[i, k] = r1
             r2T[i, k] = r2
     ov[PIX_IN] += c_x
@@ -820,7 +823,12 @@ def frontend_fused(
     bias_al = _at(bias, f_breg, max(f_pix, f_breg))
     imgT = np.empty((n, BAND), dtype=np.int64)
     pT = np.empty(BAND, dtype=np.int64)
-    bT, pnT = np.empty((n, BAND), dtype=np.int64), np.empty((n, BAND), dtype=np.int64)
+    # the row stage's b and state are only taps: without taps one row, overwritten
+    t_step = 1 if want_taps else 0
+    bT, pnT = (
+        np.empty((n if want_taps else 1, BAND), np.int64),
+        np.empty((n if want_taps else 1, BAND), np.int64),
+    )
     r1T, r2T = np.empty((n, BAND), dtype=np.int64), np.empty((n, BAND), dtype=np.int64)
     r1, r2 = np.empty((BAND, n), dtype=np.int64), np.empty((BAND, n), dtype=np.int64)
     lb1, lb2 = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
@@ -834,7 +842,7 @@ def frontend_fused(
             for i in range(n):
                 imgT[i, k] = img[j0 + k, i]
         _row_band(imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T, r2T, log,
-                  consistent)  # fmt: skip
+                  consistent, t_step)  # fmt: skip
         for k in range(bw):
             for i in range(n):
                 r1[k, i] = r1T[i, k]
