@@ -14,8 +14,10 @@ cached libraries of two modules as it does within one.
 from __future__ import annotations
 
 import math
+import os
 import threading
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import types
@@ -45,6 +47,7 @@ __all__ = [
     "divider_roms",
     "divider_setup",
     "format_table",
+    "model_pool",
     "reciprocal_lut",
     "scratch",
 ]
@@ -273,3 +276,28 @@ def scratch(key: str, shape: tuple[int, ...], dtype: type = np.int64) -> np.ndar
     if buf is None or buf.shape != shape or buf.dtype != dtype:
         buf = cache[key] = np.empty(shape, dtype=dtype)
     return buf
+
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_LOCK = threading.Lock()
+
+
+def model_pool() -> ThreadPoolExecutor:
+    """The two worker threads every model's ``threads=2`` runs on, created once per process
+    (a pool made and joined per run cost 0.43 ms against 0.13 ms for the same two maps on
+    a kept pool, measured: ~3 % of a two-thread P1 run, ~5 % of P2's). The tasks only run
+    kernels and never wait on one another, so runs from several calling threads share it
+    without deadlock (their tasks queue); a forked child makes its own."""
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = ThreadPoolExecutor(2, thread_name_prefix="rangefx-model")
+        return _POOL
+
+
+def _forget_pool_after_fork() -> None:
+    global _POOL, _POOL_LOCK
+    _POOL, _POOL_LOCK = None, threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_pool_after_fork)

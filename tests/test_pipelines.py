@@ -138,6 +138,34 @@ def test_golden_taps_are_close_to_the_fixed_point_taps(name):
         assert np.median(err) <= 1e-2 * scale, tap
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_two_thread_runs_from_several_callers_share_the_pool(name):
+    """Every model's two-thread runs go to one process-wide pool (runtime.model_pool):
+    four callers at once finish (no deadlock: a stuck pool fails here, not hangs) with
+    the same range, taps and cycle stamps as a one-thread run, and the pool stays one."""
+    from concurrent.futures import ThreadPoolExecutor, wait
+
+    from rangefx.rtl_model.runtime import model_pool
+
+    pipe = PIPELINES[name]
+    rng = np.random.default_rng(4)
+    im = rng.integers(0, 256, (24, 32))
+    case = Case(im, np.roll(im, 1, axis=1), PinholeCamera(32, 24, 400.0),
+                MotionIncrement.stereo(0.1))  # fmt: skip
+    want = pipe.run(case, threads=1)
+    with ThreadPoolExecutor(4) as callers:
+        futures = [callers.submit(pipe.run, case, threads=2) for _ in range(4)]
+        done, pending = wait(futures, timeout=120)
+    assert not pending
+    for fut in done:
+        got = fut.result()
+        assert np.array_equal(got.range_raw, want.range_raw)
+        assert np.array_equal(got.out_cycles, want.out_cycles)
+        assert got.taps.keys() == want.taps.keys()
+        assert all(np.array_equal(got.taps[k], want.taps[k]) for k in want.taps)
+    assert model_pool() is model_pool()
+
+
 def test_saturated_register_is_reported():
     """A host register outside its format is held at the limit, silently: the result
     names it (helper finding: P2's KA at s28.31 scaled the motorcycle ranges by 1.58x)."""

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,6 +44,7 @@ from ..runtime import (
     divider_latency,
     divider_setup,
     format_table,
+    model_pool,
     scratch,
 )
 from ..stream import input_cycles, line_cycles
@@ -1392,10 +1392,10 @@ def run_p1(
         return stats
 
     if threads == 2:
-        with ThreadPoolExecutor(2) as pool:
-            r1, r2 = pool.map(frontend, (im1, im2), stream_outs)
-            half = m // 2
-            parts = list(pool.map(lambda b: range_band(*b, r1, r2), ((0, half), (half, m))))
+        pool = model_pool()
+        r1, r2 = pool.map(frontend, (im1, im2), stream_outs)
+        half = m // 2
+        parts = list(pool.map(lambda b: range_band(*b, r1, r2), ((0, half), (half, m))))
     else:
         r1, r2 = frontend(im1, stream_outs[0]), frontend(im2, stream_outs[1])
         parts = [range_band(0, m, r1, r2)]

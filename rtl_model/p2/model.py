@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -664,8 +663,7 @@ def run_p2(
         return stats
 
     if threads == 2 and m >= 2:
-        with ThreadPoolExecutor(2) as pool:
-            parts = list(pool.map(lambda b: band(*b), ((0, m // 2), (m // 2, m))))
+        parts = list(runtime.model_pool().map(lambda b: band(*b), ((0, m // 2), (m // 2, m))))
     else:
         parts = [band(0, m)]
     overflows, minmax = runtime.SignalStats.merge(parts, P2_SIGNALS)

@@ -16,7 +16,6 @@ the schedule (:func:`tap_cycles`).
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from fractions import Fraction
 
 import numpy as np
@@ -541,8 +540,7 @@ def run_p3(
         return out, stats
 
     if threads == 2:
-        with ThreadPoolExecutor(2) as pool:
-            (p1, s1), (p2, s2) = pool.map(pyramid, (im1, im2), (S_PIX1, S_PIX2))
+        (p1, s1), (p2, s2) = runtime.model_pool().map(pyramid, (im1, im2), (S_PIX1, S_PIX2))
     else:
         (p1, s1), (p2, s2) = pyramid(im1, S_PIX1), pyramid(im2, S_PIX2)
     stats = runtime.SignalStats(N_SITES, len(P3_SIGNALS))
