@@ -339,13 +339,25 @@ def test_bench_reports_the_cost_breakdown():
                 "p1_stereo_paper_logged_mpix_s", "p2_stereo_logged_1thread_over_calib",
                 "p2_stereo_taps_over_calib", "calib_rowcol_2threads_mpix_s",
                 "calib_two_thread_scaling", "p1_stereo_paper_two_thread_scaling",
-                "p2_stereo_two_thread_scaling"):  # fmt: skip
+                "p2_stereo_two_thread_scaling", "calib_simd_gelem_s",
+                "calib_simd_2threads_gelem_s", "calib_simd_two_thread_scaling"):  # fmt: skip
         assert figures[key] > 0, key
     # the scaling figures are the ratios of the figures they name
     assert figures["p2_stereo_two_thread_scaling"] == pytest.approx(
         figures["p2_stereo_mpix_s"] / figures["p2_stereo_1thread_mpix_s"]
     )
     assert "p1_stereo_paper_logged_two_thread_scaling" in figures
+    assert figures["calib_simd_two_thread_scaling"] == pytest.approx(
+        figures["calib_simd_2threads_gelem_s"] / figures["calib_simd_gelem_s"]
+    )
+
+
+def test_simd_calibration_loop_computes_its_update():
+    a, b = np.arange(-8, 9, dtype=np.int64), 7 * np.arange(17, dtype=np.int64)
+    want = a.copy()
+    for _ in range(3):
+        want = ((want * 3 + b) >> 2) ^ (b << 1)
+    assert bench.calib_simd(a, b, 3) == want[0] and a.tolist() == want.tolist()
 
 
 # -- the divider in SIMD lanes ----------------------------------------------------------

@@ -25,6 +25,7 @@ from rangefx.rtl_model.config import WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
 from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
+from rangefx.rtl_model.runtime import model_pool
 
 from .cases import scene_case
 
@@ -121,6 +122,9 @@ def bench_figures(
     out["calib_rowcol_mpix_s"] = _calib_mpix_s(image, repeats)
     # the machine's own two-thread scaling: the calibration kernel on two streams at once
     out["calib_rowcol_2threads_mpix_s"] = _calib_mpix_s(image, repeats, threads=2)
+    # ...and for a throughput-bound SIMD loop, the fused kernels' kind
+    out["calib_simd_gelem_s"] = _simd_gelem_s(repeats)
+    out["calib_simd_2threads_gelem_s"] = _simd_gelem_s(repeats, threads=2)
     out.update(over_calib(out))
     out.update(thread_scaling(out))
     out["cast_ns"], out["cast_overflowing_row_ns"] = _cast_ns()
@@ -194,13 +198,49 @@ def _calib_mpix_s(image: np.ndarray, repeats: int, threads: int = 1) -> float:
     return threads * image.size / t / 1e6
 
 
+#: Elements and passes of the SIMD calibration loop: a 4,096-element row stays in L1; one
+#: call (~5 ms here) is long against the pool's dispatch (~0.1 ms).
+SIMD_ELEMENTS, SIMD_PASSES = 4096, 12_000
+
+
+@njit(cache=True, nogil=True)
+def calib_simd(a, b, passes):
+    """The SIMD calibration loop of ``calib_simd_gelem_s``: ``passes`` passes of an
+    element-wise integer update over ``a`` (independent elements: vectorised,
+    throughput-bound, as the models' fused loops), where :func:`calib_rowcol` is one
+    dependency chain (latency-bound). Their two-thread scalings bracket what the machine
+    gives the models' kernels. Returns ``a[0]`` (so the work cannot be dropped)."""
+    for _ in range(passes):
+        for i in range(a.shape[0]):
+            a[i] = ((a[i] * 3 + b[i]) >> 2) ^ (b[i] << 1)
+    return a[0]
+
+
+def _simd_gelem_s(repeats: int, threads: int = 1) -> float:
+    """Gelements/s of :func:`calib_simd` (median of ``repeats``) on one thread, or on two
+    rows at once on the models' two-thread pool (elements of both counted)."""
+    rows = [(np.arange(SIMD_ELEMENTS, dtype=np.int64), 7 * np.arange(SIMD_ELEMENTS,
+             dtype=np.int64)) for _ in range(threads)]  # fmt: skip
+    calib_simd(*rows[0], 1)  # JIT warm-up
+    if threads == 1:
+        t = median_time(lambda: calib_simd(*rows[0], SIMD_PASSES), repeats)
+    else:
+        pool = model_pool()
+        t = median_time(lambda: list(pool.map(lambda r: calib_simd(*r, SIMD_PASSES), rows)),
+                        repeats)  # fmt: skip
+    return threads * SIMD_ELEMENTS * SIMD_PASSES / t / 1e9
+
+
 def thread_scaling(figures: dict[str, Any]) -> dict[str, float]:
     """Two threads over one: the calibration kernel's (``calib_two_thread_scaling``: what
-    this machine gives a kernel with nothing to share, at this moment) and every
+    this machine gives a latency-bound kernel with nothing to share, at this moment; and
+    ``calib_simd_two_thread_scaling``, the same for a throughput-bound SIMD loop) and every
     pipeline variant's (``<name>_stereo[_<variant>]_two_thread_scaling``, no taps, log
     off), to be read against it."""
     out = {"calib_two_thread_scaling": figures["calib_rowcol_2threads_mpix_s"]
-           / figures["calib_rowcol_mpix_s"]}  # fmt: skip
+           / figures["calib_rowcol_mpix_s"],
+           "calib_simd_two_thread_scaling": figures["calib_simd_2threads_gelem_s"]
+           / figures["calib_simd_gelem_s"]}  # fmt: skip
     for key, value in figures.items():
         one = key.replace("_mpix_s", "_1thread_mpix_s")
         if key.endswith("_mpix_s") and "_stereo" in key and one in figures and one != key:
