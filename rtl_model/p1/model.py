@@ -468,24 +468,6 @@ def cast_row_site(raw, frac_in, s, site, fm, st, ov):
 _cast, _cast_row, _at, _divide_row = cast_site, cast_row_site, at_frac, divide_row
 
 
-@njit(cache=True, nogil=True)
-def _row_filter(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next):
-    """The row filter's recursion along one line (state ``p0`` at column 0).
-
-    Only the state is serial: this loop casts ``p_next`` (logged at ``site``) and leaves
-    the products ``C (b - p)`` in ``prod_out`` and the states before and after each
-    column in ``p_prev``, ``p_next``, from which ``r2`` and ``r1`` are cast as rows.
-    """
-    f_p, f_c = fm[ROW_STATE, 1], fm[POLE_COEF, 1]
-    shift = max(f_p, f_c + max(f_b, f_p)) - f_p
-    # the cast's shift case is decided once per line: the common 0..62 loop carries only
-    # its few instructions on the state's dependency chain (measured 8.7 vs 12.9 ns/pixel)
-    if 0 <= shift <= 62:
-        _row_filter_loop(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next, True)
-    else:
-        _row_filter_loop(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next, False)
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _row_filter_loop(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next, short):
     """The loop of :func:`_row_filter`; ``short`` (constant per call) as in
@@ -509,6 +491,24 @@ def _row_filter_loop(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_nex
         p_next[i] = p
     st[site, 0], st[site, 1], st[site, 2], st[site, 3] = lo, hi, fs, ROW_STATE
     ov[ROW_STATE] += count
+
+
+@njit((_R, _I, _I, _I, _I, _P, _P, _R, _R, _R, _R), cache=True, nogil=True)
+def _row_filter(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next):
+    """The row filter's recursion along one line (state ``p0`` at column 0).
+
+    Only the state is serial: this loop casts ``p_next`` (logged at ``site``) and leaves
+    the products ``C (b - p)`` in ``prod_out`` and the states before and after each
+    column in ``p_prev``, ``p_next``, from which ``r2`` and ``r1`` are cast as rows.
+    """
+    f_p, f_c = fm[ROW_STATE, 1], fm[POLE_COEF, 1]
+    shift = max(f_p, f_c + max(f_b, f_p)) - f_p
+    # the cast's shift case is decided once per line: the common 0..62 loop carries only
+    # its few instructions on the state's dependency chain (measured 8.7 vs 12.9 ns/pixel)
+    if 0 <= shift <= 62:
+        _row_filter_loop(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next, True)
+    else:
+        _row_filter_loop(b, p0, pole, f_b, site, fm, st, ov, prod_out, p_prev, p_next, False)
 
 
 @njit(cache=True, nogil=True)
