@@ -13,7 +13,7 @@ import numpy as np
 
 from .config import TimingConfig
 
-__all__ = ["Stream", "input_cycles", "line_cycles", "make_stream", "pixel_cycles"]
+__all__ = ["Stream", "input_cycles", "line_cycles", "line_starts", "make_stream", "pixel_cycles"]
 
 
 @dataclass(frozen=True)
@@ -119,9 +119,18 @@ def line_cycles(
     """The closed form of :func:`pixel_cycles` for lines ``j0 <= j < j1`` of frame
     ``frame``, written into ``out`` (shape (j1 - j0, n)): a model fills its result's rows
     band by band."""
+    starts = line_starts(shape, timing, frame, j0, j1)
+    return np.add(starts[:, None], np.arange(shape[1], dtype=np.int64), out=out)
+
+
+def line_starts(
+    shape: tuple[int, int], timing: TimingConfig, frame: int = 0, j0: int = 0, j1: int | None = None
+) -> np.ndarray:
+    """The closed-form input cycle of the first pixel of lines ``j0 <= j < j1`` (default:
+    all) of frame ``frame`` (:func:`pixel_cycles` at column 0; a line's last pixel is
+    ``n - 1`` cycles later)."""
     if timing.gap_prob:
-        raise ValueError("line_cycles has a closed form only without input gaps")
+        raise ValueError("line_starts has a closed form only without input gaps")
     m, n = shape
     base = frame * (m * (n + timing.hblank) + timing.vblank)
-    lines = np.arange(j0, j1, dtype=np.int64)[:, None] * (n + timing.hblank) + base
-    return np.add(lines, np.arange(n, dtype=np.int64), out=out)
+    return np.arange(j0, m if j1 is None else j1, dtype=np.int64) * (n + timing.hblank) + base

@@ -824,11 +824,8 @@ def frontend_fused(
     imgT = np.empty((n, BAND), dtype=np.int64)
     pT = np.empty(BAND, dtype=np.int64)
     # the row stage's b and state are only taps: without taps one row, overwritten
-    t_step = 1 if want_taps else 0
-    bT, pnT = (
-        np.empty((n if want_taps else 1, BAND), np.int64),
-        np.empty((n if want_taps else 1, BAND), np.int64),
-    )
+    t_step, nt = (1, n) if want_taps else (0, 1)
+    bT, pnT = np.empty((nt, BAND), dtype=np.int64), np.empty((nt, BAND), dtype=np.int64)
     r1T, r2T = np.empty((n, BAND), dtype=np.int64), np.empty((n, BAND), dtype=np.int64)
     r1, r2 = np.empty((BAND, n), dtype=np.int64), np.empty((BAND, n), dtype=np.int64)
     lb1, lb2 = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)

@@ -36,7 +36,7 @@ from ..p1.model import cast_site as _cast
 from ..p1.model import divide_into as _divide_into
 from ..p1.model import divide_lanes, log_site, signal_plan
 from ..pipeline import PipelineResult
-from ..stream import input_cycles, line_cycles
+from ..stream import input_cycles, line_cycles, line_starts
 from .config import P2_SIGNALS, P2Config, loop_latency
 
 __all__ = [
@@ -623,7 +623,7 @@ def run_p2(
     closed_cycles = timing.gap_prob == 0
     if closed_cycles:
         in_cycles = np.empty((m, n), dtype=np.int64)
-        first = np.arange(m, dtype=np.int64) * (n + timing.hblank)
+        first = line_starts((m, n), timing)
         starts, sched = group_starts(first, first + (n - 1), n, config, timing.hblank)
     else:
         in_cycles = input_cycles((m, n), timing)[-1]

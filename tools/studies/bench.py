@@ -14,7 +14,6 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -183,18 +182,16 @@ def calib_rowcol(image, pole_raw, out):
 
 def _calib_mpix_s(image: np.ndarray, repeats: int, threads: int = 1) -> float:
     """Mpixel/s of :func:`calib_rowcol` on ``image`` (median of ``repeats``): one stream on
-    one thread, or two streams at once on two threads (pixels of both counted)."""
+    one thread, or two streams at once on the models' two-thread pool (pixels of both
+    counted)."""
     outs = [np.empty_like(image) for _ in range(threads)]
     calib_rowcol(image, CALIB_POLE_RAW, outs[0])  # JIT warm-up
     if threads == 1:
         t = median_time(lambda: calib_rowcol(image, CALIB_POLE_RAW, outs[0]), repeats)
         return image.size / t / 1e6
-    with ThreadPoolExecutor(threads) as pool:
-
-        def both() -> None:
-            list(pool.map(lambda o: calib_rowcol(image, CALIB_POLE_RAW, o), outs))
-
-        t = median_time(both, repeats)
+    pool = model_pool()  # the models' two threads, as for calib_simd
+    t = median_time(lambda: list(pool.map(lambda o: calib_rowcol(image, CALIB_POLE_RAW, o),
+                                          outs)), repeats)  # fmt: skip
     return threads * image.size / t / 1e6
 
 
