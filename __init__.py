@@ -7,29 +7,77 @@ The repository's top-level folders install as this package's subpackages:
 ``site-packages/rangefx`` directory cannot merge into it.
 
 Numba's on-disk cache of the ``cache=True`` kernels goes to a per-user cache directory
-(``$XDG_CACHE_HOME/rangefx/numba``, else ``~/.cache/rangefx/numba``) unless
-``NUMBA_CACHE_DIR`` is set: beside the sources (numba's default) it would survive a
-``pip uninstall`` as a stale ``site-packages/rangefx`` directory that shadows a later
-editable install, and it cannot be written in a read-only installation. This must run
-before numba is first imported, which importing any ``rangefx`` subpackage ensures.
+(``$XDG_CACHE_HOME/rangefx/numba``, else ``~/.cache/rangefx/numba``; one subdirectory per
+digest of the kernels' sources, see :func:`kernel_source_key`) unless ``NUMBA_CACHE_DIR``
+is set. Beside the sources (numba's default) it would survive a ``pip uninstall`` as a
+stale ``site-packages/rangefx`` directory that shadows a later editable install, and it
+cannot be written in a read-only installation. This must run before numba is first
+imported, which importing any ``rangefx`` subpackage ensures.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+import shutil
 
-__all__ = ["numba_cache_dir"]
+__all__ = ["KERNEL_SOURCES", "kernel_source_key", "numba_cache_dir"]
+
+#: The sources numba's cached kernels are compiled from, relative to the package root:
+#: every module with ``@njit`` code and the modules whose helpers and constants those
+#: inline (``tests/test_packaging.py`` checks that no kernel module is missing).
+KERNEL_SOURCES = ("rtl_model", "tools/studies/bench.py")
+#: Cache directories kept beside the current one (the most recently used).
+CACHE_KEEP = 8
+_ROOT = os.path.dirname(os.path.abspath(__file__))
+
+
+def kernel_source_key(root: str = _ROOT) -> str:
+    """A digest of the text of every ``.py`` file of :data:`KERNEL_SOURCES` under ``root``.
+
+    numba keys a cached kernel by its own file's time stamp only, so a kernel that
+    inlines a helper from another module (every fused kernel inlines the casts of
+    ``rtl_model/fixedpoint.py``) would keep running the old helper after it changed; a
+    cache directory per digest of all kernel sources cannot be stale."""
+    digest = hashlib.blake2b(digest_size=8)
+    for source in KERNEL_SOURCES:
+        path = os.path.join(root, source)
+        files = [path] if os.path.isfile(path) else sorted(
+            os.path.join(d, f) for d, _, names in os.walk(path) for f in names
+            if f.endswith(".py"))  # fmt: skip
+        for name in sorted(files):
+            digest.update(os.path.relpath(name, root).encode() + b"\0")
+            with open(name, "rb") as fh:
+                digest.update(fh.read())
+    return digest.hexdigest()
 
 
 def numba_cache_dir() -> str | None:
-    """The per-user directory for numba's cache, created if needed; None if unusable."""
+    """The per-user directory for numba's cache (``.../rangefx/numba/src-<key>``, see
+    :func:`kernel_source_key`), created if needed, the least recently used beyond
+    :data:`CACHE_KEEP` of its siblings removed; None if unusable."""
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    path = os.path.join(base, "rangefx", "numba")
+    parent = os.path.join(base, "rangefx", "numba")
+    path = os.path.join(parent, "src-" + kernel_source_key())
     try:
+        new = not os.path.isdir(path)
         os.makedirs(path, exist_ok=True)
+        os.utime(path)  # marks it used, for the pruning below
+        if new:
+            _prune(parent, keep=path)
     except OSError:
         return None
     return path if os.access(path, os.W_OK) else None
+
+
+def _prune(parent: str, keep: str) -> None:
+    """Remove the least recently used ``src-*`` cache directories (rangefx's own) beyond
+    :data:`CACHE_KEEP`; best effort (another process may be using or removing one)."""
+    dirs = [os.path.join(parent, d) for d in os.listdir(parent) if d.startswith("src-")]
+    dirs = [d for d in dirs if d != keep and os.path.isdir(d)]
+    dirs.sort(key=lambda d: os.stat(d).st_mtime, reverse=True)
+    for old in dirs[CACHE_KEEP:]:
+        shutil.rmtree(old, ignore_errors=True)
 
 
 if "NUMBA_CACHE_DIR" not in os.environ:

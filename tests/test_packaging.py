@@ -5,11 +5,13 @@ shadow a later (editable) install, and a read-only install works."""
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import rangefx
+from rangefx import CACHE_KEEP, KERNEL_SOURCES, kernel_source_key
 
 PROBE = """
 import sys
@@ -45,12 +47,70 @@ def test_rangefx_is_a_regular_package():
     assert rangefx.__spec__.origin == rangefx.__file__  # not a namespace package
 
 
-def test_numba_cache_goes_to_the_user_cache_not_beside_the_sources(tmp_path):
+def _user_env(tmp_path: Path) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     env["XDG_CACHE_HOME"] = str(tmp_path / "cache")
-    assert _probe(tmp_path, env) == str(tmp_path / "cache" / "rangefx" / "numba")
-    assert list((tmp_path / "cache" / "rangefx" / "numba").rglob("probe_kernel.twice-*.nbi"))
+    return env
+
+
+def test_numba_cache_goes_to_the_user_cache_not_beside_the_sources(tmp_path):
+    parent = tmp_path / "cache" / "rangefx" / "numba"
+    assert _probe(tmp_path, _user_env(tmp_path)) == str(parent / f"src-{kernel_source_key()}")
+    assert list(parent.rglob("probe_kernel.twice-*.nbi"))
     assert not list((tmp_path / "src").rglob("*.nbi"))  # nothing beside the sources
+
+
+def _copy_kernel_sources(dst: Path) -> None:
+    root = Path(rangefx.__file__).parent
+    for source in KERNEL_SOURCES:
+        path = root / source
+        files = [path] if path.is_file() else sorted(path.rglob("*.py"))
+        for f in files:
+            (dst / f.relative_to(root)).parent.mkdir(parents=True, exist_ok=True)
+            (dst / f.relative_to(root)).write_bytes(f.read_bytes())
+
+
+def test_the_cache_key_changes_with_any_kernel_source_and_only_with_them(tmp_path):
+    """numba keys a cached kernel by its own file only: a fused kernel that inlines a cast
+    helper from fixedpoint.py kept running the old cast after it changed (seen in issue
+    18). The cache directory's key covers every kernel source, so an edit of the helper
+    alone gives a fresh directory."""
+    _copy_kernel_sources(tmp_path)
+    key = kernel_source_key(str(tmp_path))
+    assert key == kernel_source_key()  # the same texts, wherever they are
+    helper = tmp_path / "rtl_model" / "fixedpoint.py"
+    helper.write_text(helper.read_text() + "\n# an edit of an inlined helper\n")
+    assert kernel_source_key(str(tmp_path)) != key
+    (tmp_path / "README.md").write_text("not a kernel source")
+    edited = kernel_source_key(str(tmp_path))
+    (tmp_path / "README.md").write_text("still not a kernel source")
+    assert kernel_source_key(str(tmp_path)) == edited
+
+
+def test_every_module_with_numba_kernels_is_a_kernel_source():
+    root = Path(rangefx.__file__).parent
+    covered = {f for s in KERNEL_SOURCES for f in ([root / s] if (root / s).is_file()
+               else (root / s).rglob("*.py"))}  # fmt: skip
+    kernels = {
+        f for f in root.rglob("*.py")
+        if "tests" not in f.relative_to(root).parts and re.search(r"^@njit", f.read_text(), re.M)
+    }  # fmt: skip
+    assert kernels, "no kernel module found: the check would pass vacuously"
+    assert kernels <= covered, sorted(str(f.relative_to(root)) for f in kernels - covered)
+
+
+def test_old_cache_directories_beyond_the_kept_ones_are_removed(tmp_path):
+    parent = tmp_path / "cache" / "rangefx" / "numba"
+    old = [parent / f"src-{k:016x}" for k in range(CACHE_KEEP + 3)]
+    for age, d in enumerate(old):  # old[0] the most recently used
+        d.mkdir(parents=True)
+        (d / "kernel.nbi").write_text("x")
+        os.utime(d, (1e9 - age * 1000, 1e9 - age * 1000))
+    other = parent / "not-ours"
+    other.mkdir()
+    _probe(tmp_path, _user_env(tmp_path))
+    assert [d.exists() for d in old] == [True] * CACHE_KEEP + [False] * 3
+    assert other.exists()  # only rangefx's own src-* directories are pruned
 
 
 def test_an_explicit_numba_cache_dir_is_respected(tmp_path):
