@@ -19,8 +19,9 @@ from rangefx.rtl_model.config import TimingConfig, integer_bits_needed, propose_
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
+from rangefx.rtl_model.p1.model import divide_row_lanes
 from rangefx.rtl_model.registry import PIPELINES
-from rangefx.rtl_model.runtime import DIV_RECIPROCAL
+from rangefx.rtl_model.runtime import DIV_RECIPROCAL, divider_setup, format_table
 from rangefx.rtl_model.stream import make_stream, pixel_cycles
 from rangefx.tools.cli import main
 from rangefx.tools.studies import bench
@@ -299,6 +300,37 @@ def test_bench_calibration_loops_compute_what_they_claim():
     assert bench.minmax_loop(raw, out, 1)[:2] == (raw.min(), raw.max())
 
 
+def test_bench_datapath_unit_loops_compute_what_they_claim():
+    """``plan_cast_loop`` sums six real casts (each against ``cast_array`` of its format,
+    overflows counted) and ``divide_row_loop`` is P1's lane divider."""
+    raw = np.random.default_rng(5).integers(-(2**26), 2**26, 64)
+    raw[:3] = [2**40, -(2**40), 0]  # out of every format: saturated or wrapped
+    out = np.empty_like(raw)
+    _, _, count = bench.plan_cast_loop(raw, out, 1)
+    plans = [(2, 12, Quant.RND, Overflow.SAT), (4, 16, Quant.RND, Overflow.SAT),
+             (6, 20, Quant.RND_CONV, Overflow.SAT), (8, 24, Quant.TRN, Overflow.WRAP),
+             (10, 16, Quant.RND, Overflow.SAT), (12, 12, Quant.RND, Overflow.SAT)]  # fmt: skip
+    want, overflows = np.zeros_like(raw), 0
+    for shift, word, quant, overflow in plans:
+        values, n = cast_array(raw, shift, FixedFormat(True, word, 0, quant, overflow))
+        want, overflows = want + values, overflows + n
+    assert bench.PLAN_CASTS == len(plans)
+    assert out.tolist() == want.tolist() and count == overflows > 0
+
+    config = P1Config.default()
+    fm, (_, lut) = format_table(config), divider_setup(config)
+    num, den = raw // 4, np.arange(-32, 32) * 37
+    q = P1_SIGNALS.index("div_quot")
+    dst, ov = np.zeros((fm.shape[0], 2)), np.zeros(fm.shape[0], dtype=np.int64)
+    dst2, ov2 = dst.copy(), ov.copy()
+    out2, flags, flags2 = np.empty_like(raw), np.empty(64, np.bool_), np.empty(64, np.bool_)
+    bench.divide_row_loop(num, 20, den, 11, q, lut, config.recip_bits, fm, dst, ov, out, flags, 3)
+    divide_row_lanes(num, 20, den, 11, q, lut, config.recip_bits, fm, dst2, ov2, out2, flags2,
+                     False)  # fmt: skip
+    assert out.tolist() == out2.tolist() and flags.tolist() == flags2.tolist()
+    assert ov[q] == 3 * ov2[q] and flags[den == 0].all()
+
+
 @pytest.mark.parametrize("pole_raw", [128, 450])
 def test_calibration_kernel_is_the_bit_exact_row_column_filter(pole_raw):
     """``calib_rowcol``: the first-order row then column filter in s18.8, RND + SAT after
@@ -340,7 +372,8 @@ def test_bench_reports_the_cost_breakdown():
                 "p2_stereo_taps_over_calib", "calib_rowcol_2threads_mpix_s",
                 "calib_two_thread_scaling", "p1_stereo_paper_two_thread_scaling",
                 "p2_stereo_two_thread_scaling", "calib_simd_gelem_s",
-                "calib_simd_2threads_gelem_s", "calib_simd_two_thread_scaling"):  # fmt: skip
+                "calib_simd_2threads_gelem_s", "calib_simd_two_thread_scaling",
+                "cast_by_plan_ns", "divide_row_lanes_ns"):  # fmt: skip
         assert figures[key] > 0, key
     # the scaling figures are the ratios of the figures they name
     assert figures["p2_stereo_two_thread_scaling"] == pytest.approx(

@@ -21,10 +21,19 @@ from numba import njit
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.rtl_model.config import WordLengthConfig
-from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
+from rangefx.rtl_model.fixedpoint import (
+    FixedFormat,
+    Overflow,
+    Quant,
+    cast_array,
+    cast_by_plan,
+    cast_plan,
+)
+from rangefx.rtl_model.p1 import P1_SIGNALS, P1Config
+from rangefx.rtl_model.p1.model import divide_row_lanes
 from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
-from rangefx.rtl_model.runtime import model_pool
+from rangefx.rtl_model.runtime import divider_setup, format_table, model_pool
 
 from .cases import scene_case
 
@@ -34,9 +43,11 @@ __all__ = [
     "cold_run",
     "constant_cast_loop",
     "cpu_description",
+    "divide_row_loop",
     "median_time",
     "minmax_loop",
     "over_calib",
+    "plan_cast_loop",
     "thread_scaling",
 ]
 
@@ -129,6 +140,9 @@ def bench_figures(
     out["cast_ns"], out["cast_overflowing_row_ns"] = _cast_ns()
     out["log_floor_ns"] = _floor_ns(minmax_loop)
     out["constant_cast_floor_ns"] = _floor_ns(constant_cast_loop)
+    # the unit costs of the fused kernels' datapath (docs/performance.md: its floor)
+    out["cast_by_plan_ns"] = _floor_ns(plan_cast_loop) / PLAN_CASTS
+    out["divide_row_lanes_ns"] = _divide_row_ns()
     code = (
         "import time; t=time.perf_counter(); import numpy as np;"
         "from rangefx.tools.studies.bench import cold_run; cold_run();"
@@ -321,6 +335,68 @@ def _floor_ns(loop, size: int = 512, reps: int = 4000, repeats: int = 7) -> floa
     for _ in range(repeats):
         t = time.thread_time()
         loop(raw, out, reps)
+        times.append(time.thread_time() - t)
+    return min(times) / (size * reps) * 1e9
+
+
+#: Casts per element of :func:`plan_cast_loop`.
+PLAN_CASTS = 6
+
+
+@njit(cache=True, nogil=True)
+def plan_cast_loop(raw, out, reps):
+    """:data:`PLAN_CASTS` independent casts of each element by run-time cast plans
+    (``cast_by_plan``, as the fused kernels cast: right shifts of 2..12 bits into 12- to
+    24-bit words, RND / RND_CONV / TRN, SAT / WRAP), their sum stored and their overflows
+    counted, ``reps`` times: the unit cost of one cast in the models' SIMD loops (the
+    ``cast_ns`` row cast logs and decides overflow on the row's extremes instead)."""
+    p0, p1 = cast_plan(2, 12, True, 2, 1), cast_plan(4, 16, True, 2, 1)
+    p2, p3 = cast_plan(6, 20, True, 6, 1), cast_plan(8, 24, True, 0, 0)
+    p4, p5 = cast_plan(10, 16, True, 2, 1), cast_plan(12, 12, True, 2, 1)
+    count = 0
+    for _ in range(reps):
+        for i in range(raw.shape[0]):
+            r = raw[i]
+            v0, f0 = cast_by_plan(r, p0)
+            v1, f1 = cast_by_plan(r, p1)
+            v2, f2 = cast_by_plan(r, p2)
+            v3, f3 = cast_by_plan(r, p3)
+            v4, f4 = cast_by_plan(r, p4)
+            v5, f5 = cast_by_plan(r, p5)
+            out[i] = v0 + v1 + v2 + v3 + v4 + v5
+            count += f0 + f1 + f2 + f3 + f4 + f5
+    return out[0], out[-1], count
+
+
+@njit(cache=True, nogil=True)
+def divide_row_loop(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, reps):
+    """``reps`` calls of P1's ``divide_row_lanes`` (log off) on one row."""
+    for _ in range(reps):
+        divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, False)
+    return out[0]
+
+
+def _divide_row_ns(size: int = 512, reps: int = 2000, repeats: int = 7) -> float:
+    """CPU ns per element of ``divide_row_lanes`` (the reciprocal divider in SIMD lanes,
+    log off) on a 512-element row of P1's x-derivative ``s1 r2 / r1`` in the default
+    config's formats, random operands (min of ``repeats``)."""
+    config = P1Config.default()
+    fm = format_table(config)
+    _, lut = divider_setup(config)
+    rng = np.random.default_rng(2)
+    num = rng.integers(-(2**24), 2**24, size)
+    den = rng.integers(-(2**14), 2**14, size)
+    names = ("col_s1", "row_r1", "row_r2", "div_quot")
+    col_s1, row_r1, row_r2, quot = (P1_SIGNALS.index(k) for k in names)
+    fn, fd = int(fm[col_s1, 1] + fm[row_r2, 1]), int(fm[row_r1, 1])
+    dst, ov = np.zeros((fm.shape[0], 2)), np.zeros(fm.shape[0], dtype=np.int64)
+    out, flags = np.empty(size, dtype=np.int64), np.empty(size, dtype=np.bool_)
+    args = (num, fn, den, fd, quot, lut, config.recip_bits, fm, dst, ov, out, flags)
+    divide_row_loop(*args, 1)  # JIT warm-up
+    times = []
+    for _ in range(repeats):
+        t = time.thread_time()
+        divide_row_loop(*args, reps)
         times.append(time.thread_time() - t)
     return min(times) / (size * reps) * 1e9
 
