@@ -545,6 +545,8 @@ class FixedFormat:
         """Value of raw code(s) as float64, ``raw * 2**-F`` (exact while ``|raw| < 2**53``);
         an array's values go into ``out`` (float64, the same shape) when given."""
         if isinstance(raw, np.ndarray):
+            if raw.dtype.kind in "iu":  # one pass: a product by 2**-F is exact (|F| <= 1022)
+                return np.multiply(raw, 2.0**-self.frac, out=out, dtype=np.float64)
             if out is None:
                 out = raw.astype(np.float64)
             else:
