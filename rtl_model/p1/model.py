@@ -77,6 +77,7 @@ __all__ = [
     "run_p1",
     "signal_plan",
     "stage_latencies",
+    "untranspose_band",
 ]
 
 _I64_MAX, _I64_MIN = np.iinfo(np.int64).max, np.iinfo(np.int64).min
@@ -633,6 +634,22 @@ def log_site(st, site, lo, hi, frac_in, s):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def untranspose_band(src_t, dst, bw, n):
+    """``dst[k, i] = src_t[i, k]`` for lanes ``k < bw`` and columns ``i < n``: a band's
+    column-major lanes back to scan order, in tiles of 8 columns (a tile reads 8 lane
+    rows that stay in L1; column after column, every lane row came from L2 once per line:
+    0.63 -> 0.46 ns per element, measured on a 512 x 16 band)."""
+    n8 = n - n % 8
+    for i0 in range(0, n8, 8):
+        for k in range(bw):
+            for ii in range(8):
+                dst[k, i0 + ii] = src_t[i0 + ii, k]
+    for k in range(bw):
+        for i in range(n8, n):
+            dst[k, i] = src_t[i, k]
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _row_band(
     imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T, r2T, log, consistent,
     t_step,
@@ -840,10 +857,8 @@ def frontend_fused(
                 imgT[i, k] = img[j0 + k, i]
         _row_band(imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T, r2T, log,
                   consistent, t_step)  # fmt: skip
-        for k in range(bw):
-            for i in range(n):
-                r1[k, i] = r1T[i, k]
-                r2[k, i] = r2T[i, k]
+        untranspose_band(r1T, r1, bw, n)
+        untranspose_band(r2T, r2, bw, n)
         for k in range(bw):
             j = j0 + k
             if j == 0 and init_first:
