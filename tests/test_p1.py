@@ -19,7 +19,7 @@ from rangefx.rtl_model.config import TimingConfig, integer_bits_needed, propose_
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
-from rangefx.rtl_model.p1.model import divide_row_lanes
+from rangefx.rtl_model.p1.model import divide_row_lanes, untranspose_band
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.rtl_model.runtime import DIV_RECIPROCAL, divider_setup, format_table
 from rangefx.rtl_model.stream import make_stream, pixel_cycles
@@ -298,6 +298,16 @@ def test_bench_calibration_loops_compute_what_they_claim():
     assert out.tolist() == expected.tolist() and count == overflows == 2
     assert (lo, hi) == (raw.min(), raw.max())
     assert bench.minmax_loop(raw, out, 1)[:2] == (raw.min(), raw.max())
+
+
+@pytest.mark.parametrize("n", [1, 8, 13, 24])
+def test_untranspose_band_is_the_transpose_of_the_band(n):
+    """The tiled copy back to scan order, with and without a partial tile, for a short
+    band (lanes beyond ``bw`` left untouched)."""
+    src_t = np.arange(n * 16, dtype=np.int64).reshape(n, 16)
+    dst = np.full((16, n), -1, dtype=np.int64)
+    untranspose_band(src_t, dst, 5, n)
+    assert dst[:5].tolist() == src_t[:, :5].T.tolist() and (dst[5:] == -1).all()
 
 
 def test_bench_datapath_unit_loops_compute_what_they_claim():

@@ -330,11 +330,17 @@ def _floor_ns(loop, size: int = 512, reps: int = 4000, repeats: int = 7) -> floa
     min/max), to set beside ``cast_ns``."""
     raw = np.random.default_rng(1).integers(-(2**22), 2**22, size)
     out = np.empty_like(raw)
-    loop(raw, out, 1)
+    return _min_ns_per_element(lambda r: loop(raw, out, r), size, reps, repeats)
+
+
+def _min_ns_per_element(run: Callable[[int], Any], size: int, reps: int, repeats: int) -> float:
+    """CPU ns per element of ``run(reps)``, a jitted loop of ``reps`` passes over ``size``
+    elements (after one warm-up pass; min of ``repeats``)."""
+    run(1)
     times = []
     for _ in range(repeats):
         t = time.thread_time()
-        loop(raw, out, reps)
+        run(reps)
         times.append(time.thread_time() - t)
     return min(times) / (size * reps) * 1e9
 
@@ -392,13 +398,7 @@ def _divide_row_ns(size: int = 512, reps: int = 2000, repeats: int = 7) -> float
     dst, ov = np.zeros((fm.shape[0], 2)), np.zeros(fm.shape[0], dtype=np.int64)
     out, flags = np.empty(size, dtype=np.int64), np.empty(size, dtype=np.bool_)
     args = (num, fn, den, fd, quot, lut, config.recip_bits, fm, dst, ov, out, flags)
-    divide_row_loop(*args, 1)  # JIT warm-up
-    times = []
-    for _ in range(repeats):
-        t = time.thread_time()
-        divide_row_loop(*args, reps)
-        times.append(time.thread_time() - t)
-    return min(times) / (size * reps) * 1e9
+    return _min_ns_per_element(lambda r: divide_row_loop(*args, r), size, reps, repeats)
 
 
 def cold_run() -> None:
