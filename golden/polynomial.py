@@ -377,8 +377,9 @@ def _polish(c: np.ndarray, roots: np.ndarray, steps: int = 8) -> np.ndarray:
             step = np.where(dp != 0, p / np.where(dp != 0, dp, 1.0), 0.0)
         cand = x - step
         pc = np.zeros_like(x)
-        for k in range(c.shape[1] - 1, -1, -1):
-            pc = pc * cand + c[:, k : k + 1]
+        with np.errstate(over="ignore", invalid="ignore"):  # a wild step: rejected below
+            for k in range(c.shape[1] - 1, -1, -1):
+                pc = pc * cand + c[:, k : k + 1]
         better = np.isfinite(cand) & (np.abs(pc) < np.abs(p))
         if not better.any():
             break
