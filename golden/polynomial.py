@@ -366,24 +366,20 @@ def _polish(c: np.ndarray, roots: np.ndarray, steps: int = 8) -> np.ndarray:
     78 x^3 + x^4/256``: a root near -0.0369 came out 17 % off and took 4 steps, two left
     a residual of 6e-6); near a multiple root, where Newton may step away, the guard keeps
     the formula's root."""
+    coeffs = [c[:, k : k + 1] for k in range(c.shape[1])]
     x = roots.copy()
+    p, dp = _poly(coeffs, x)
     for _ in range(steps):
-        p = np.zeros_like(x)
-        dp = np.zeros_like(x)
-        for k in range(c.shape[1] - 1, -1, -1):  # Horner for P and P'
-            dp = dp * x + p
-            p = p * x + c[:, k : k + 1]
         with np.errstate(divide="ignore", invalid="ignore"):
             step = np.where(dp != 0, p / np.where(dp != 0, dp, 1.0), 0.0)
         cand = x - step
-        pc = np.zeros_like(x)
         with np.errstate(over="ignore", invalid="ignore"):  # a wild step: rejected below
-            for k in range(c.shape[1] - 1, -1, -1):
-                pc = pc * cand + c[:, k : k + 1]
+            pc, dpc = _poly(coeffs, cand)
         better = np.isfinite(cand) & (np.abs(pc) < np.abs(p))
         if not better.any():
             break
-        x = np.where(better, cand, x)
+        # P and P' at the kept points carry over to the next step (no second evaluation)
+        x, p, dp = np.where(better, cand, x), np.where(better, pc, p), np.where(better, dpc, dp)
     return x
 
 
