@@ -9,7 +9,9 @@ The repository's top-level folders install as this package's subpackages:
 Numba's on-disk cache of the ``cache=True`` kernels goes to a per-user cache directory
 (``$XDG_CACHE_HOME/rangefx/numba``, else ``~/.cache/rangefx/numba``; one subdirectory per
 digest of the kernels' sources, see :func:`kernel_source_key`) unless ``NUMBA_CACHE_DIR``
-is set. Beside the sources (numba's default) it would survive a ``pip uninstall`` as a
+is set, and under it by each module's place in the package, not on the disk
+(``numba_cache.py``: the two installs of the README's two commands share one compile).
+Beside the sources (numba's default) it would survive a ``pip uninstall`` as a
 stale ``site-packages/rangefx`` directory that shadows a later editable install, and it
 cannot be written in a read-only installation. This must run before numba is first
 imported, which importing any ``rangefx`` subpackage ensures.
@@ -21,7 +23,7 @@ import hashlib
 import os
 import shutil
 
-__all__ = ["KERNEL_SOURCES", "kernel_source_key", "numba_cache_dir"]
+__all__ = ["KERNEL_SOURCES", "NUMBA_LOCATORS", "kernel_source_key", "numba_cache_dir"]
 
 #: The sources numba's cached kernels are compiled from, relative to the package root:
 #: every module with ``@njit`` code and the modules whose helpers and constants those
@@ -30,12 +32,26 @@ KERNEL_SOURCES = ("rtl_model", "tools/studies/bench.py")
 #: Cache directories kept beside the current one (the most recently used).
 CACHE_KEEP = 8
 _ROOT = os.path.dirname(os.path.abspath(__file__))
+#: ``NUMBA_CACHE_LOCATOR_CLASSES``: rangefx's package-relative locator first (one cache
+#: entry per kernel source text, wherever the package is installed: see
+#: ``rangefx/numba_cache.py``), then numba's own locators in numba's order.
+NUMBA_LOCATORS = ",".join(
+    [
+        "rangefx.numba_cache.PackageCacheLocator",
+        "UserProvidedCacheLocator",
+        "InTreeCacheLocator",
+        "UserWideCacheLocator",
+        "IPythonCacheLocator",
+        "ZipCacheLocator",
+    ]
+)
 
 
 def kernel_source_key(root: str = _ROOT) -> str:
     """A digest of the text of every ``.py`` file of :data:`KERNEL_SOURCES` under ``root``.
 
-    numba keys a cached kernel by its own file's time stamp only, so a kernel that
+    numba (and :class:`rangefx.numba_cache.PackageCacheLocator`) stamps a cached kernel
+    with its own file only, so a kernel that
     inlines a helper from another module (every fused kernel inlines the casts of
     ``rtl_model/fixedpoint.py``) would keep running the old helper after it changed; a
     cache directory per digest of all kernel sources cannot be stale."""
@@ -84,3 +100,5 @@ if "NUMBA_CACHE_DIR" not in os.environ:
     _cache = numba_cache_dir()
     if _cache is not None:  # otherwise numba's own default (beside the sources)
         os.environ["NUMBA_CACHE_DIR"] = _cache
+# a user's own choice of locators is kept (rangefx's kernels then cache as numba places them)
+os.environ.setdefault("NUMBA_CACHE_LOCATOR_CLASSES", NUMBA_LOCATORS)

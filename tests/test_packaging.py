@@ -4,6 +4,7 @@ shadow a later (editable) install, and a read-only install works."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -12,6 +13,7 @@ from pathlib import Path
 
 import rangefx
 from rangefx import CACHE_KEEP, KERNEL_SOURCES, kernel_source_key
+from rangefx.numba_cache import package_subpath
 
 PROBE = """
 import sys
@@ -122,3 +124,67 @@ def test_old_cache_directories_beyond_the_kept_ones_are_removed(tmp_path):
 def test_an_explicit_numba_cache_dir_is_respected(tmp_path):
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "mine")}
     assert _probe(tmp_path, env) == str(tmp_path / "mine")
+
+
+def test_package_subpath_names_the_module_directory_inside_the_package_only(tmp_path):
+    root = tmp_path / "rangefx"
+    assert package_subpath(str(root / "fixedpoint.py"), str(root)) == "pkg"
+    assert package_subpath(str(root / "rtl_model" / "p1" / "model.py"), str(root)) == (
+        "pkg-rtl_model-p1"
+    )
+    assert package_subpath(str(tmp_path / "elsewhere.py"), str(root)) is None
+    assert package_subpath(str(tmp_path / "rangefx2" / "m.py"), str(root)) is None
+
+
+SHARED = """
+import json, sys
+import numpy as np
+import rangefx
+from rangefx.rtl_model import fixedpoint
+fixedpoint.quantise_shift(np.int64(77), np.int64(3), np.int64(2))
+s = fixedpoint.quantise_shift.stats
+print(json.dumps([rangefx.__file__, sum(s.cache_hits.values()), sum(s.cache_misses.values())]))
+"""
+
+
+def _copy_package(dst: Path) -> Path:
+    """The package's modules (and nothing else) under ``dst/rangefx``, as an install
+    would put them."""
+    root = Path(rangefx.__file__).parent
+    for f in _package_modules(root):
+        (dst / "rangefx" / f.relative_to(root)).parent.mkdir(parents=True, exist_ok=True)
+        (dst / "rangefx" / f.relative_to(root)).write_bytes(f.read_bytes())
+    return dst / "rangefx"
+
+
+def _shared_run(site: Path, cache: Path, **env: str) -> tuple[str, int, int]:
+    run = subprocess.run(
+        [sys.executable, "-c", SHARED],
+        env={**os.environ, "PYTHONPATH": str(site), "NUMBA_CACHE_DIR": str(cache), **env},
+        capture_output=True, text=True, check=True, cwd=site,
+    )  # fmt: skip
+    return tuple(json.loads(run.stdout.splitlines()[-1]))
+
+
+def test_two_installs_of_the_same_sources_share_one_compiled_kernel(tmp_path):
+    """The README's two commands install the package twice (site-packages, then an
+    editable install): numba's own locators key the cache by the source's directory and
+    compiled every kernel twice; rangefx's locator keys it by the place in the package
+    and the source text, so the second install loads what the first compiled, and an
+    edited text compiles afresh."""
+    first, second = _copy_package(tmp_path / "a"), _copy_package(tmp_path / "b")
+    cache = tmp_path / "cache"
+    path, hits, misses = _shared_run(tmp_path / "a", cache)
+    assert Path(path).parent == first and misses == 1
+    path, hits, misses = _shared_run(tmp_path / "b", cache)
+    assert Path(path).parent == second and (hits, misses) == (1, 0)
+    # numba's own locator alone (what older numba does): the second install compiles
+    other = tmp_path / "numba-default"
+    _shared_run(tmp_path / "a", other, NUMBA_CACHE_LOCATOR_CLASSES="UserProvidedCacheLocator")
+    assert _shared_run(
+        tmp_path / "b", other, NUMBA_CACHE_LOCATOR_CLASSES="UserProvidedCacheLocator"
+    )[1:] == (0, 1)
+    # an edit of the kernel's own file is a new text: compiled, not loaded
+    source = second / "rtl_model" / "fixedpoint.py"
+    source.write_text(source.read_text() + "\n# edited\n")
+    assert _shared_run(tmp_path / "b", cache)[1:] == (0, 1)
