@@ -92,7 +92,7 @@ _SIGNED_MAGNITUDE = st.builds(
 @given(st.lists(_SIGNED_MAGNITUDE, min_size=4, max_size=5))
 # a cubic with roots near 7.2e-4 beside 8.5e6 and a quartic with roots near 2 beside
 # -3.5e7: the formulas and their polish returned roots with a relative backward error
-# of 1.0 (0.6 % of such cubics' roots, 2.5 % of quartics'); such rows now go to np.roots
+# of 1.0 (0.4 % of such cubics' roots, 2.5 % of quartics'); such rows now go to np.roots
 @example(
     coeffs=[-3.7572825886734833, -4.1561457343661663e-4, -6566.841054675485, 7.690068907966382e-4]
 )
