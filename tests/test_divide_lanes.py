@@ -45,7 +45,7 @@ def _draws(seed: int):
         # operand bits the divider's exact intermediates allow (as the configs check them)
         sh = frac + 1 + fd - fn
         n_bits = int(rng.integers(1, 20))
-        d_bits = int(rng.integers(1, 40))
+        d_bits = int(rng.integers(1, 62))  # past 2**52: both forms of the normalisation
         if kind == DIV_RESTORING:
             n_bits = min(n_bits, 61 - max(sh, 0))
             d_bits = min(d_bits, 61 - max(-sh, 0))

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
+from numba import njit
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
@@ -19,7 +20,7 @@ from rangefx.rtl_model.config import TimingConfig, integer_bits_needed, propose_
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
-from rangefx.rtl_model.p1.model import divide_row_lanes, untranspose_band
+from rangefx.rtl_model.p1.model import divide_row_lanes, floor_log2_lanes, untranspose_band
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.rtl_model.runtime import DIV_RECIPROCAL, divider_setup, format_table
 from rangefx.rtl_model.stream import make_stream, pixel_cycles
@@ -406,6 +407,28 @@ def test_simd_calibration_loop_computes_its_update():
 # -- the divider in SIMD lanes ----------------------------------------------------------
 
 
+@njit
+def _floor_log2_loop(x):
+    out = np.empty_like(x)
+    for i in range(x.shape[0]):  # the loop form the dividers use (vectorised)
+        out[i] = floor_log2_lanes(x[i])
+    return out
+
+
+def test_floor_log2_lanes_is_the_bit_length_minus_one_up_to_2_63():
+    """Every power of two, its neighbours and random values from 1 to 2**63 - 1 (both
+    sides of the 2**52 switch): the float-exponent form equals ``int.bit_length() - 1``."""
+    edges = {1, 2**63 - 1}
+    for k in range(63):
+        edges |= {2**k - 1, 2**k, 2**k + 1, 2**k + 2 ** max(k - 1, 0)}
+    rng = np.random.default_rng(5)
+    x = np.array(sorted(v for v in edges if 1 <= v < 2**63), dtype=np.int64)
+    x = np.concatenate([x, rng.integers(1, 2**63 - 1, 4000) >> rng.integers(0, 63, 4000)])
+    x = np.maximum(x, 1)
+    want = np.array([int(v).bit_length() - 1 for v in x])
+    np.testing.assert_array_equal(_floor_log2_loop(x), want)
+
+
 @pytest.mark.parametrize("overflow", list(Overflow), ids=lambda m: m.name)
 @pytest.mark.parametrize("quant", [Quant.TRN, Quant.RND, Quant.RND_CONV, Quant.TRN_ZERO],
                          ids=lambda m: m.name)  # fmt: skip
@@ -416,9 +439,9 @@ def test_simd_calibration_loop_computes_its_update():
     signed=st.booleans(),
     fn=st.integers(0, 30),
     fd=st.integers(0, 30),
-    d_word=st.integers(1, 40),
+    d_word=st.integers(1, 62),
     lut_bits=st.integers(2, 10),
-    r_bits=st.integers(8, 24),
+    r_bits=st.integers(8, 28),
     seed=st.integers(0, 2**32 - 1),
 )
 def test_divide_row_lanes_equals_the_scalar_divider(

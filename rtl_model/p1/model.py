@@ -149,6 +149,14 @@ RANGE_TAPS = (
 # kernels: raw int64 arithmetic only. The cast and divider helpers are public: P2's
 # kernel calls them too (they stay in this module: see rangefx.rtl_model.runtime).
 # --------------------------------------------------------------------------------------
+_TWO52_BITS = np.int64(0x4330000000000000)  # the float64 2.0**52, as its bits
+# the reciprocal divider's Newton operands (seed, normalised denominator, 2 - m y0, y1)
+# are below 2**(R + 1) <= 2**29 (recip_bits <= 28): masked to 32 bits, which changes no
+# value, so that LLVM multiplies them with the 32 x 32 -> 64-bit vpmuludq instead of
+# emulating a 64-bit lane product on AVX2 (three vpmuludq and shifts)
+_LOW32 = np.int64(0xFFFFFFFF)
+
+
 @njit(cache=True, nogil=True, inline="always")
 def cast_site(raw, frac_in, s, site, fm, st, ov):
     """Cast ``raw * 2**-frac_in`` into signal ``s``; log the raw pre-quantisation value.
@@ -180,6 +188,19 @@ def at_frac(raw, frac, target):
 def bit_length(x):
     """Bit length of ``x > 0`` (a leading-zero count, as in hardware)."""
     return np.int64(64 - leading_zeros(np.uint64(x)))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def floor_log2_lanes(x):
+    """``bit_length(x) - 1`` for ``1 <= x < 2**63`` by integer operations SIMD lanes have on
+    every x86: ``x`` (shifted right by 26 bits when ``x >= 2**52``) is put in the mantissa
+    of the float ``2**52``, which minus ``2**52`` is ``x`` as an exact float; its exponent
+    field is the answer. AVX2 has no 64-bit leading-zero count; against LLVM's emulation
+    of one, ``divide_row_lanes`` measured 16.2 -> 15.0 ns per element with this alone and
+    -> 11.9-12.5 with the 32-bit Newton operands too (Zen 1, one row of 512)."""
+    s = np.int64(26) if x >= np.int64(1) << 52 else np.int64(0)
+    f = viewer((x >> s) | _TWO52_BITS, types.float64) - 4503599627370496.0
+    return (viewer(f, types.int64) >> 52) - 1023 + s
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -318,16 +339,17 @@ def divide_lanes(
                 ds = one if dz else d
                 negative = -np.int64((n < 0) != (ds < 0))
                 ad = abs(ds)
-                p = bit_length(ad) - 1
+                p = floor_log2_lanes(ad)
                 idx = ((ad >> max(p - lut_bits, 0)) << max(lut_bits - p, 0)) - size
                 den_i = (one << (lut_bits + 1)) + 2 * idx + 1
                 t_i = seed_num + den_i
                 y0 = np.int64(float(t_i) / float(2 * den_i))
                 y0 = y0 - np.int64(y0 * 2 * den_i > t_i)
                 y0 = y0 + np.int64((y0 + 1) * 2 * den_i <= t_i)
-                m_r = (ad >> max(p - r_bits, 0)) << max(r_bits - p, 0)
-                e = (one << (r_bits + 1)) - ((m_r * y0) >> r_bits)
-                raw = abs(n) * ((y0 * e) >> r_bits)
+                y0 = y0 & _LOW32
+                m_r = ((ad >> max(p - r_bits, 0)) << max(r_bits - p, 0)) & _LOW32
+                e = ((one << (r_bits + 1)) - ((m_r * y0) >> r_bits)) & _LOW32
+                raw = abs(n) * (((y0 * e) >> r_bits) & _LOW32)
                 sh = fn - fd + p + r_bits - frac
                 big |= np.int64(abs(sh) > 62)
                 plan = cast_plan(min(max(sh, -62), 62), word, signed, quant, ovf_mode)
@@ -417,7 +439,7 @@ def divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, 
     norm = np.empty(n, dtype=np.int64)
     for i in range(n):
         ad = max(abs(den[i]), one)
-        p = bit_length(ad) - 1
+        p = floor_log2_lanes(ad)
         seed[i] = ((ad >> max(p - lut_bits, 0)) << max(lut_bits - p, 0)) & mask
         norm[i] = p
     for i in range(n):
@@ -427,10 +449,10 @@ def divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, 
         d = den[i]
         ad = max(abs(d), one)
         p = norm[i]
-        y0 = seed[i]
-        m_r = (ad >> max(p - r_bits, 0)) << max(r_bits - p, 0)
+        y0 = seed[i] & _LOW32
+        m_r = ((ad >> max(p - r_bits, 0)) << max(r_bits - p, 0)) & _LOW32
         t = (m_r * y0) >> r_bits
-        y1 = (y0 * ((one << (r_bits + 1)) - t)) >> r_bits
+        y1 = ((y0 * (((one << (r_bits + 1)) - t) & _LOW32)) >> r_bits) & _LOW32
         negative = -np.int64((nv < 0) != (d < 0))
         raw = abs(nv) * y1
         q, flag = cast_shifted((raw ^ negative) - negative, base + p, word, signed, quant, ovf,
