@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from numba import types
+from numba import njit, types
 
 from rangefx.golden.geometry import PinholeCamera
 
@@ -46,6 +46,7 @@ __all__ = [
     "divider_latency",
     "divider_roms",
     "divider_setup",
+    "finish_band",
     "format_table",
     "model_pool",
     "reciprocal_lut",
@@ -258,6 +259,71 @@ def check_image_pair(
             f"images are {out[0].shape} but the camera is {camera.height}x{camera.width}"
         )
     return out[0], out[1]
+
+
+@njit(
+    types.UniTuple(types.int64, 2)(KERNEL_PLANE, types.float64, KERNEL_FLOAT_PLANE, KERNEL_PLANE,
+                                   KERNEL_ROW, KERNEL_PLANE, KERNEL_ROW, KERNEL_INT, KERNEL_INT),
+    cache=True, nogil=True,
+)  # fmt: skip
+def _finish_band(raw, scale, range_f, in_cycles, in_starts, out_cycles, out_starts, out_step,
+                 latency):  # fmt: skip
+    m, n = raw.shape
+    worst = np.int64(-(1 << 62))
+    last = np.int64(-(1 << 62))
+    for j in range(m):
+        for i in range(n):  # exact: a product by 2**-F (|F| <= 1022)
+            range_f[j, i] = raw[j, i] * scale
+        if in_starts.size:
+            start = in_starts[j]
+            for i in range(n):
+                in_cycles[j, i] = start + i
+        if out_starts.size:
+            start = out_starts[j]
+            for i in range(n):
+                out_cycles[j, i] = start + i * out_step
+        else:
+            for i in range(n):
+                out_cycles[j, i] = in_cycles[j, i] + latency
+        for i in range(n):
+            worst = max(worst, out_cycles[j, i] - in_cycles[j, i])
+            last = max(last, out_cycles[j, i])
+    return worst, last
+
+
+def finish_band(
+    range_raw: np.ndarray,
+    frac: int,
+    range_f: np.ndarray,
+    in_cycles: np.ndarray,
+    out_cycles: np.ndarray,
+    *,
+    in_starts: np.ndarray | None = None,
+    out_starts: np.ndarray | None = None,
+    out_step: int = 1,
+    latency: int = 0,
+) -> tuple[int, int]:
+    """A band of lines' host-side result arrays in one pass, on the thread that ran the
+    band's kernel (three NumPy passes over them took ~0.3 ms of a 256x512 band more,
+    measured): the float range map ``range_f = range_raw * 2**-frac``; with ``in_starts``
+    (each line's first input cycle, the closed form without gaps) the input cycles
+    ``in_cycles[j, i] = in_starts[j] + i``, else ``in_cycles`` is read as given; the
+    output cycles ``out_starts[j] + i * out_step`` with ``out_starts``, else
+    ``in_cycles + latency``. Returns the band's largest ``out_cycles - in_cycles`` and its
+    last output cycle (``-2**62`` for an empty band). Every array is C-contiguous, shape
+    (lines, n); ``frac`` within ±1022."""
+    if abs(frac) > 1022:
+        raise ValueError(f"frac must be within ±1022 for an exact conversion, not {frac}")
+    empty = np.empty(0, dtype=np.int64)
+    starts_in = empty if in_starts is None else np.ascontiguousarray(in_starts, dtype=np.int64)
+    starts_out = empty if out_starts is None else np.ascontiguousarray(out_starts, dtype=np.int64)
+    lines = range_raw.shape[0]
+    for name, a in (("in_starts", in_starts), ("out_starts", out_starts)):
+        if a is not None and a.shape != (lines,):
+            raise ValueError(f"{name} must have one entry per line ({lines}), not {a.shape}")
+    worst, last = _finish_band(range_raw, 2.0**-frac, range_f, in_cycles, starts_in, out_cycles,
+                               starts_out, out_step, latency)  # fmt: skip
+    return int(worst), int(last)
 
 
 _SCRATCH = threading.local()

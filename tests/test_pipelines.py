@@ -17,7 +17,7 @@ from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.pipeline import VALID_FORMAT, Case, PipelineResult
 from rangefx.rtl_model.registry import PIPELINES, get_pipeline
-from rangefx.rtl_model.runtime import reciprocal_lut
+from rangefx.rtl_model.runtime import finish_band, reciprocal_lut
 from rangefx.tools.cli import main
 from rangefx.tools.cli.vectors import crop_case
 from rangefx.tools.studies.cases import scene_case
@@ -103,6 +103,50 @@ def test_declared_cycles(name):
         assert (c >= res.in_cycles).all(), t.name  # nothing leaves before it entered
         assert (c <= res.out_cycles.max()).all(), t.name
     assert p.stage_latencies(res.config) == res.stage_latency
+
+
+@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("timing", [TimingConfig(hblank=3), TIMING], ids=["closed", "gaps"])
+def test_result_summaries_agree_with_the_result_arrays(name, threads, timing):
+    """The figures the bands compute while they fill their rows (the float range map, the
+    cycle maps, the latency, the last cycle) are those of the whole arrays, on a frame
+    whose 13 lines split unevenly between two threads' bands."""
+    case = crop_case(scene_case("lab"), [240, 253, 100, 120])
+    p = PIPELINES[name]
+    res = p.run(case, timing=timing, taps=False, threads=threads)
+    fmt = {t.name: t for t in p.tap_table(res.config, "stereo")}["range"].fmt
+    assert np.array_equal(res.range, fmt.to_float(res.range_raw))
+    assert res.total_cycles == int(res.out_cycles.max()) + 1
+    assert res.latency == int((res.out_cycles - res.in_cycles).max())
+
+
+@pytest.mark.parametrize("frac", [-3, 0, 8, 1022])
+def test_finish_band_fills_the_arrays_in_one_pass(frac):
+    """runtime.finish_band against the NumPy expressions it replaces: the closed-form input
+    cycles or given ones, output cycles from line starts or a latency."""
+    rng = np.random.default_rng(frac + 10)
+    lines, n = 5, 7
+    raw = rng.integers(-(1 << 40), 1 << 40, (lines, n))
+    in_starts = np.arange(lines, dtype=np.int64) * 11 + 3
+    out_starts = in_starts * 2 + 50
+    rf = np.empty((lines, n))
+    tin, tout = np.empty((lines, n), np.int64), np.empty((lines, n), np.int64)
+    worst, last = finish_band(raw, frac, rf, tin, tout, in_starts=in_starts,
+                              out_starts=out_starts, out_step=3)  # fmt: skip
+    assert np.array_equal(rf, raw * 2.0**-frac)
+    assert np.array_equal(tin, in_starts[:, None] + np.arange(n))
+    assert np.array_equal(tout, out_starts[:, None] + 3 * np.arange(n))
+    assert (worst, last) == (int((tout - tin).max()), int(tout.max()))
+    given = rng.integers(0, 1000, (lines, n))
+    tin2 = given.copy()
+    worst, last = finish_band(raw, frac, rf, tin2, tout, latency=17)
+    assert np.array_equal(tin2, given) and np.array_equal(tout, given + 17)
+    assert (worst, last) == (17, int(given.max()) + 17)
+    with pytest.raises(ValueError, match="one entry per line"):
+        finish_band(raw, frac, rf, tin, tout, in_starts=in_starts[:-1])
+    with pytest.raises(ValueError, match="within"):
+        finish_band(raw, 1023, rf, tin, tout)
 
 
 @pytest.mark.parametrize("name", NAMES)

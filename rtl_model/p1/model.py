@@ -43,11 +43,12 @@ from ..runtime import (
     check_threads,
     divider_latency,
     divider_setup,
+    finish_band,
     format_table,
     model_pool,
     scratch,
 )
-from ..stream import input_cycles, line_cycles
+from ..stream import input_cycles, line_starts
 from .config import P1_SIGNALS, P1Config
 
 __all__ = [
@@ -1400,6 +1401,7 @@ def run_p1(
                  else input_cycles((m, n), timing, frames)[-1])  # fmt: skip
     latency = int(sum(lat.values()))
     out_cycles = np.empty((m, n), dtype=np.int64)
+    band_ends: list[tuple[int, int]] = []  # each band's (latency, last output cycle)
     rtaps = np.zeros((len(RANGE_TAPS), m, n) if taps else (len(RANGE_TAPS), 1, 1), np.int64)
     f_ex = config.formats[config.ex_signal].frac
     # the fused range stage has no taps: with taps, the row-by-row kernel
@@ -1419,10 +1421,11 @@ def run_p1(
         cpu.append(("range", time.thread_time() - t0))
         # the band's share of the result's host-side arrays, on the same thread (run
         # serially after the kernels they took ~2 ms of a 9 ms two-thread run)
-        rfmt.to_float(out_range[j0:j1], out=range_f[j0:j1])
-        if closed_cycles:
-            line_cycles((m, n), timing, frames - 1, j0, j1, in_cycles[j0:j1])
-        np.add(in_cycles[j0:j1], latency, out=out_cycles[j0:j1])
+        if j1 > j0:
+            band_ends.append(finish_band(
+                out_range[j0:j1], rfmt.frac, range_f[j0:j1], in_cycles[j0:j1], out_cycles[j0:j1],
+                in_starts=line_starts((m, n), timing, frames - 1, j0, j1) if closed_cycles
+                else None, latency=latency))  # fmt: skip
         return stats
 
     if threads == 2:
@@ -1462,7 +1465,7 @@ def run_p1(
         line_buffer_bits=buffers["line_buffer_bits"],
         frame_store_bits=buffers["frame_store_bits"],
         sweep_buffer_bits=0,
-        total_cycles=int(out_cycles.max()) + 1,
+        total_cycles=max(last for _, last in band_ends) + 1,
         registers=regs.values,
         saturated_registers=regs.saturated,
         register_codes=regs.codes,

@@ -36,7 +36,7 @@ from ..p1.model import cast_site as _cast
 from ..p1.model import divide_into as _divide_into
 from ..p1.model import divide_lanes, log_site, signal_plan
 from ..pipeline import PipelineResult
-from ..stream import input_cycles, line_cycles, line_starts
+from ..stream import input_cycles, line_starts
 from .config import P2_SIGNALS, P2Config, loop_latency
 
 __all__ = [
@@ -45,6 +45,7 @@ __all__ = [
     "P2Registers",
     "buffer_bits",
     "group_starts",
+    "output_line_starts",
     "p2_registers",
     "p2_schedule",
     "run_p2",
@@ -555,16 +556,24 @@ def schedule_rows(
     pixel's output cycle into ``out`` (shape (j1 - j0, n)), each line's sweep and forward
     start into the optional ``sweep_start`` / ``forward_start`` (length j1 - j0); a model
     fills its result's rows band by band."""
-    lanes, pf = info["lanes"], info["forward_period"]
+    kk_pf = np.arange(out.shape[1], dtype=np.int64) * info["forward_period"]
+    np.add(output_line_starts(starts, info, j0, j1)[:, None], kk_pf, out=out)
+    lanes = info["lanes"]
     lines = np.arange(j0, j1, dtype=np.int64)
     group, lane = lines // lanes, lines % lanes
-    kk_pf = np.arange(out.shape[1], dtype=np.int64) * pf
-    forward = starts[group, 1] + lane
-    np.add((forward + OUT_LATENCY)[:, None], kk_pf, out=out)
     if sweep_start is not None:
         sweep_start[:] = starts[group, 0] + lane
     if forward_start is not None:
-        forward_start[:] = forward
+        forward_start[:] = starts[group, 1] + lane
+
+
+def output_line_starts(starts: np.ndarray, info: dict[str, int], j0: int, j1: int) -> np.ndarray:
+    """The output cycle of the first pixel of lines ``j0 <= j < j1`` (:func:`schedule_rows`:
+    pixel ``i`` of a line leaves ``i * info["forward_period"]`` cycles later): the line's
+    forward-pass start, its lane's offset in the group, plus the output latency."""
+    lanes = info["lanes"]
+    lines = np.arange(j0, j1, dtype=np.int64)
+    return starts[lines // lanes, 1] + lines % lanes + OUT_LATENCY
 
 
 def buffer_bits(config: P2Config, width: int) -> dict[str, int]:
@@ -629,7 +638,7 @@ def run_p2(
         in_cycles = input_cycles((m, n), timing)[-1]
         starts, sched = group_starts(in_cycles[:, 0], in_cycles[:, -1], n, config, timing.hblank)
     out_cycles = np.empty((m, n), dtype=np.int64)
-    band_latency: list[int] = []
+    band_ends: list[tuple[int, int]] = []  # each band's (latency, last output cycle)
     fm = runtime.format_table(config)
     kind, lut = runtime.divider_setup(config)
     out_range = np.empty((m, n), dtype=np.int64)
@@ -654,12 +663,12 @@ def run_p2(
             _p2_kernel(*args)
         cpu.append(time.thread_time() - t0)
         # the band's rows of the float range map and the cycle maps, on the same thread
-        zf.to_float(out_range[j0:j1], out=range_f[j0:j1])
-        if closed_cycles:
-            line_cycles((m, n), timing, 0, j0, j1, in_cycles[j0:j1])
-        schedule_rows(starts, sched, j0, j1, out_cycles[j0:j1])
         if j1 > j0:
-            band_latency.append(int((out_cycles[j0:j1] - in_cycles[j0:j1]).max()))
+            band_ends.append(runtime.finish_band(
+                out_range[j0:j1], zf.frac, range_f[j0:j1], in_cycles[j0:j1], out_cycles[j0:j1],
+                in_starts=line_starts((m, n), timing, 0, j0, j1) if closed_cycles else None,
+                out_starts=output_line_starts(starts, sched, j0, j1),
+                out_step=sched["forward_period"]))  # fmt: skip
         return stats
 
     if threads == 2 and m >= 2:
@@ -669,7 +678,7 @@ def run_p2(
     overflows, minmax = runtime.SignalStats.merge(parts, P2_SIGNALS)
     minmax = minmax if log else {}
     tap_dict = {name: tp[k] for k, name in enumerate(P2_TAPS)} if taps else {}
-    latency = max(band_latency)
+    latency = max(worst for worst, _ in band_ends)
     return PipelineResult(
         pipeline="p2",
         range=range_f,
@@ -685,7 +694,7 @@ def run_p2(
         schedule=sched,
         **buffer_bits(config, n),
         frame_store_bits=0,
-        total_cycles=int(out_cycles.max()) + 1,
+        total_cycles=max(last for _, last in band_ends) + 1,
         registers=regs.values,
         saturated_registers=regs.saturated,
         register_codes=regs.codes,
