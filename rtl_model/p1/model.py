@@ -45,6 +45,7 @@ from ..runtime import (
     divider_setup,
     finish_band,
     format_table,
+    kernel_image,
     model_pool,
     scratch,
 )
@@ -1353,7 +1354,7 @@ def run_p1(
     ranging = ranging or RangingConfig()
     timing = timing or TimingConfig()
     im1, im2 = check_image_pair(image1, image2, camera, pipeline="p1", min_shape=(2, 2),
-                                reuse=True)  # fmt: skip
+                                convert=False)  # fmt: skip
     m, n = im1.shape
     lat = stage_latencies(config)
     if n + timing.hblank <= lat["column_filter"] - 1:
@@ -1379,6 +1380,8 @@ def run_p1(
         stats = SignalStats(N_SITES, len(P1_SIGNALS))
         st, dst, ov = stats.arrays
         tp = np.zeros(shape_t, dtype=np.int64)
+        # converted on the stream's own thread; one buffer a thread: read by this call only
+        img = kernel_image(img, "p1.image")
         t0 = time.thread_time()
         args = (img, np.int64(regs.pole), np.int64(regs.bias), consistent, init_first, kind,
                 lut, config.recip_bits, fm, st, dst, ov, *outs, tp, taps)  # fmt: skip

@@ -625,7 +625,7 @@ def run_p2(
     if not isinstance(config, P2Config):
         raise ValueError(f"P2 needs a P2Config, not {type(config).__name__}")
     im1, im2 = runtime.check_image_pair(image1, image2, camera, pipeline="p2", min_shape=(1, 2),
-                                        reuse=True)  # fmt: skip
+                                        convert=False)  # fmt: skip
     m, n = im1.shape
     regs = p2_registers(camera, motion, riccati, config)
     # timing first: an impossible schedule is rejected before any work. Without input
@@ -658,7 +658,9 @@ def run_p2(
         stats = runtime.SignalStats(N_SITES, len(P2_SIGNALS))
         st, dst, ov = stats.arrays
         t0 = time.thread_time()
-        args = (im1, im2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
+        e1 = runtime.kernel_image(im1, "p2.image1", (j0, j1))  # its own lines, on its thread
+        e2 = runtime.kernel_image(im2, "p2.image2", (j0, j1))
+        args = (e1, e2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
                 out_range, out_valid, tp, taps)  # fmt: skip
         if banded:
             _p2_bands(*args, log)
