@@ -3,7 +3,9 @@
 One place for what P1, P2 and later pipelines all need around their kernels: the divider
 kinds, latencies and the reciprocal divider's seed ROM, the format table the kernels
 read, the per-signal statistics (new and merged across threads), the quantisation of
-host registers, and the checks of an input image pair. The shared numba cast and divider
+host registers, the checks of an input image pair, their conversion on the worker threads
+(:func:`kernel_image`) and the one pass that fills a band's float range map and cycle
+maps (:func:`finish_band`). The shared numba cast and divider
 kernels stay in P1's model module (:mod:`rangefx.rtl_model.p1.model`: ``cast_site``,
 ``cast_row_site``, ``divide_into``, ...), where they were written: moved here, the P1
 kernels that call them ran 25-45 % slower (measured: front end 49 -> 62-67 ns/pixel, range

@@ -657,9 +657,9 @@ def run_p2(
     def band(j0: int, j1: int):
         stats = runtime.SignalStats(N_SITES, len(P2_SIGNALS))
         st, dst, ov = stats.arrays
-        t0 = time.thread_time()
         e1 = runtime.kernel_image(im1, "p2.image1", (j0, j1))  # its own lines, on its thread
         e2 = runtime.kernel_image(im2, "p2.image2", (j0, j1))
+        t0 = time.thread_time()
         args = (e1, e2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
                 out_range, out_valid, tp, taps)  # fmt: skip
         if banded:
