@@ -302,14 +302,14 @@ def finish_band(
     latency: int = 0,
 ) -> tuple[int, int]:
     """A band of lines' host-side result arrays in one pass, on the thread that ran the
-    band's kernel (three NumPy passes over them took ~0.3 ms of a 256x512 band more,
-    measured): the float range map ``range_f = range_raw * 2**-frac``; with ``in_starts``
+    band's kernel (NumPy's three passes and a max took 0.34 ms against 0.07 for a 256x512
+    band, measured): the float range map ``range_f = range_raw * 2**-frac``; with ``in_starts``
     (each line's first input cycle, the closed form without gaps) the input cycles
     ``in_cycles[j, i] = in_starts[j] + i``, else ``in_cycles`` is read as given; the
     output cycles ``out_starts[j] + i * out_step`` with ``out_starts``, else
     ``in_cycles + latency``. Returns the band's largest ``out_cycles - in_cycles`` and its
-    last output cycle (``-2**62`` for an empty band). Every array is C-contiguous, shape
-    (lines, n); ``frac`` within ±1022."""
+    last output cycle (``-2**62`` for an empty band, below any other band's). Every array
+    is C-contiguous, shape (lines, n); ``frac`` within ±1022."""
     if abs(frac) > 1022:
         raise ValueError(f"frac must be within ±1022 for an exact conversion, not {frac}")
     empty = np.empty(0, dtype=np.int64)

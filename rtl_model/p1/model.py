@@ -1424,11 +1424,10 @@ def run_p1(
         cpu.append(("range", time.thread_time() - t0))
         # the band's share of the result's host-side arrays, on the same thread (run
         # serially after the kernels they took ~2 ms of a 9 ms two-thread run)
-        if j1 > j0:
-            band_ends.append(finish_band(
-                out_range[j0:j1], rfmt.frac, range_f[j0:j1], in_cycles[j0:j1], out_cycles[j0:j1],
-                in_starts=line_starts((m, n), timing, frames - 1, j0, j1) if closed_cycles
-                else None, latency=latency))  # fmt: skip
+        band_ends.append(finish_band(
+            out_range[j0:j1], rfmt.frac, range_f[j0:j1], in_cycles[j0:j1], out_cycles[j0:j1],
+            in_starts=line_starts((m, n), timing, frames - 1, j0, j1) if closed_cycles else None,
+            latency=latency))  # fmt: skip
         return stats
 
     if threads == 2:

@@ -668,12 +668,11 @@ def run_p2(
             _p2_kernel(*args)
         cpu.append(time.thread_time() - t0)
         # the band's rows of the float range map and the cycle maps, on the same thread
-        if j1 > j0:
-            band_ends.append(runtime.finish_band(
-                out_range[j0:j1], zf.frac, range_f[j0:j1], in_cycles[j0:j1], out_cycles[j0:j1],
-                in_starts=line_starts((m, n), timing, 0, j0, j1) if closed_cycles else None,
-                out_starts=output_line_starts(starts, sched, j0, j1),
-                out_step=sched["forward_period"]))  # fmt: skip
+        band_ends.append(runtime.finish_band(
+            out_range[j0:j1], zf.frac, range_f[j0:j1], in_cycles[j0:j1], out_cycles[j0:j1],
+            in_starts=line_starts((m, n), timing, 0, j0, j1) if closed_cycles else None,
+            out_starts=output_line_starts(starts, sched, j0, j1),
+            out_step=sched["forward_period"]))  # fmt: skip
         return stats
 
     if threads == 2 and m >= 2:
