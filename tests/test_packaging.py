@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 import rangefx
-from rangefx import CACHE_KEEP, KERNEL_SOURCES, kernel_source_key
+from rangefx import CACHE_KEEP, KERNEL_SOURCES, kernel_source_key, numba_cpu_features
 from rangefx.numba_cache import package_subpath
 
 PROBE = """
@@ -124,6 +124,58 @@ def test_old_cache_directories_beyond_the_kept_ones_are_removed(tmp_path):
 def test_an_explicit_numba_cache_dir_is_respected(tmp_path):
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "mine")}
     assert _probe(tmp_path, env) == str(tmp_path / "mine")
+
+
+VECTORS = """
+import rangefx
+import numba
+import numpy as np
+
+
+@numba.njit
+def scale(a, out):
+    for i in range(a.shape[0]):
+        out[i] = a[i] * 3 + (a[i] >> 2)
+
+
+a = np.arange(64, dtype=np.int64)
+scale(a, np.empty_like(a))
+asm = next(iter(scale.inspect_asm().values()))
+print(rangefx.PREFER_512_BIT, "zmm" in asm, numba.config.CPU_FEATURES or "-")
+"""
+
+
+def _vectors(env: dict[str, str]) -> tuple[bool, bool, str]:
+    run = subprocess.run([sys.executable, "-c", VECTORS], env=env, capture_output=True,
+                         text=True, check=True)  # fmt: skip
+    ours, zmm, features = run.stdout.split()
+    return ours == "True", zmm == "True", features
+
+
+def _host_features() -> str:
+    from llvmlite import binding as llvm
+
+    llvm.initialize_native_target()
+    return llvm.get_host_cpu_features().flatten()
+
+
+def test_numba_compiles_for_512_bit_vectors_where_the_cpu_has_avx512():
+    host = _host_features()
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CPU_FEATURES"}
+    ours, zmm, features = _vectors(env)
+    if "+avx512f" in host.split(","):
+        assert numba_cpu_features() == host + ",-prefer-256-bit"
+        assert ours and features == host + ",-prefer-256-bit"
+        assert zmm  # the loop's vectors are 512-bit
+    else:
+        assert numba_cpu_features() is None
+        assert not ours and features == "-" and not zmm
+
+
+def test_a_users_numba_cpu_features_are_kept():
+    host = _host_features()
+    ours, _, features = _vectors({**os.environ, "NUMBA_CPU_FEATURES": host})
+    assert not ours and features == host
 
 
 def test_package_subpath_names_the_module_directory_inside_the_package_only(tmp_path):

@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -76,7 +77,23 @@ def cpu_description() -> dict[str, Any]:
     except OSError:
         pass
     ext = [f for f in ("avx2", "avx512f", "avx512bw", "avx512dq", "avx512vl") if f in flags]
-    return {"model": model, "vector_extensions": ext, "cpu_count": os.cpu_count()}
+    return {
+        "model": model,
+        "vector_extensions": ext,
+        "cpu_count": os.cpu_count(),
+        "llvm_cpu": _llvm_cpu_name(),
+        # compiled for 512-bit vectors by rangefx's choice (rangefx.numba_cpu_features)
+        "prefer_512_bit": "-prefer-256-bit" in (numba.config.CPU_FEATURES or "").split(","),
+    }
+
+
+def _llvm_cpu_name() -> str:
+    """The CPU numba compiles for (``NUMBA_CPU_NAME``, else LLVM's name of the host)."""
+    if numba.config.CPU_NAME:
+        return str(numba.config.CPU_NAME)
+    from llvmlite import binding as llvm
+
+    return str(llvm.get_host_cpu_name())
 
 
 def _bench_pipeline(
