@@ -207,20 +207,34 @@ def _narrow(config: P2Config, seed: int) -> P2Config:
     return config.with_(formats=formats)
 
 
+def _divider_fallback(config: P2Config) -> P2Config:
+    """``p2_den`` at 28 fraction bits: the restoring divider's dividend ``1 << (F_r + 1 +
+    F_den)`` is 2**54, beyond the float quotient of the lane divider, so every column of
+    the band kernel takes its ``divide_lanes_scalar`` fallback."""
+    f = config.formats["p2_den"]
+    config = config.with_formats(p2_den=FixedFormat(f.signed, f.word, 28, f.quant, f.overflow))
+    assert config.formats["p2_r"].frac + 1 + 28 >= 53
+    return config
+
+
 @pytest.mark.parametrize(
-    ("divider", "narrow"), [("reciprocal", False), ("restoring", False), ("reciprocal", True),
-                            ("restoring", True)],
+    ("divider", "variant"), [("reciprocal", "default"), ("restoring", "default"),
+                             ("reciprocal", "narrow"), ("restoring", "narrow"),
+                             ("restoring", "fallback")],
 )  # fmt: skip
-def test_band_kernel_equals_the_general_kernel_over_bands_and_threads(lab, divider, narrow,
+def test_band_kernel_equals_the_general_kernel_over_bands_and_threads(lab, divider, variant,
                                                                       monkeypatch):  # fmt: skip
     """37 lines (two full bands of 16 and a short one; two threads split a band) of a
     ``lab`` crop: every tap, output, overflow count and min/max of the band kernel equal
     the general kernel's (itself checked against the oracle in test_bitexact), with the
-    log on and off, on one and two threads."""
+    log on and off, on one and two threads; default formats, narrow ones that overflow,
+    and a divider beyond its lanes' float path (:func:`_divider_fallback`)."""
     from rangefx.rtl_model.p2 import model
 
     config = P2Config.default().with_(divider=divider)
+    narrow = variant == "narrow"
     config = _narrow(config, 7) if narrow else config
+    config = _divider_fallback(config) if variant == "fallback" else config
     im1, im2 = lab.image1[100:137, 200:260], lab.image2[100:137, 200:260]
     camera = PinholeCamera(60, 37, lab.camera.f_px)
     cfg = SCENE_RICCATI["lab"]

@@ -59,12 +59,14 @@ __all__ = [
     "RANGE_TAPS",
     "FrameRegisters",
     "at_frac",
+    "bit_length",
     "buffer_bits",
     "cast_row_site",
     "cast_site",
     "divide_into",
     "divide_lanes",
     "divide_lanes_fit",
+    "divide_lanes_scalar",
     "divide_row",
     "divide_row_lanes",
     "divide_scalar",
@@ -72,10 +74,17 @@ __all__ = [
     "frame_store_word",
     "frontend_fits",
     "frontend_fused",
+    "lane_log_values",
+    "lane_overflows",
+    "ldexp2",
     "line_buffer_words",
     "log_site",
     "range_fits",
     "range_fused",
+    "reciprocal_lane",
+    "reciprocal_seed_index",
+    "restoring_lane",
+    "restoring_lane_setup",
     "run_p1",
     "signal_plan",
     "stage_latencies",
@@ -286,85 +295,147 @@ def divide_lanes(
     lowered/raised to the value logged; returns the number of overflows.
 
     Bit-identical to :func:`divide_scalar` element by element. The common case is one
-    branch-free loop per divider kind (``D = 0`` by selects, the restoring divider's
-    ``floor_div`` by its float path, the reciprocal's cast by a per-lane
-    :func:`~rangefx.rtl_model.fixedpoint.cast_plan`), so that it vectorises; lanes the
-    branch-free forms do not cover (``floor_div`` operands of 2**53 or more, a reciprocal
-    cast shifting by more than 62 bits, a log scale ``2**(F_D - F_N)`` beyond 2**±1022)
-    send the whole call through :func:`divide_scalar`. ``out`` must not alias ``num`` or
-    ``den`` (the reciprocal divider holds its seeds there).
-    """
-    big, n_ovf = np.int64(0), np.int64(0)
+    branch-free loop per divider kind over the lane helpers (:func:`restoring_lane`,
+    :func:`reciprocal_seed_index` and :func:`reciprocal_lane`, :func:`lane_log_values`),
+    so that it vectorises; lanes the branch-free forms do not cover (``floor_div``
+    operands of 2**53 or more, a reciprocal cast shifting by more than 62 bits, a log scale
+    ``2**(F_D - F_N)`` beyond 2**±1022) send the whole call through
+    :func:`divide_lanes_scalar`. ``out`` must not alias ``num`` or ``den`` (the reciprocal
+    divider holds its seeds there). A band kernel that divides once per column writes
+    these loops itself with the same helpers: inlined there, this function's array
+    arguments kept seven reference-count increments and decrements per column (the
+    ``divide_scalar`` fallback's call between them stops LLVM pruning them), ~7 % of P2's
+    band kernel, measured."""
     k_log = fd - fn
-    if -1022 <= k_log <= 1022:
-        scale = viewer(np.int64(k_log + 1023) << 52, types.float64)
-        ov_pos, _ = overflow_raw(np.int64(1) << 62, word, signed, ovf_mode)
-        ov_neg, _ = overflow_raw(-(np.int64(1) << 62), word, signed, ovf_mode)
-        one, exact = np.int64(1), np.int64(9007199254740992)
-        # the two kinds' loops end alike (D = 0, flag, log): written out in each, since
-        # the same lines as an inlined helper kept LLVM from vectorising the loop (the
-        # divider measured 9.5 -> 85 cycles per pixel in P2's band kernel)
-        if kind == DIV_RESTORING:
-            sh = frac + 1 + fd - fn
-            plan = cast_plan(np.int64(2), word, signed, quant, ovf_mode)
-            cap = one << (word + 2)
-            for k in range(count):
-                n, d = num[k], den[k]
-                dz = d == 0
-                ds = one if dz else d
-                negative = -np.int64((n < 0) != (ds < 0))
-                t = abs(n) << max(sh, 0)
-                dd = abs(ds) << max(-sh, 0)
-                big |= np.int64(t >= exact) | np.int64(dd >= exact)
-                q = np.int64(float(t) / float(dd))
-                dec = q * dd > t
-                q = q - np.int64(dec) + np.int64((not dec) & ((q + 1) * dd <= t))
-                raw = 2 * min(q, cap) + np.int64(t != q * dd)
-                v, flag = cast_by_plan((raw ^ negative) - negative, plan)
-                out[k] = (np.int64(0) if n == 0 else (ov_pos if n > 0 else ov_neg)) if dz else v
-                flags[k] = (n != 0) if dz else flag
-                n_ovf += (n != 0) if dz else flag
-                if log:
-                    value = float(n) / float(ds) * scale
-                    lo[k] = min(lo[k], np.inf if dz else value)
-                    hi[k] = max(hi[k], -np.inf if dz else value)
-        else:
-            # the seed ROM is read in a scalar loop of its own, its indexes and entries
-            # held in ``out`` (as in divide_row_lanes: in the vectorised loop the gather
-            # kept it scalar; computing the entry by a float quotient instead, as here
-            # before, measured 24.3 -> 19.1 ns per lane for 32 lanes on Zen 1)
-            lut_bits = bit_length(lut.shape[0]) - 1
-            mask = lut.shape[0] - 1
-            for k in range(count):
-                ad = max(abs(den[k]), one)
-                p = floor_log2_lanes(ad)
-                out[k] = ((ad >> max(p - lut_bits, 0)) << max(lut_bits - p, 0)) & mask
-            for k in range(count):
-                out[k] = lut[out[k]]
-            for k in range(count):
-                n, d = num[k], den[k]
-                dz = d == 0
-                ds = one if dz else d
-                negative = -np.int64((n < 0) != (ds < 0))
-                ad = abs(ds)
-                p = floor_log2_lanes(ad)
-                y0 = out[k] & _LOW32
-                m_r = ((ad >> max(p - r_bits, 0)) << max(r_bits - p, 0)) & _LOW32
-                e = ((one << (r_bits + 1)) - ((m_r * y0) >> r_bits)) & _LOW32
-                raw = abs(n) * (((y0 * e) >> r_bits) & _LOW32)
-                sh = fn - fd + p + r_bits - frac
-                big |= np.int64(abs(sh) > 62)
-                plan = cast_plan(min(max(sh, -62), 62), word, signed, quant, ovf_mode)
-                v, flag = cast_by_plan((raw ^ negative) - negative, plan)
-                out[k] = (np.int64(0) if n == 0 else (ov_pos if n > 0 else ov_neg)) if dz else v
-                flags[k] = (n != 0) if dz else flag
-                n_ovf += (n != 0) if dz else flag
-                if log:
-                    value = float(n) / float(ds) * scale
-                    lo[k] = min(lo[k], np.inf if dz else value)
-                    hi[k] = max(hi[k], -np.inf if dz else value)
-        if big == 0:
-            return n_ovf
+    if not -1022 <= k_log <= 1022:
+        return divide_lanes_scalar(num, fn, den, fd, count, word, frac, signed, quant, ovf_mode,
+                                   kind, lut, r_bits, out, flags, lo, hi, log)  # fmt: skip
+    scale = viewer(np.int64(k_log + 1023) << 52, types.float64)
+    ov_pos, ov_neg = lane_overflows(word, signed, ovf_mode)
+    big, n_ovf = False, np.int64(0)
+    if kind == DIV_RESTORING:
+        sh, plan, cap = restoring_lane_setup(fn, fd, word, frac, signed, quant, ovf_mode)
+        for k in range(count):
+            v, flag, far = restoring_lane(num[k], den[k], sh, plan, cap, ov_pos, ov_neg)
+            out[k] = v
+            flags[k] = flag
+            n_ovf += flag
+            big |= far
+    else:
+        # the seed ROM is read in a scalar loop of its own, its indexes and entries held
+        # in ``out`` (in the vectorised loop the gather kept it scalar; computing the entry
+        # by a float quotient instead measured 24.3 -> 19.1 ns per lane, 32 lanes, Zen 1)
+        lut_bits, mask = bit_length(lut.shape[0]) - 1, lut.shape[0] - 1
+        for k in range(count):
+            out[k] = reciprocal_seed_index(den[k], lut_bits, mask)
+        for k in range(count):
+            out[k] = lut[out[k]]
+        for k in range(count):
+            v, flag, far = reciprocal_lane(num[k], den[k], out[k], fn, fd, r_bits, word, frac,
+                                           signed, quant, ovf_mode, ov_pos, ov_neg)  # fmt: skip
+            out[k] = v
+            flags[k] = flag
+            n_ovf += flag
+            big |= far
+    if big:
+        return divide_lanes_scalar(num, fn, den, fd, count, word, frac, signed, quant, ovf_mode,
+                                   kind, lut, r_bits, out, flags, lo, hi, log)  # fmt: skip
+    if log:
+        for k in range(count):
+            v_lo, v_hi = lane_log_values(num[k], den[k], scale)
+            lo[k] = min(lo[k], v_lo)
+            hi[k] = max(hi[k], v_hi)
+    return n_ovf
+
+
+@njit(cache=True, nogil=True, inline="always")
+def lane_overflows(word, signed, ovf_mode):
+    """The quotients of ``D = 0`` in the lane dividers, ``(N > 0, N < 0)``: far beyond
+    any format, so the overflow mode decides (as :func:`divide_scalar`)."""
+    ov_pos, _ = overflow_raw(np.int64(1) << 62, word, signed, ovf_mode)
+    ov_neg, _ = overflow_raw(-(np.int64(1) << 62), word, signed, ovf_mode)
+    return ov_pos, ov_neg
+
+
+@njit(cache=True, nogil=True, inline="always")
+def restoring_lane_setup(fn, fd, word, frac, signed, quant, ovf_mode):
+    """The per-call constants of :func:`restoring_lane`: ``(sh, plan, cap)``."""
+    plan = cast_plan(np.int64(2), word, signed, quant, ovf_mode)
+    return frac + 1 + fd - fn, plan, np.int64(1) << (word + 2)
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def restoring_lane(n, d, sh, plan, cap, ov_pos, ov_neg):
+    """:func:`divide_scalar`'s restoring divider on one lane, branch-free: ``(quotient,
+    overflowed, beyond)``; ``beyond`` when an operand is 2**53 or more (the float
+    ``floor_div`` would not be exact: the caller falls back to :func:`divide_scalar`)."""
+    one, exact = np.int64(1), np.int64(9007199254740992)
+    dz = d == 0
+    ds = one if dz else d
+    negative = -np.int64((n < 0) != (ds < 0))
+    t = abs(n) << max(sh, 0)
+    dd = abs(ds) << max(-sh, 0)
+    beyond = (t >= exact) | (dd >= exact)
+    q = np.int64(float(t) / float(dd))
+    dec = q * dd > t
+    q = q - np.int64(dec) + np.int64((not dec) & ((q + 1) * dd <= t))
+    raw = 2 * min(q, cap) + np.int64(t != q * dd)
+    v, flag = cast_by_plan((raw ^ negative) - negative, plan)
+    out = (np.int64(0) if n == 0 else (ov_pos if n > 0 else ov_neg)) if dz else v
+    return out, (n != 0) if dz else flag, beyond
+
+
+@njit(cache=True, nogil=True, inline="always")
+def reciprocal_seed_index(d, lut_bits, mask):
+    """The seed ROM address of the reciprocal divider for the denominator ``d``: the
+    ``lut_bits`` bits of ``|d|`` below its leading one (``D = 0`` reads entry 0)."""
+    ad = max(abs(d), np.int64(1))
+    p = floor_log2_lanes(ad)
+    return ((ad >> max(p - lut_bits, 0)) << max(lut_bits - p, 0)) & mask
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def reciprocal_lane(n, d, seed, fn, fd, r_bits, word, frac, signed, quant, ovf_mode, ov_pos,
+                    ov_neg):  # fmt: skip
+    """:func:`divide_scalar`'s reciprocal divider on one lane from its ROM entry ``seed``
+    (at :func:`reciprocal_seed_index`), branch-free: ``(quotient, overflowed, beyond)``;
+    ``beyond`` when the final cast would shift by more than 62 bits. The Newton operands
+    (seed, normalised denominator, 2 - m y0, y1) are < 2**29 for every valid ``r_bits``
+    (4..28): masked to 32 bits, LLVM multiplies them with one 32-bit product each
+    instead of a three-multiply 64-bit emulation on AVX2."""
+    one = np.int64(1)
+    dz = d == 0
+    ds = one if dz else d
+    negative = -np.int64((n < 0) != (ds < 0))
+    ad = abs(ds)
+    p = floor_log2_lanes(ad)
+    y0 = seed & _LOW32
+    m_r = ((ad >> max(p - r_bits, 0)) << max(r_bits - p, 0)) & _LOW32
+    e = ((one << (r_bits + 1)) - ((m_r * y0) >> r_bits)) & _LOW32
+    raw = abs(n) * (((y0 * e) >> r_bits) & _LOW32)
+    sh = fn - fd + p + r_bits - frac
+    plan = cast_plan(min(max(sh, -62), 62), word, signed, quant, ovf_mode)
+    v, flag = cast_by_plan((raw ^ negative) - negative, plan)
+    out = (np.int64(0) if n == 0 else (ov_pos if n > 0 else ov_neg)) if dz else v
+    return out, (n != 0) if dz else flag, abs(sh) > 62
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def lane_log_values(n, d, scale):
+    """The value a lane divider logs for ``n / d`` (``scale = 2**(F_D - F_N)``), as
+    ``(for the minimum, for the maximum)``: ``D = 0`` logs nothing."""
+    dz = d == 0
+    value = float(n) / float(np.int64(1) if dz else d) * scale
+    return (np.inf if dz else value), (-np.inf if dz else value)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def divide_lanes_scalar(
+    num, fn, den, fd, count, word, frac, signed, quant, ovf_mode, kind, lut, r_bits,
+    out, flags, lo, hi, log,
+):  # fmt: skip
+    """:func:`divide_lanes` lane by lane through :func:`divide_scalar`, its fallback: the
+    same arguments and result."""
     n_ovf = np.int64(0)
     for k in range(count):
         q, flag, v_lo, v_hi = divide_scalar(num[k], fn, den[k], fd, word, frac, signed, quant,

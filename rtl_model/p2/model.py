@@ -32,9 +32,21 @@ from rangefx.golden.riccati import RiccatiConfig, stereo_baseline
 from .. import runtime
 from ..config import TimingConfig
 from ..fixedpoint import cast_by_plan
+from ..p1.model import (
+    bit_length,
+    divide_lanes_scalar,
+    lane_log_values,
+    lane_overflows,
+    ldexp2,
+    log_site,
+    reciprocal_lane,
+    reciprocal_seed_index,
+    restoring_lane,
+    restoring_lane_setup,
+    signal_plan,
+)
 from ..p1.model import cast_site as _cast
 from ..p1.model import divide_into as _divide_into
-from ..p1.model import divide_lanes, log_site, signal_plan
 from ..pipeline import PipelineResult
 from ..stream import input_cycles, line_starts
 from .config import P2_SIGNALS, P2Config, loop_latency
@@ -230,6 +242,12 @@ def _p2_bands(
     pl_z, pl_e = signal_plan(f_a + f_lam, ZZ, fm), signal_plan(f_e_in, EE, fm)
     w_r, sg_r, qn_r, of_r = fm[RR, 0], fm[RR, 2] != 0, fm[RR, 3], fm[RR, 4]
     one = np.int64(1)
+    # the divider's per-frame constants (divide_lanes); r = 1 / den, the numerator at frac 0
+    r_direct = -1022 <= f_den <= 1022  # else every column takes divide_lanes_scalar
+    r_scale = ldexp2(1.0, min(max(f_den, -1022), 1022))
+    ov_pos, ov_neg = lane_overflows(w_r, sg_r, of_r)
+    r_sh, r_plan, r_cap = restoring_lane_setup(0, f_den, w_r, f_r, sg_r, qn_r, of_r)
+    lut_bits, lut_mask = bit_length(lut.shape[0]) - 1, lut.shape[0] - 1
     # the band's buffers, column-major; those only taps read are allocated with taps
     nt = n if want_taps else 1
     t_step = 1 if want_taps else 0  # without taps, their stores go to row 0 (no branch)
@@ -306,8 +324,32 @@ def _p2_bands(
                 denv[k] = den
                 cT[it, k] = c
                 denT[it, k] = den
-            divide_lanes(onev, 0, denv, f_den, BAND, w_r, f_r, sg_r, qn_r, of_r, kind, lut,
-                                r_bits, rv, rflags, rlo, rhi, log)  # fmt: skip
+            # the divider: divide_lanes' loops written out, so that no array is handed to
+            # an inlined function once per column (divide_lanes: its reference counts)
+            far = not r_direct
+            if kind == runtime.DIV_RESTORING:
+                for k in range(BAND):
+                    rv[k], rflags[k], beyond = restoring_lane(one, denv[k], r_sh, r_plan, r_cap,
+                                                              ov_pos, ov_neg)  # fmt: skip
+                    far |= beyond
+            else:
+                for k in range(BAND):
+                    rv[k] = reciprocal_seed_index(denv[k], lut_bits, lut_mask)
+                for k in range(BAND):
+                    rv[k] = lut[rv[k]]
+                for k in range(BAND):
+                    rv[k], rflags[k], beyond = reciprocal_lane(
+                        one, denv[k], rv[k], 0, f_den, r_bits, w_r, f_r, sg_r, qn_r, of_r,
+                        ov_pos, ov_neg)  # fmt: skip
+                    far |= beyond
+            if far:
+                divide_lanes_scalar(onev, 0, denv, f_den, BAND, w_r, f_r, sg_r, qn_r, of_r, kind,
+                                    lut, r_bits, rv, rflags, rlo, rhi, log)  # fmt: skip
+            elif log:
+                for k in range(BAND):
+                    v_lo, v_hi = lane_log_values(one, denv[k], r_scale)
+                    rlo[k] = min(rlo[k], v_lo)
+                    rhi[k] = max(rhi[k], v_hi)
             for k in range(BAND):
                 s1, q1, r = s1v[k], q1v[k], rv[k]
                 c_r += rflags[k] & real[k]
