@@ -429,13 +429,19 @@ def lane_log_values(n, d, scale):
     return (np.inf if dz else value), (-np.inf if dz else value)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+_LANES_F = types.float64[::1]
+
+
+@njit(
+    _I(_R, _I, _R, _I, _I, _I, _I, _B, _I, _I, _I, _R, _I, _R, _FL, _LANES_F, _LANES_F, _B),
+    cache=True, nogil=True, error_model="numpy",
+)  # fmt: skip
 def divide_lanes_scalar(
     num, fn, den, fd, count, word, frac, signed, quant, ovf_mode, kind, lut, r_bits,
     out, flags, lo, hi, log,
 ):  # fmt: skip
     """:func:`divide_lanes` lane by lane through :func:`divide_scalar`, its fallback: the
-    same arguments and result."""
+    same arguments and result (one explicit signature: its callers pass constants)."""
     n_ovf = np.int64(0)
     for k in range(count):
         q, flag, v_lo, v_hi = divide_scalar(num[k], fn, den[k], fd, word, frac, signed, quant,
