@@ -396,6 +396,25 @@ def test_bench_reports_the_cost_breakdown():
     )
 
 
+def test_bench_times_the_golden_after_every_kernel_figure(monkeypatch):
+    """The golden's matrix products leave OpenBLAS threads spinning on the second core:
+    no model or calibration figure may be timed after a golden run."""
+    order: list[str] = []
+    for name in ("_bench_pipeline", "_bench_golden", "_calib_mpix_s", "_simd_gelem_s"):
+        real = getattr(bench, name)
+
+        def logged(*args, _real=real, _name=name, **kw):
+            order.append(_name)
+            return _real(*args, **kw)
+
+        monkeypatch.setattr(bench, name, logged)
+    bench.bench_figures(repeats=1, size=32)
+    first_golden = order.index("_bench_golden")
+    variants = sum(len(p.variants) for p in bench.PIPELINES.values())
+    assert order.count("_bench_golden") == order.count("_bench_pipeline") == variants
+    assert all(name == "_bench_golden" for name in order[first_golden:])
+
+
 def test_simd_calibration_loop_computes_its_update():
     a, b = np.arange(-8, 9, dtype=np.int64), 7 * np.arange(17, dtype=np.int64)
     want = a.copy()
