@@ -17,10 +17,11 @@ cannot be written in a read-only installation.
 
 On a CPU with AVX-512, numba is also told to compile for 512-bit vectors
 (``NUMBA_CPU_FEATURES``: the host's own features with LLVM's ``prefer-256-bit`` tuning
-turned off, :func:`numba_cpu_features`) unless ``NUMBA_CPU_FEATURES`` is set: LLVM's
-tuning for Intel's AVX-512 cores stops its vectoriser at 256 bits, and the kernels' lane
-loops ran 9-14 % faster with 512 (docs/performance.md, "Eighth pass"). It applies to the
-process, as numba's own setting does. Both must run before numba is first imported,
+turned off, :func:`numba_cpu_features`) unless ``NUMBA_CPU_NAME``,
+``NUMBA_CPU_FEATURES`` or ``NUMBA_ENABLE_AVX`` is set: LLVM's tuning for Intel's
+AVX-512 cores stops its vectoriser at 256 bits, and the kernels' lane loops ran 9-14 %
+faster with 512 (docs/performance.md, "Eighth pass"). It applies to the process and its
+children, as numba's own setting does. Both must run before numba is first imported,
 which importing any ``rangefx`` subpackage ensures.
 """
 
@@ -33,6 +34,7 @@ import shutil
 __all__ = [
     "KERNEL_SOURCES",
     "NUMBA_LOCATORS",
+    "NUMBA_TARGET_SETTINGS",
     "PREFER_512_BIT",
     "kernel_source_key",
     "numba_cache_dir",
@@ -133,10 +135,14 @@ def numba_cpu_features() -> str | None:
     return features + ",-prefer-256-bit"
 
 
-#: Whether this process's kernels were compiled for 512-bit vectors by rangefx's choice
-#: (``rangefx bench`` reports it beside the CPU's vector extensions).
+#: The user's own choice of numba's target, which rangefx leaves alone: a CPU name (a
+#: portable cache, say), its features, or AVX turned off.
+NUMBA_TARGET_SETTINGS = ("NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES", "NUMBA_ENABLE_AVX")
+#: Whether this import set ``NUMBA_CPU_FEATURES`` (child processes inherit the variable
+#: and compile the same code; ``rangefx bench`` reports what numba compiles for, from
+#: ``numba.config``, as ``cpu.prefer_512_bit``).
 PREFER_512_BIT = False
-if "NUMBA_CPU_FEATURES" not in os.environ:
+if not any(name in os.environ for name in NUMBA_TARGET_SETTINGS):
     _features = numba_cpu_features()
     if _features is not None:
         os.environ["NUMBA_CPU_FEATURES"] = _features

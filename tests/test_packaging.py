@@ -11,6 +11,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import rangefx
 from rangefx import CACHE_KEEP, KERNEL_SOURCES, kernel_source_key, numba_cpu_features
 from rangefx.numba_cache import package_subpath
@@ -176,6 +178,15 @@ def test_a_users_numba_cpu_features_are_kept():
     host = _host_features()
     ours, _, features = _vectors({**os.environ, "NUMBA_CPU_FEATURES": host})
     assert not ours and features == host
+
+
+@pytest.mark.parametrize(("name", "value"), [("NUMBA_CPU_NAME", "generic"),
+                                             ("NUMBA_ENABLE_AVX", "0")])  # fmt: skip
+def test_a_users_numba_target_is_kept(name, value):
+    """A named target CPU (a portable cache) or AVX turned off: rangefx sets no features."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CPU_FEATURES"}
+    ours, _, features = _vectors({**env, name: value})
+    assert not ours and features == "-"
 
 
 def test_package_subpath_names_the_module_directory_inside_the_package_only(tmp_path):

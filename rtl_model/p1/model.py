@@ -301,11 +301,12 @@ def divide_lanes(
     operands of 2**53 or more, a reciprocal cast shifting by more than 62 bits, a log scale
     ``2**(F_D - F_N)`` beyond 2**±1022) send the whole call through
     :func:`divide_lanes_scalar`. ``out`` must not alias ``num`` or ``den`` (the reciprocal
-    divider holds its seeds there). A band kernel that divides once per column writes
-    these loops itself with the same helpers: inlined there, this function's array
-    arguments kept seven reference-count increments and decrements per column (the
-    ``divide_scalar`` fallback's call between them stops LLVM pruning them), ~7 % of P2's
-    band kernel, measured."""
+    divider holds its seeds there); the arrays are C-contiguous and 1-D, ``num``, ``den``,
+    ``lut`` and ``out`` int64, ``flags`` bool, ``lo`` and ``hi`` float64 (the fallback's
+    signature). A band kernel that divides once per column writes these loops itself with
+    the same helpers: inlined there, this function's array arguments kept seven
+    reference-count increments and decrements per column (the fallback's call between
+    them stops LLVM pruning them), ~7 % of P2's band kernel, measured."""
     k_log = fd - fn
     if not -1022 <= k_log <= 1022:
         return divide_lanes_scalar(num, fn, den, fd, count, word, frac, signed, quant, ovf_mode,
