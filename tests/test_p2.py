@@ -16,7 +16,14 @@ from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.rtl_model.p2.config import P2_SIGNALS, P2Config, loop_latency
-from rangefx.rtl_model.p2.model import IN_LATENCY, OUT_LATENCY, p2_schedule, run_p2
+from rangefx.rtl_model.p2.model import (
+    FWD_LOOP,
+    IN_LATENCY,
+    OUT_LATENCY,
+    group_starts,
+    p2_schedule,
+    run_p2,
+)
 from rangefx.rtl_model.stream import input_cycles, pixel_cycles
 from rangefx.tools.cli import main
 from rangefx.tools.studies.runner import compare_ranges
@@ -141,6 +148,64 @@ def test_band_cycle_maps_equal_the_whole_frame_schedule(threads, gap_prob):
     assert np.array_equal(res.in_cycles, tin)
     assert np.array_equal(res.out_cycles, want)
     assert res.latency == int((want - tin).max()) and res.schedule == info
+
+
+def _group_starts_by_hand(firsts, lasts, lanes, back, fwd, tb):
+    """The group recurrence of docs/p2_datapath.md (Timing) on Python ints: a group's
+    sweep starts when its last line is in and the previous sweep is done (and the sweep
+    buffer of group g - 2 is read out), its forward pass after its sweep and the previous
+    forward pass; None where group g would overwrite the line buffer of group g - 2."""
+    m, starts = len(firsts), []
+    for gi in range(-(-m // lanes)):
+        first, last = gi * lanes, min(m, (gi + 1) * lanes) - 1
+        b0 = lasts[last] + 1 + IN_LATENCY
+        if gi >= 1:
+            b0 = max(b0, starts[gi - 1][0] + back)
+        if gi >= 2:
+            b0 = max(b0, starts[gi - 2][1] + fwd)
+            if starts[gi - 2][0] + back > firsts[first]:
+                return None, gi
+        f0 = b0 + back + tb
+        if gi >= 1:
+            f0 = max(f0, starts[gi - 1][1] + fwd)
+        starts.append((b0, f0))
+    return starts, -1
+
+
+@pytest.mark.parametrize(
+    ("seed", "arrival"),
+    [(0, "gapped"), (1, "gapped"), (2, "gapped"), (3, "tight"), (4, "tight"), (5, "early"),
+     (6, "early")],
+)  # fmt: skip
+def test_group_starts_follow_the_recurrence(seed, arrival):
+    """Random line arrivals: ``gapped`` (some lines far late), ``tight`` (one pixel per
+    clock without blanking and a short last group: its sweep waits for the forward pass of
+    group g - 2) and ``early`` (lines a few cycles apart, too fast for the line buffer):
+    every group's start cycles, or the group the error names."""
+    rng = np.random.default_rng(seed)
+    config = P2Config.default()
+    lanes, tb = config.effective_lanes(), loop_latency(config)
+    n, hblank = int(rng.integers(4, 40)), int(rng.integers(0, 30))
+    m = int(rng.integers(3 * lanes, 7 * lanes))
+    back, fwd = (n - 1) * max(lanes, tb), n * max(lanes, FWD_LOOP)
+    if arrival == "tight":
+        hblank, m = 0, 4 * lanes - 3
+        firsts = np.arange(m) * n
+        lasts = firsts + n - 1
+    else:
+        step = (0, 3) if arrival == "early" else (n + hblank, 3 * (n + hblank))
+        firsts = np.cumsum(rng.integers(*step, m))
+        lasts = firsts + n - 1 + rng.integers(0, 5 * n, m) * (rng.random(m) < 0.2)
+    want, bad = _group_starts_by_hand(firsts.tolist(), lasts.tolist(), lanes, back, fwd, tb)
+    assert (bad >= 0) == (arrival == "early")  # each outcome is reached
+    if arrival == "early":
+        with pytest.raises(ValueError, match=f"group {bad} .*group {bad - 2}'s sweep"):
+            group_starts(firsts, lasts, n, config, hblank)
+    else:  # a strided view of the first cycles, as in_cycles[:, 0]
+        cycles = np.stack([firsts, lasts], axis=1)
+        starts, info = group_starts(cycles[:, 0], cycles[:, 1], n, config, hblank)
+        assert starts.tolist() == [list(s) for s in want]
+        assert info["backward_cycles"] == back and info["forward_cycles"] == fwd
 
 
 def test_throughput_assertion():
