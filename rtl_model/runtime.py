@@ -18,8 +18,9 @@ from __future__ import annotations
 import math
 import os
 import threading
-from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor, wait
+from typing import Any, TypeVar
 
 import numpy as np
 from numba import njit, types
@@ -53,6 +54,7 @@ __all__ = [
     "kernel_image",
     "model_pool",
     "reciprocal_lut",
+    "run_two",
     "scratch",
 ]
 
@@ -373,6 +375,24 @@ def model_pool() -> ThreadPoolExecutor:
         if _POOL is None:
             _POOL = ThreadPoolExecutor(2, thread_name_prefix="rangefx-model")
         return _POOL
+
+
+_T = TypeVar("_T")
+
+
+def run_two(fn: Callable[..., _T], first: Sequence[Any], second: Sequence[Any]) -> list[_T]:
+    """``[fn(*first), fn(*second)]``, concurrently: the first on a :func:`model_pool`
+    worker, the second on the calling thread (the kernels release the GIL). Handing both
+    to the pool cost a second thread hand-off per call and left the calling thread idle.
+    If the calling thread's call raises, the worker's is waited for before the error
+    propagates, so that no kernel is left writing into the caller's arrays."""
+    future = model_pool().submit(fn, *first)
+    try:
+        result = fn(*second)
+    except BaseException:
+        wait([future])
+        raise
+    return [future.result(), result]
 
 
 def _forget_pool_after_fork() -> None:

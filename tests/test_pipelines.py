@@ -231,6 +231,31 @@ def test_two_thread_runs_from_several_callers_share_the_pool(name):
     assert model_pool() is model_pool()
 
 
+def test_run_two_runs_the_second_call_on_the_caller_and_waits_on_an_error():
+    """``runtime.run_two``: results in order, the second call on the calling thread, the
+    first on a pool worker; when the caller's call raises, the worker's has finished by the
+    time the error arrives."""
+    import threading
+    import time
+
+    from rangefx.rtl_model.runtime import run_two
+
+    finished: list[str] = []
+
+    def call(tag: str, delay: float, fail: bool) -> tuple[str, int]:
+        time.sleep(delay)
+        if fail:
+            raise RuntimeError(tag)
+        finished.append(tag)
+        return tag, threading.get_ident()
+
+    (a, ta), (b, tb) = run_two(call, ("a", 0.05, False), ("b", 0.0, False))
+    assert (a, b) == ("a", "b") and tb == threading.get_ident() != ta
+    with pytest.raises(RuntimeError, match=r"^b$"):
+        run_two(call, ("slow", 0.3, False), ("b", 0.0, True))
+    assert finished[-1] == "slow"
+
+
 def test_saturated_register_is_reported():
     """A host register outside its format is held at the limit, silently: the result
     names it (helper finding: P2's KA at s28.31 scaled the motorcycle ranges by 1.58x)."""

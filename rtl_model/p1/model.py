@@ -46,7 +46,7 @@ from ..runtime import (
     finish_band,
     format_table,
     kernel_image,
-    model_pool,
+    run_two,
     scratch,
 )
 from ..stream import input_cycles, line_starts
@@ -1509,10 +1509,9 @@ def run_p1(
         return stats
 
     if threads == 2:
-        pool = model_pool()
-        r1, r2 = pool.map(frontend, (im1, im2), stream_outs)
+        r1, r2 = run_two(frontend, (im1, stream_outs[0]), (im2, stream_outs[1]))
         half = m // 2
-        parts = list(pool.map(lambda b: range_band(*b, r1, r2), ((0, half), (half, m))))
+        parts = run_two(range_band, (0, half, r1, r2), (half, m, r1, r2))
     else:
         r1, r2 = frontend(im1, stream_outs[0]), frontend(im2, stream_outs[1])
         parts = [range_band(0, m, r1, r2)]

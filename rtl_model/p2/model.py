@@ -735,7 +735,7 @@ def run_p2(
         return stats
 
     if threads == 2 and m >= 2:
-        parts = list(runtime.model_pool().map(lambda b: band(*b), ((0, m // 2), (m // 2, m))))
+        parts = runtime.run_two(band, (0, m // 2), (m // 2, m))
     else:
         parts = [band(0, m)]
     overflows, minmax = runtime.SignalStats.merge(parts, P2_SIGNALS)

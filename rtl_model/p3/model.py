@@ -540,7 +540,7 @@ def run_p3(
         return out, stats
 
     if threads == 2:
-        (p1, s1), (p2, s2) = runtime.model_pool().map(pyramid, (im1, im2), (S_PIX1, S_PIX2))
+        (p1, s1), (p2, s2) = runtime.run_two(pyramid, (im1, S_PIX1), (im2, S_PIX2))
     else:
         (p1, s1), (p2, s2) = pyramid(im1, S_PIX1), pyramid(im2, S_PIX2)
     stats = runtime.SignalStats(N_SITES, len(P3_SIGNALS))
