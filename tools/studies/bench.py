@@ -82,7 +82,7 @@ def cpu_description() -> dict[str, Any]:
         "vector_extensions": ext,
         "cpu_count": os.cpu_count(),
         "llvm_cpu": _llvm_cpu_name(),
-        # compiled for 512-bit vectors by rangefx's choice (rangefx.numba_cpu_features)
+        # LLVM's 256-bit preference lifted (by rangefx.numba_cpu_features or by the user)
         "prefer_512_bit": "-prefer-256-bit" in (numba.config.CPU_FEATURES or "").split(","),
     }
 
