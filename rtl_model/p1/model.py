@@ -511,13 +511,11 @@ def divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, 
     base = fn - fd + r_bits - frac
     scale = ldexp2(1.0, fd - fn)
     one = np.int64(1)
-    big = one << 62  # D = 0: beyond any format, the overflow mode decides (divide_scalar)
-    z_pos, _ = overflow_raw(big, word, signed, ovf)
-    z_neg, _ = overflow_raw(-big, word, signed, ovf)
+    z_pos, z_neg = lane_overflows(word, signed, ovf)  # D = 0 (divide_scalar)
     lo, hi, count = dst[s, 0], dst[s, 1], np.int64(0)
     seed = np.empty(n, dtype=np.int64)
     norm = np.empty(n, dtype=np.int64)
-    for i in range(n):
+    for i in range(n):  # reciprocal_seed_index, keeping the normalisation (one log2)
         ad = max(abs(den[i]), one)
         p = floor_log2_lanes(ad)
         seed[i] = ((ad >> max(p - lut_bits, 0)) << max(lut_bits - p, 0)) & mask

@@ -586,7 +586,8 @@ def _group_recurrence(firsts, lasts, lanes, back, fwd, tb):
     """:func:`group_starts`' serial recurrence over the groups (the input cycles of each
     line's first and last pixel in, each group's sweep and forward start out), and the
     first group that would overwrite the line buffer a sweep still reads (-1: none). In
-    Python it took ~0.11 ms of a run (64 groups), a third of P2's serial host work."""
+    Python, P2's host work around no-op kernels took 0.377 ms a run against 0.338 with
+    this (one thread, 47 groups, measured)."""
     m = firsts.shape[0]
     groups = -(-m // lanes)
     starts = np.zeros((groups, 2), dtype=np.int64)
