@@ -22,24 +22,33 @@ from __future__ import annotations
 import enum
 import math
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.core.errors import NumbaIRAssumptionWarning
+from numba.extending import overload
 
 __all__ = [
+    "ANY_MODES",
     "MAX_WORD",
+    "PLAIN_MODES",
+    "PLAIN_OVERFLOWS",
+    "PLAIN_QUANTS",
     "FixedFormat",
     "Overflow",
     "Quant",
     "cast_array",
     "cast_by_plan",
+    "cast_modes",
     "cast_plan",
     "cast_raw",
     "cast_row",
     "cast_shifted",
     "overflow_raw",
+    "plain_modes",
     "quantise_shift",
     "rounding_doc_text",
     "rounding_table",
@@ -416,10 +425,56 @@ def cast_plan(shift, word, signed, quant, overflow):
     return (left, right, a, b, c, lo, hi, (one << word) - 1, np.int64(overflow), lo_x, hi_x)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def cast_by_plan(raw, plan):
+#: The ``modes`` argument of :func:`cast_by_plan` (and of the kernels that pass it down)
+#: when every cast of a config is *plain* (:func:`plain_modes`): its type, not its value,
+#: selects the cast body, so a kernel is compiled at most twice (plain and any modes),
+#: never once per config. ``ANY_MODES`` (a bool) compiles the body for every mode.
+PLAIN_MODES = None
+ANY_MODES = True
+#: Quantisation modes whose rounding offset does not depend on the value (TRN, RND,
+#: RND_MIN_INF) and overflow modes that saturate to the format's extremes (SAT, SAT_SYM).
+PLAIN_QUANTS = (_Q_TRN, _Q_RND, _Q_RND_MIN_INF)
+PLAIN_OVERFLOWS = (_O_SAT, _O_SAT_SYM)
+
+
+def plain_modes(fm: np.ndarray) -> bool:
+    """Whether every format of the table ``fm`` (rows ``(word, frac, signed, quant,
+    overflow)``) quantises and overflows with a plain mode (:data:`PLAIN_QUANTS`,
+    :data:`PLAIN_OVERFLOWS`), so that the plain cast body is exact for all its casts."""
+    quants = np.isin(fm[:, 3], PLAIN_QUANTS)
+    overflows = np.isin(fm[:, 4], PLAIN_OVERFLOWS)
+    return bool(quants.all() and overflows.all())
+
+
+#: Whether kernels take the plain cast body where it applies (False: the body for any
+#: modes everywhere, for A/B measurements and the test that both give the same bits).
+PLAIN_BODY = True
+
+
+def cast_modes(fm: np.ndarray) -> bool | None:
+    """The ``modes`` argument for a kernel run with the format table ``fm``:
+    :data:`PLAIN_MODES` where :func:`plain_modes` holds (and :data:`PLAIN_BODY`), else
+    :data:`ANY_MODES`."""
+    return PLAIN_MODES if PLAIN_BODY and plain_modes(fm) else ANY_MODES
+
+
+def cast_by_plan(raw, plan, modes):
     """:func:`cast_raw` of ``raw`` by a :func:`cast_plan`, for either sign of the shift:
     one branch-free body (selects only), so that a loop of several casts vectorises.
+    Callable from numba-compiled code only (the body is chosen at compile time).
+
+    ``modes`` is :data:`ANY_MODES` or :data:`PLAIN_MODES` (None: the caller guarantees
+    the plan's modes are plain, :func:`plain_modes`); its type selects one of two bodies
+    (:func:`_cast_by_plan_any`, :func:`_cast_by_plan_plain`) when the caller is typed, so
+    neither carries the other's code (the same choice made by a branch inside one body
+    left both in LLVM's vectoriser, which ran for minutes on P1's range kernel). The
+    plain body drops the sign and parity terms of the rounding offset and the wrap.
+    Returns (int64, overflowed)."""
+    raise TypeError("cast_by_plan is called from numba-compiled code only")
+
+
+def _cast_by_plan_any(raw, plan, modes):
+    """:func:`cast_by_plan` for any modes.
 
     A plan shifts one way only (``left`` or ``right`` is 0), so the body rounds the right
     shift (a no-op for a left one) and then range-checks the rounded value *before* the
@@ -427,8 +482,7 @@ def cast_by_plan(raw, plan):
     and fits int64; out of range it is an overflow (the sign's extreme for the saturating
     modes; for WRAP the low ``W`` bits of the exact product, which those of the shift
     modulo 2**64 are, as in :func:`shift_left_raw`). No test of the shift itself, no
-    min/max (the checks measured 2.57 -> 1.31 ns per element for a chain of three casts).
-    Returns (int64, overflowed)."""
+    min/max (the checks measured 2.57 -> 1.31 ns per element for a chain of three casts)."""
     left, right, a, b, c, lo, hi, mask, mode, lo_x, hi_x = plan
     one_s = np.int64(1) << right
     q = raw >> right
@@ -441,6 +495,37 @@ def cast_by_plan(raw, plan):
     saturated = lo if below_hi else hi
     other = wrapped if mode == _O_WRAP else (np.int64(0) if mode == _O_SAT_ZERO else saturated)
     return y if inside else other, not inside
+
+
+def _cast_by_plan_plain(raw, plan, modes):
+    """:func:`cast_by_plan` for plain modes (:data:`PLAIN_QUANTS`, :data:`PLAIN_OVERFLOWS`):
+    the rounding offset is the plan's constant ``a`` (``b = c = 0``), an overflow
+    saturates (``lo`` is already SAT_SYM's)."""
+    left, right, a, _, _, lo, hi, _, _, lo_x, hi_x = plan
+    one_s = np.int64(1) << right
+    # the carry by a logical shift of a non-negative sum (AVX2 has that one, not the
+    # arithmetic one): measured faster than the comparison form here
+    carry = np.int64(np.uint64((raw & (one_s - 1)) + a) >> np.uint64(right))
+    x = (raw >> right) + carry
+    below_hi = x <= hi_x
+    inside = (x >= lo_x) & below_hi
+    y = x << left
+    saturated = lo if below_hi else hi
+    out = y if inside else saturated
+    return out, not inside
+
+
+# numba's SSA check reports the conditional expressions of the bodies inlined through the
+# overload as "not in scope" (a pedantic warning of its own; the values are checked bit
+# for bit against the Fraction reference and the oracles); only those are silenced
+warnings.filterwarnings(
+    "ignore", r".*variable '_cast_by_plan_[\w.]+' is not in scope", NumbaIRAssumptionWarning
+)
+
+
+@overload(cast_by_plan, inline="always")
+def _cast_by_plan_typed(raw, plan, modes):
+    return _cast_by_plan_plain if isinstance(modes, types.NoneType) else _cast_by_plan_any
 
 
 def _check_int(name: str, value: object) -> int:

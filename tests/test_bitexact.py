@@ -31,12 +31,22 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.riccati import PAPER_PIXEL_PITCH_IN, RiccatiConfig
 from rangefx.golden.scenes import render_plane, render_scene
+from rangefx.rtl_model import fixedpoint
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
-from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.fixedpoint import (
+    ANY_MODES,
+    PLAIN_MODES,
+    FixedFormat,
+    Overflow,
+    Quant,
+    cast_modes,
+    plain_modes,
+)
 from rangefx.rtl_model.p1 import model as p1_model
 from rangefx.rtl_model.p2 import model as p2_model
 from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
+from rangefx.rtl_model.runtime import format_table
 
 TIMINGS = (
     TimingConfig(),
@@ -368,6 +378,19 @@ def test_bit_exact(name, spec, monkeypatch):
         assert np.array_equal(fast.valid, ref.valid)
         assert dict(fast.overflows) == ref.overflows
         assert dict(fast.minmax) == (ref.minmax if log else {})
+    if name in ("p1", "p2") and plain_modes(format_table(config)):
+        # the plain cast body ran above (its modes are plain); the body for any modes
+        # gives the same bits, with and without taps
+        assert cast_modes(format_table(config)) is PLAIN_MODES
+        monkeypatch.setattr(fixedpoint, "PLAIN_BODY", False)
+        assert cast_modes(format_table(config)) is ANY_MODES
+        assert_bit_exact(pipeline.run(case, config, spec["timing"], taps=True), ref)
+        anybody = pipeline.run(case, config, spec["timing"], taps=False)
+        assert np.array_equal(anybody.range_raw, ref.range_raw)
+        assert np.array_equal(anybody.valid, ref.valid)
+        assert dict(anybody.overflows) == ref.overflows
+        assert dict(anybody.minmax) == ref.minmax
+        monkeypatch.setattr(fixedpoint, "PLAIN_BODY", True)
     if name == "p1":
         # P1's general kernels (the path of configs the fused front end does not take)
         monkeypatch.setattr(p1_model, "FUSED", False)
@@ -401,6 +424,25 @@ def test_default_config_bit_exact_under_every_timing(name, k):
     assert ref.valid.any()
     for timing in TIMINGS:
         assert_bit_exact(pipeline.run(case, config, timing), ref)
+
+
+@pytest.mark.parametrize("name", ["p1", "p2"])
+def test_the_plain_cast_body_is_taken_exactly_when_every_mode_is_plain(name):
+    """The shipped configs (RND / TRN, SAT) take the plain body; one signal in RND_CONV,
+    TRN_ZERO, WRAP or SAT_ZERO sends the whole config to the body for any modes."""
+    pipeline = PIPELINES[name]
+    config = pipeline.default_config()
+    assert cast_modes(format_table(config)) is PLAIN_MODES
+    signal = next(iter(config.formats))
+    for quant, overflow in ((Quant.RND_CONV, Overflow.SAT), (Quant.TRN_ZERO, Overflow.SAT),
+                            (Quant.RND, Overflow.WRAP), (Quant.RND, Overflow.SAT_ZERO),
+                            (Quant.RND_MIN_INF, Overflow.SAT_SYM)):  # fmt: skip
+        f = config.formats[signal]
+        formats = {**config.formats, signal: FixedFormat(f.signed, f.word, f.frac, quant,
+                                                         overflow)}  # fmt: skip
+        fm = format_table(type(config)(**{**config.__dict__, "formats": formats}))
+        plain = quant in fixedpoint.PLAIN_QUANTS and overflow in fixedpoint.PLAIN_OVERFLOWS
+        assert (cast_modes(fm) is PLAIN_MODES) == plain, (quant, overflow)
 
 
 @pytest.mark.parametrize("name", list(PIPELINES))

@@ -20,6 +20,10 @@ from hypothesis import strategies as st
 from numba import njit
 
 from rangefx.rtl_model.fixedpoint import (
+    ANY_MODES,
+    PLAIN_MODES,
+    PLAIN_OVERFLOWS,
+    PLAIN_QUANTS,
     FixedFormat,
     Overflow,
     Quant,
@@ -186,16 +190,34 @@ def test_cast_row_in_range_and_overflowing_rows(quant, overflow, signed, shift):
 
 
 @njit
-def _cast_by_plan_array(raws, shift, word, signed, quant, overflow):
+def _cast_by_plan_array(raws, shift, word, signed, quant, overflow, modes):
     plan = cast_plan(shift, word, signed, quant, overflow)
     out = np.empty_like(raws)
     flags = np.empty(raws.shape[0], dtype=np.bool_)
     for i in range(raws.shape[0]):
-        out[i], flags[i] = cast_by_plan(raws[i], plan)
+        out[i], flags[i] = cast_by_plan(raws[i], plan, modes)
     return out, flags
 
 
-@pytest.mark.parametrize(("quant", "overflow"), MODE_PAIRS, ids=lambda m: m.name)
+#: Every mode pair through the body for any modes; the plain pairs also through the plain
+#: body (PLAIN_MODES), which the kernels take when every cast of a config is plain.
+PLAN_BODIES = [(q, o, ANY_MODES) for q, o in MODE_PAIRS] + [
+    (q, o, PLAIN_MODES) for q, o in MODE_PAIRS if q in PLAIN_QUANTS and o in PLAIN_OVERFLOWS
+]
+
+
+def test_plain_bodies_cover_the_plain_modes():
+    plain = [(q.name, o.name) for q, o, m in PLAN_BODIES if m is PLAIN_MODES]
+    assert sorted(plain) == sorted(
+        (q, o) for q in ("TRN", "RND", "RND_MIN_INF") for o in ("SAT", "SAT_SYM")
+    )
+
+
+@pytest.mark.parametrize(
+    ("quant", "overflow", "modes"),
+    PLAN_BODIES,
+    ids=lambda m: "plain" if m is None else ("any" if m is True else m.name),
+)
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     target=formats,
@@ -203,13 +225,16 @@ def _cast_by_plan_array(raws, shift, word, signed, quant, overflow):
     seed=st.integers(0, 2**32 - 1),
     extra=st.lists(st.integers(I64_MIN, I64_MAX), max_size=8),
 )
-def test_cast_by_plan_matches_fraction_reference(quant, overflow, target, shift, seed, extra):
+def test_cast_by_plan_matches_fraction_reference(
+    quant, overflow, modes, target, shift, seed, extra
+):
     """The fused kernels' branch-free cast (either sign of the shift, left shifts that
-    leave int64 included) equals the Fraction reference element by element."""
+    leave int64 included), in both bodies, equals the Fraction reference element by
+    element."""
     signed, word, frac = target
     fmt = FixedFormat(signed, word, frac, quant, overflow)
     raws = np.concatenate([random_raws(seed, BATCH), np.array(extra, dtype=np.int64)])
-    out, flags = _cast_by_plan_array(raws, shift, word, signed, int(quant), int(overflow))
+    out, flags = _cast_by_plan_array(raws, shift, word, signed, int(quant), int(overflow), modes)
     expected = [reference_cast(int(r), frac + shift, fmt) for r in raws]
     assert out.tolist() == [value for value, _ in expected]
     assert flags.tolist() == [flag for _, flag in expected]

@@ -17,7 +17,14 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.scenes import render_plane
 from rangefx.rtl_model.config import TimingConfig, integer_bits_needed, propose_config
-from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant, cast_array
+from rangefx.rtl_model.fixedpoint import (
+    ANY_MODES,
+    PLAIN_MODES,
+    FixedFormat,
+    Overflow,
+    Quant,
+    cast_array,
+)
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
 from rangefx.rtl_model.p1.model import divide_row_lanes, floor_log2_lanes, untranspose_band
@@ -311,15 +318,18 @@ def test_untranspose_band_is_the_transpose_of_the_band(n):
     assert dst[:5].tolist() == src_t[:, :5].T.tolist() and (dst[5:] == -1).all()
 
 
-def test_bench_datapath_unit_loops_compute_what_they_claim():
+@pytest.mark.parametrize("plain", [False, True])
+def test_bench_datapath_unit_loops_compute_what_they_claim(plain):
     """``plan_cast_loop`` sums six real casts (each against ``cast_array`` of its format,
-    overflows counted) and ``divide_row_loop`` is P1's lane divider."""
+    overflows counted; the plain body with plain modes only) and ``divide_row_loop`` is
+    P1's lane divider."""
     raw = np.random.default_rng(5).integers(-(2**26), 2**26, 64)
     raw[:3] = [2**40, -(2**40), 0]  # out of every format: saturated or wrapped
     out = np.empty_like(raw)
-    _, _, count = bench.plan_cast_loop(raw, out, 1)
+    _, _, count = bench.plan_cast_loop(raw, out, 1, PLAIN_MODES if plain else ANY_MODES)
+    q2, o3 = (Quant.RND, Overflow.SAT) if plain else (Quant.RND_CONV, Overflow.WRAP)
     plans = [(2, 12, Quant.RND, Overflow.SAT), (4, 16, Quant.RND, Overflow.SAT),
-             (6, 20, Quant.RND_CONV, Overflow.SAT), (8, 24, Quant.TRN, Overflow.WRAP),
+             (6, 20, q2, Overflow.SAT), (8, 24, Quant.TRN, o3),
              (10, 16, Quant.RND, Overflow.SAT), (12, 12, Quant.RND, Overflow.SAT)]  # fmt: skip
     want, overflows = np.zeros_like(raw), 0
     for shift, word, quant, overflow in plans:

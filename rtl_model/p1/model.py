@@ -27,7 +27,15 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera, k_matrix
 from rangefx.golden.ranging import RangingConfig
 
 from ..config import TimingConfig
-from ..fixedpoint import cast_by_plan, cast_plan, cast_row, cast_shifted, overflow_raw
+from ..fixedpoint import (
+    ANY_MODES,
+    cast_by_plan,
+    cast_modes,
+    cast_plan,
+    cast_row,
+    cast_shifted,
+    overflow_raw,
+)
 from ..pipeline import PipelineResult
 from ..runtime import (
     DIV_RESTORING,
@@ -317,7 +325,8 @@ def divide_lanes(
     if kind == DIV_RESTORING:
         sh, plan, cap = restoring_lane_setup(fn, fd, word, frac, signed, quant, ovf_mode)
         for k in range(count):
-            v, flag, far = restoring_lane(num[k], den[k], sh, plan, cap, ov_pos, ov_neg)
+            v, flag, far = restoring_lane(num[k], den[k], sh, plan, cap, ov_pos, ov_neg,
+                                          ANY_MODES)  # fmt: skip
             out[k] = v
             flags[k] = flag
             n_ovf += flag
@@ -333,7 +342,8 @@ def divide_lanes(
             out[k] = lut[out[k]]
         for k in range(count):
             v, flag, far = reciprocal_lane(num[k], den[k], out[k], fn, fd, r_bits, word, frac,
-                                           signed, quant, ovf_mode, ov_pos, ov_neg)  # fmt: skip
+                                           signed, quant, ovf_mode, ov_pos, ov_neg,
+                                           ANY_MODES)  # fmt: skip
             out[k] = v
             flags[k] = flag
             n_ovf += flag
@@ -366,7 +376,7 @@ def restoring_lane_setup(fn, fd, word, frac, signed, quant, ovf_mode):
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def restoring_lane(n, d, sh, plan, cap, ov_pos, ov_neg):
+def restoring_lane(n, d, sh, plan, cap, ov_pos, ov_neg, modes):
     """:func:`divide_scalar`'s restoring divider on one lane, branch-free: ``(quotient,
     overflowed, beyond)``; ``beyond`` when an operand is 2**53 or more (the float
     ``floor_div`` would not be exact: the caller falls back to :func:`divide_scalar`)."""
@@ -381,7 +391,7 @@ def restoring_lane(n, d, sh, plan, cap, ov_pos, ov_neg):
     dec = q * dd > t
     q = q - np.int64(dec) + np.int64((not dec) & ((q + 1) * dd <= t))
     raw = 2 * min(q, cap) + np.int64(t != q * dd)
-    v, flag = cast_by_plan((raw ^ negative) - negative, plan)
+    v, flag = cast_by_plan((raw ^ negative) - negative, plan, modes)
     out = (np.int64(0) if n == 0 else (ov_pos if n > 0 else ov_neg)) if dz else v
     return out, (n != 0) if dz else flag, beyond
 
@@ -397,7 +407,7 @@ def reciprocal_seed_index(d, lut_bits, mask):
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def reciprocal_lane(n, d, seed, fn, fd, r_bits, word, frac, signed, quant, ovf_mode, ov_pos,
-                    ov_neg):  # fmt: skip
+                    ov_neg, modes):  # fmt: skip
     """:func:`divide_scalar`'s reciprocal divider on one lane from its ROM entry ``seed``
     (at :func:`reciprocal_seed_index`), branch-free: ``(quotient, overflowed, beyond)``;
     ``beyond`` when the final cast would shift by more than 62 bits. The Newton operands
@@ -416,7 +426,7 @@ def reciprocal_lane(n, d, seed, fn, fd, r_bits, word, frac, signed, quant, ovf_m
     raw = abs(n) * (((y0 * e) >> r_bits) & _LOW32)
     sh = fn - fd + p + r_bits - frac
     plan = cast_plan(min(max(sh, -62), 62), word, signed, quant, ovf_mode)
-    v, flag = cast_by_plan((raw ^ negative) - negative, plan)
+    v, flag = cast_by_plan((raw ^ negative) - negative, plan, modes)
     out = (np.int64(0) if n == 0 else (ov_pos if n > 0 else ov_neg)) if dz else v
     return out, (n != 0) if dz else flag, abs(sh) > 62
 
@@ -752,7 +762,7 @@ def untranspose_band(src_t, dst, bw, n):
 @njit(cache=True, nogil=True, inline="always")
 def _row_band(
     imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T, r2T, log, consistent,
-    t_step,
+    t_step, modes,
 ):  # fmt: skip
     """Input cast, bias, row filter and ``r1``/``r2`` of lines ``0 <= k < bw`` of a band in
     column-major layout (``imgT[i, k]``): for each column one loop over the lines (the
@@ -779,9 +789,9 @@ def _row_band(
     # the initial state of every line: its first b (logged at site 2), or zero
     for k in range(bw):
         raw = imgT[0, k]
-        x, _ = cast_by_plan(raw, pl_x)
-        b, _ = cast_by_plan((x << (fx - f_pix)) + bias_al, pl_b)
-        p0, flag = cast_by_plan(b, pl_p0)
+        x, _ = cast_by_plan(raw, pl_x, modes)
+        b, _ = cast_by_plan((x << (fx - f_pix)) + bias_al, pl_b, modes)
+        p0, flag = cast_by_plan(b, pl_p0, modes)
         lo2, hi2 = min(lo2, b), max(hi2, b)
         c_p += flag
         pT[k] = p0 if init_first else np.int64(0)
@@ -791,16 +801,16 @@ def _row_band(
     for i in range(n):
         for k in range(bw):
             raw = imgT[i, k]
-            x, f0 = cast_by_plan(raw, pl_x)
+            x, f0 = cast_by_plan(raw, pl_x, modes)
             bsum = (x << (fx - f_pix)) + bias_al
-            b, f1 = cast_by_plan(bsum, pl_b)
+            b, f1 = cast_by_plan(bsum, pl_b, modes)
             p = pT[k]
             prod = pole * ((b << (fe - f_b)) - (p << (fe - f_p)))
             pre = (p << (fs - f_p)) + (prod << (fs - f_c - fe))
-            p_new, f2 = cast_by_plan(pre, pl_p)
-            r2, f3 = cast_by_plan(prod, pl_r2)
+            p_new, f2 = cast_by_plan(pre, pl_p, modes)
+            r2, f3 = cast_by_plan(prod, pl_r2, modes)
             r1_in = p + p_new if consistent else p
-            r1, f4 = cast_by_plan(r1_in, pl_r1)
+            r1, f4 = cast_by_plan(r1_in, pl_r1, modes)
             if log:
                 lo0, hi0 = min(lo0, raw), max(hi0, raw)
                 lo1, hi1 = min(lo1, bsum), max(hi1, bsum)
@@ -837,7 +847,7 @@ def _row_band(
 
 @njit(cache=True, nogil=True, inline="always")
 def _col_line(
-    r1, r2, lb1, lb2, pole, fm, st, ov, out_e, out_ex, out_ey, num, log, consistent,
+    r1, r2, lb1, lb2, pole, fm, st, ov, out_e, out_ex, out_ey, num, log, consistent, modes,
 ):  # fmt: skip
     """Column filter(s) of one line, read before write of the line buffers ``lb1`` (and
     ``lb2``), one loop along the line; the ``paper`` variant leaves the divider's
@@ -860,11 +870,11 @@ def _col_line(
         r1v = r1[i]
         q = lb1[i]
         prod = pole * ((r1v << (fe - f_r1)) - (q << (fe - f_q)))
-        s2, f0 = cast_by_plan(prod, pl_s2)
+        s2, f0 = cast_by_plan(prod, pl_s2, modes)
         qs = (q << (fs - f_q)) + (prod << (fs - f_c - fe))
-        q_next, f1 = cast_by_plan(qs, pl_q)
+        q_next, f1 = cast_by_plan(qs, pl_q, modes)
         s1_in = q + q_next if consistent else q
-        s1, f2 = cast_by_plan(s1_in, pl_s1)
+        s1, f2 = cast_by_plan(s1_in, pl_s1, modes)
         lb1[i] = q_next
         out_e[i] = s1
         out_ey[i] = s2
@@ -880,9 +890,9 @@ def _col_line(
             q2 = lb2[i]
             prod2 = pole * ((r2v << (fe2 - f_r2)) - (q2 << (fe2 - f_q2)))
             qs2 = (q2 << (fs2 - f_q2)) + (prod2 << (fs2 - f_c - fe2))
-            q2n, f3 = cast_by_plan(qs2, pl_q2)
+            q2n, f3 = cast_by_plan(qs2, pl_q2, modes)
             ex_in = q2 + q2n
-            ex, f4 = cast_by_plan(ex_in, pl_ex)
+            ex, f4 = cast_by_plan(ex_in, pl_ex, modes)
             lb2[i] = q2n
             out_ex[i] = ex
             c_q2 += f3
@@ -929,7 +939,7 @@ def frontend_fits(fm, consistent):
 @njit(cache=True, nogil=True)
 def frontend_fused(
     img, pole, bias, consistent, init_first, kind, lut, r_bits, fm, st, dst, ov,
-    out_e, out_ex, out_ey, taps, want_taps, log,
+    out_e, out_ex, out_ey, taps, want_taps, log, modes,
 ):  # fmt: skip
     """P1's front-end kernel (the same values, taps, counts and log), fused: bands of
     :data:`BAND` lines through the row filter (lines in SIMD lanes), then each line of
@@ -956,7 +966,7 @@ def frontend_fused(
             for i in range(n):
                 imgT[i, k] = img[j0 + k, i]
         _row_band(imgT, bw, bias_al, pole, init_first, fm, st, ov, pT, bT, pnT, r1T, r2T, log,
-                  consistent, t_step)  # fmt: skip
+                  consistent, t_step, modes)  # fmt: skip
         untranspose_band(r1T, r1, bw, n)
         untranspose_band(r2T, r2, bw, n)
         for k in range(bw):
@@ -966,7 +976,7 @@ def frontend_fused(
                 if consistent:
                     lb2[:] = _cast_row(r2[k], f_r2, COL2_STATE, 12, fm, st, ov)
             _col_line(r1[k], r2[k], lb1, lb2, pole, fm, st, ov, out_e[j], out_ex[j], out_ey[j],
-                      num, log, consistent)  # fmt: skip
+                      num, log, consistent, modes)  # fmt: skip
             if consistent:
                 pass
             elif div_lanes:
@@ -1140,7 +1150,7 @@ def range_fits(fm, f_ex, r_bits, kind):
 @njit(cache=True, nogil=True)
 def range_fused(
     e1, ex1, ey1, e2, ex2, ey2, regs, mreg, f_ex, kind, lut, r_bits, fm, st, dst, ov,
-    j0, j1, out_range, out_valid, log,
+    j0, j1, out_range, out_valid, log, modes,
 ):  # fmt: skip
     """:func:`_range_kernel` without taps (the same outputs, overflow counts and, with
     ``log``, min/max), fused: every cast of a pixel up to ``num``/``den`` and the
@@ -1196,31 +1206,31 @@ def range_fused(
         e1j, e2j, ex1j, ex2j, ey1j, ey2j = e1[j], e2[j], ex1[j], ex2[j], ey1[j], ey2[j]
         for i in range(n):
             c1_in, a_in, b_in = e1j[i] - e2j[i], ex1j[i] + ex2j[i], ey1j[i] + ey2j[i]
-            c1, f0 = cast_by_plan(c1_in, pl_c1)
-            a1, f1 = cast_by_plan(a_in, pl_a)
-            b1, f2 = cast_by_plan(b_in, pl_b)
+            c1, f0 = cast_by_plan(c1_in, pl_c1, modes)
+            a1, f1 = cast_by_plan(a_in, pl_a, modes)
+            b1, f2 = cast_by_plan(b_in, pl_b, modes)
             k0_in, k1_in, k2_in = m0[i] + kc0, m1[i] + kc1, m2[i] + kc2
-            k0, f3 = cast_by_plan(k0_in, pl_k)
-            k1, f4 = cast_by_plan(k1_in, pl_k)
-            k2, f5 = cast_by_plan(k2_in, pl_k)
+            k0, f3 = cast_by_plan(k0_in, pl_k, modes)
+            k1, f4 = cast_by_plan(k1_in, pl_k, modes)
+            k2, f5 = cast_by_plan(k2_in, pl_k, modes)
             wx_in = ((fr * k1) << s_wf) - ((xp[i] * k0) << s_wx)
             wy_in = ((fr * k2) << s_wf) - ((yp * k0) << s_wx)
             w0_in = w0_one + (k0 << s_w0)
-            wx, f6 = cast_by_plan(wx_in, pl_w)
-            wy, f7 = cast_by_plan(wy_in, pl_w)
-            w0, f8 = cast_by_plan(w0_in, pl_w0)
+            wx, f6 = cast_by_plan(wx_in, pl_w, modes)
+            wy, f7 = cast_by_plan(wy_in, pl_w, modes)
+            w0, f8 = cast_by_plan(w0_in, pl_w0, modes)
             gv_in = ((a1 * vx[i]) << s_ga) + ((b1 * vy) << s_gb)
-            gv, f9 = cast_by_plan(gv_in, pl_gv)
+            gv, f9 = cast_by_plan(gv_in, pl_gv, modes)
             num_in = ((k3 * c1) << s_nk) - (gv << s_ng)
-            num, f10 = cast_by_plan(num_in, pl_num)
+            num, f10 = cast_by_plan(num_in, pl_num, modes)
             den_in = ((a1 * wx) << s_da) + ((b1 * wy) << s_db) - ((c1 * w0) << s_dc)
-            den, f11 = cast_by_plan(den_in, pl_den)
+            den, f11 = cast_by_plan(den_in, pl_den, modes)
             vsq_in = vx_sq[i] + vy_sq
-            v_sq, f12 = cast_by_plan(vsq_in, pl_vsq)
+            v_sq, f12 = cast_by_plan(vsq_in, pl_vsq, modes)
             gsq_in = gv * gv
-            g_sq, f13 = cast_by_plan(gsq_in, pl_gsq)
+            g_sq, f13 = cast_by_plan(gsq_in, pl_gsq, modes)
             thr_in = tg2 * v_sq
-            g_thr, f14 = cast_by_plan(thr_in, pl_thr)
+            g_thr, f14 = cast_by_plan(thr_in, pl_thr, modes)
             # the divider is fed (0, 1) where |den| < DMIN, as in _range_kernel
             den_ok = (abs(den) >= dmin) & (den != 0)
             nums[i] = num if den_ok else np.int64(0)
@@ -1445,6 +1455,7 @@ def run_p1(
     init_first = config.init == "first"
     n_ft = len(FRONTEND_TAPS)
     fused_frontend = FUSED and frontend_fits(fm, consistent)
+    modes = cast_modes(fm)  # the fused kernels' cast body (plain modes: the short one)
     shape_t = (n_ft, m, n) if taps else (n_ft, 1, 1)
 
     cpu: list[tuple[str, float]] = []  # (kernel, CPU seconds of its thread); append is atomic
@@ -1462,7 +1473,7 @@ def run_p1(
         args = (img, np.int64(regs.pole), np.int64(regs.bias), consistent, init_first, kind,
                 lut, config.recip_bits, fm, st, dst, ov, *outs, tp, taps)  # fmt: skip
         if fused_frontend:
-            frontend_fused(*args, log)
+            frontend_fused(*args, log, modes)
         else:
             _frontend_kernel(*args)
         cpu.append(("front_end", time.thread_time() - t0))
@@ -1494,7 +1505,7 @@ def run_p1(
                 regs.rotation, f_ex, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
                 out_range, out_valid)  # fmt: skip
         if fused_range:
-            range_fused(*args, log)
+            range_fused(*args, log, modes)
         else:
             _range_kernel(*args, rtaps, taps)
         cpu.append(("range", time.thread_time() - t0))

@@ -31,7 +31,7 @@ from rangefx.golden.riccati import RiccatiConfig, stereo_baseline
 
 from .. import runtime
 from ..config import TimingConfig
-from ..fixedpoint import cast_by_plan
+from ..fixedpoint import cast_by_plan, cast_modes
 from ..p1.model import (
     bit_length,
     divide_lanes_scalar,
@@ -220,7 +220,7 @@ def band_fits(fm):
 @njit(cache=True, nogil=True, error_model="numpy")
 def _p2_bands(
     im1, im2, regs, kind, lut, r_bits, fm, st, dst, ov, j0, j1,
-    out_range, out_valid, taps, want_taps, log,
+    out_range, out_valid, taps, want_taps, log, modes,
 ):  # fmt: skip
     """Lines ``j0 <= j < j1`` of :func:`_p2_kernel` in bands of :data:`BAND` lines."""
     n = im1.shape[1]
@@ -276,10 +276,10 @@ def _p2_bands(
         for k in range(bw):
             for i in range(n):
                 raw1, raw2 = im1[jb + k, i], im2[jb + k, i]
-                x1, f0 = cast_by_plan(raw1, pl_x)
-                x2, f1 = cast_by_plan(raw2, pl_x)
-                d, f2 = cast_by_plan(x1 - x2, pl_d)
-                g, f3 = cast_by_plan(x1 + x2, pl_g)
+                x1, f0 = cast_by_plan(raw1, pl_x, modes)
+                x2, f1 = cast_by_plan(raw2, pl_x, modes)
+                d, f2 = cast_by_plan(x1 - x2, pl_d, modes)
+                g, f3 = cast_by_plan(x1 + x2, pl_g, modes)
                 c_x += f0 + f1
                 c_d += f2
                 c_g += f3
@@ -308,11 +308,11 @@ def _p2_bands(
             it = i * t_step
             for k in range(BAND):
                 asum = ka * (dT[i, k] + dT[i + 1, k])
-                a, f0 = cast_by_plan(asum, pl_a)
-                c, f1 = cast_by_plan(a * a, pl_c)
+                a, f0 = cast_by_plan(asum, pl_a, modes)
+                c, f1 = cast_by_plan(a * a, pl_c, modes)
                 c = max(c, cmin)
                 den_in = (one << f_den_in) + (c * s1v[k] << (f_den_in - f_c - f_s))
-                den, f2 = cast_by_plan(den_in, pl_den)
+                den, f2 = cast_by_plan(den_in, pl_den, modes)
                 c_a += f0 & real[k]
                 c_c += f1 & real[k]
                 c_den += f2 & real[k]
@@ -330,7 +330,7 @@ def _p2_bands(
             if kind == runtime.DIV_RESTORING:
                 for k in range(BAND):
                     rv[k], rflags[k], beyond = restoring_lane(one, denv[k], r_sh, r_plan, r_cap,
-                                                              ov_pos, ov_neg)  # fmt: skip
+                                                              ov_pos, ov_neg, modes)  # fmt: skip
                     far |= beyond
             else:
                 for k in range(BAND):
@@ -340,7 +340,7 @@ def _p2_bands(
                 for k in range(BAND):
                     rv[k], rflags[k], beyond = reciprocal_lane(
                         one, denv[k], rv[k], 0, f_den, r_bits, w_r, f_r, sg_r, qn_r, of_r,
-                        ov_pos, ov_neg)  # fmt: skip
+                        ov_pos, ov_neg, modes)  # fmt: skip
                     far |= beyond
             if far:
                 divide_lanes_scalar(onev, 0, denv, f_den, BAND, w_r, f_r, sg_r, qn_r, of_r, kind,
@@ -355,10 +355,10 @@ def _p2_bands(
                 c_r += rflags[k] & real[k]
                 dg = gT[i + 1, k] - gT[i, k]
                 s_in = (m_reg << (f_s_in - f_m)) + (r * s1 << (f_s_in - f_r - f_s))
-                s0, f0 = cast_by_plan(s_in, pl_s)
+                s0, f0 = cast_by_plan(s_in, pl_s, modes)
                 h_in = (q1 << (f_h_in - f_q)) - (s1 * dg << (f_h_in - f_s - f_g))
-                h, f1 = cast_by_plan(h_in, pl_h)
-                q0, f2 = cast_by_plan(r * h, pl_q)
+                h, f1 = cast_by_plan(h_in, pl_h, modes)
+                q0, f2 = cast_by_plan(r * h, pl_q, modes)
                 c_s += f0 & real[k]
                 c_h += f1 & real[k]
                 c_q += f2 & real[k]
@@ -382,13 +382,13 @@ def _p2_bands(
                 dg = gT[i + 1, k] - gT[i, k]
                 u = (e << (f_u - f_e)) - (dg << (f_u - f_g))
                 w_in = (sT[i, k] * u << (f_w_in - f_s - f_u)) + (qT[i, k] << (f_w_in - f_q))
-                w, f0 = cast_by_plan(w_in, pl_w)
+                w, f0 = cast_by_plan(w_in, pl_w, modes)
                 lam_in = rT[i, k] * w
-                lam, f1 = cast_by_plan(lam_in, pl_lam)
+                lam, f1 = cast_by_plan(lam_in, pl_lam, modes)
                 z_in = -(a * lam)
-                z, f2 = cast_by_plan(z_in, pl_z)
+                z, f2 = cast_by_plan(z_in, pl_z, modes)
                 e_in = (u << (f_e_in - f_u)) + (a * z << (f_e_in - f_a - f_z))
-                e, f3 = cast_by_plan(e_in, pl_e)
+                e, f3 = cast_by_plan(e_in, pl_e, modes)
                 c_w += f0 & real[k]
                 c_lam += f1 & real[k]
                 c_z += f2 & real[k]
@@ -709,6 +709,7 @@ def run_p2(
     tp = np.zeros((len(P2_TAPS), m, n) if taps else (len(P2_TAPS), 0, 0), dtype=np.int64)
 
     banded = BANDED and band_fits(fm)
+    modes = cast_modes(fm)  # the band kernel's cast body (plain modes: the short one)
     zf = config.formats["p2_z"]
     range_f = np.empty((m, n), dtype=np.float64)
 
@@ -723,7 +724,7 @@ def run_p2(
         args = (e1, e2, regs.raw, kind, lut, config.recip_bits, fm, st, dst, ov, j0, j1,
                 out_range, out_valid, tp, taps)  # fmt: skip
         if banded:
-            _p2_bands(*args, log)
+            _p2_bands(*args, log, modes)
         else:
             _p2_kernel(*args)
         cpu.append(time.thread_time() - t0)

@@ -14,6 +14,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
+from functools import partial
 from typing import Any
 
 import numba
@@ -23,6 +24,8 @@ from numba import njit
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.rtl_model.config import WordLengthConfig
 from rangefx.rtl_model.fixedpoint import (
+    ANY_MODES,
+    PLAIN_MODES,
     FixedFormat,
     Overflow,
     Quant,
@@ -168,7 +171,10 @@ def bench_figures(
     out["log_floor_ns"] = _floor_ns(minmax_loop)
     out["constant_cast_floor_ns"] = _floor_ns(constant_cast_loop)
     # the unit costs of the fused kernels' datapath (docs/performance.md: its floor)
-    out["cast_by_plan_ns"] = _floor_ns(plan_cast_loop) / PLAN_CASTS
+    out["cast_by_plan_ns"] = _floor_ns(partial(plan_cast_loop, modes=ANY_MODES)) / PLAN_CASTS
+    out["cast_by_plan_plain_ns"] = (
+        _floor_ns(partial(plan_cast_loop, modes=PLAIN_MODES)) / PLAN_CASTS
+    )
     out["divide_row_lanes_ns"] = _divide_row_ns()
     for pipeline, variant, config in runs:  # after the kernels' figures: see _bench_golden
         out.update(_bench_golden(pipeline, case, config, variant, repeats))
@@ -381,25 +387,28 @@ PLAN_CASTS = 6
 
 
 @njit(cache=True, nogil=True)
-def plan_cast_loop(raw, out, reps):
+def plan_cast_loop(raw, out, reps, modes):
     """:data:`PLAN_CASTS` independent casts of each element by run-time cast plans
     (``cast_by_plan``, as the fused kernels cast: right shifts of 2..12 bits into 12- to
-    24-bit words, RND / RND_CONV / TRN, SAT / WRAP), their sum stored and their overflows
-    counted, ``reps`` times: the unit cost of one cast in the models' SIMD loops (the
-    ``cast_ns`` row cast logs and decides overflow on the row's extremes instead)."""
+    24-bit words, RND / RND_CONV / TRN, SAT / WRAP; with ``modes`` PLAIN_MODES the plain
+    body and RND / TRN, SAT only), their sum stored and their overflows counted, ``reps``
+    times: the unit cost of one cast in the models' SIMD loops (the ``cast_ns`` row cast
+    logs and decides overflow on the row's extremes instead)."""
+    plain = modes is None
+    q2, o3 = (np.int64(2), np.int64(1)) if plain else (np.int64(6), np.int64(0))
     p0, p1 = cast_plan(2, 12, True, 2, 1), cast_plan(4, 16, True, 2, 1)
-    p2, p3 = cast_plan(6, 20, True, 6, 1), cast_plan(8, 24, True, 0, 0)
+    p2, p3 = cast_plan(6, 20, True, q2, 1), cast_plan(8, 24, True, 0, o3)
     p4, p5 = cast_plan(10, 16, True, 2, 1), cast_plan(12, 12, True, 2, 1)
     count = 0
     for _ in range(reps):
         for i in range(raw.shape[0]):
             r = raw[i]
-            v0, f0 = cast_by_plan(r, p0)
-            v1, f1 = cast_by_plan(r, p1)
-            v2, f2 = cast_by_plan(r, p2)
-            v3, f3 = cast_by_plan(r, p3)
-            v4, f4 = cast_by_plan(r, p4)
-            v5, f5 = cast_by_plan(r, p5)
+            v0, f0 = cast_by_plan(r, p0, modes)
+            v1, f1 = cast_by_plan(r, p1, modes)
+            v2, f2 = cast_by_plan(r, p2, modes)
+            v3, f3 = cast_by_plan(r, p3, modes)
+            v4, f4 = cast_by_plan(r, p4, modes)
+            v5, f5 = cast_by_plan(r, p5, modes)
             out[i] = v0 + v1 + v2 + v3 + v4 + v5
             count += f0 + f1 + f2 + f3 + f4 + f5
     return out[0], out[-1], count
