@@ -47,6 +47,7 @@ __all__ = [
     "cast_raw",
     "cast_row",
     "cast_shifted",
+    "cast_short",
     "overflow_raw",
     "plain_modes",
     "quantise_shift",
@@ -519,13 +520,46 @@ def _cast_by_plan_plain(raw, plan, modes):
 # overload as "not in scope" (a pedantic warning of its own; the values are checked bit
 # for bit against the Fraction reference and the oracles); only those are silenced
 warnings.filterwarnings(
-    "ignore", r".*variable '_cast_by_plan_[\w.]+' is not in scope", NumbaIRAssumptionWarning
+    "ignore", r".*variable '_cast_(by_plan|short)_[\w.]+' is not in scope", NumbaIRAssumptionWarning
 )
 
 
 @overload(cast_by_plan, inline="always")
 def _cast_by_plan_typed(raw, plan, modes):
     return _cast_by_plan_plain if isinstance(modes, types.NoneType) else _cast_by_plan_any
+
+
+def cast_short(raw, shift, word, signed, quant, overflow, modes):
+    """:func:`cast_shifted` for ``0 <= shift <= 62`` (``short``) with the body chosen by
+    ``modes`` as in :func:`cast_by_plan`, for loops whose shift changes per element (the
+    lane dividers' final cast). Callable from numba-compiled code only. Returns
+    (int64, overflowed)."""
+    raise TypeError("cast_short is called from numba-compiled code only")
+
+
+def _cast_short_any(raw, shift, word, signed, quant, overflow, modes):
+    return cast_shifted(raw, shift, word, signed, quant, overflow, True)
+
+
+def _cast_short_plain(raw, shift, word, signed, quant, overflow, modes):
+    one = np.int64(1)
+    one_s = one << shift
+    half = one_s >> 1
+    a = np.int64(0) if quant == _Q_TRN else (half if quant == _Q_RND else half - (shift > 0))
+    carry = np.int64(np.uint64((raw & (one_s - 1)) + a) >> np.uint64(shift))
+    x = (raw >> shift) + carry
+    hi = (one << (word - 1)) - 1 if signed else (one << word) - 1
+    lo = (-hi if (overflow == _O_SAT_SYM and word > 1) else -hi - 1) if signed else np.int64(0)
+    below_hi = x <= hi
+    inside = (x >= lo) & below_hi
+    saturated = lo if below_hi else hi
+    out = x if inside else saturated
+    return out, not inside
+
+
+@overload(cast_short, inline="always")
+def _cast_short_typed(raw, shift, word, signed, quant, overflow, modes):
+    return _cast_short_plain if isinstance(modes, types.NoneType) else _cast_short_any
 
 
 def _check_int(name: str, value: object) -> int:

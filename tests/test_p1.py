@@ -24,6 +24,7 @@ from rangefx.rtl_model.fixedpoint import (
     Overflow,
     Quant,
     cast_array,
+    plain_modes,
 )
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
@@ -345,9 +346,11 @@ def test_bench_datapath_unit_loops_compute_what_they_claim(plain):
     dst, ov = np.zeros((fm.shape[0], 2)), np.zeros(fm.shape[0], dtype=np.int64)
     dst2, ov2 = dst.copy(), ov.copy()
     out2, flags, flags2 = np.empty_like(raw), np.empty(64, np.bool_), np.empty(64, np.bool_)
-    bench.divide_row_loop(num, 20, den, 11, q, lut, config.recip_bits, fm, dst, ov, out, flags, 3)
+    modes = PLAIN_MODES if plain else ANY_MODES
+    bench.divide_row_loop(num, 20, den, 11, q, lut, config.recip_bits, fm, dst, ov, out, flags, 3,
+                          modes)  # fmt: skip
     divide_row_lanes(num, 20, den, 11, q, lut, config.recip_bits, fm, dst2, ov2, out2, flags2,
-                     False)  # fmt: skip
+                     False, modes)  # fmt: skip
     assert out.tolist() == out2.tolist() and flags.tolist() == flags2.tolist()
     assert ov[q] == 3 * ov2[q] and flags[den == 0].all()
 
@@ -459,8 +462,8 @@ def test_floor_log2_lanes_is_the_bit_length_minus_one_up_to_2_63():
 
 
 @pytest.mark.parametrize("overflow", list(Overflow), ids=lambda m: m.name)
-@pytest.mark.parametrize("quant", [Quant.TRN, Quant.RND, Quant.RND_CONV, Quant.TRN_ZERO],
-                         ids=lambda m: m.name)  # fmt: skip
+@pytest.mark.parametrize("quant", [Quant.TRN, Quant.RND, Quant.RND_MIN_INF, Quant.RND_CONV,
+                                   Quant.TRN_ZERO], ids=lambda m: m.name)  # fmt: skip
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     word=st.integers(1, 40),
@@ -492,18 +495,24 @@ def test_divide_row_lanes_equals_the_scalar_divider(
     den >>= rng.integers(0, d_word, n)
     num[:5], den[:5] = (0, 7, -7, 0, 3), (0, 0, 0, 5, -1)
     lut = reciprocal_lut(lut_bits, r_bits)
-    got, want = [], []
-    for fn_div, out in ((model.divide_row_lanes, got), (model.divide_row, want)):
+    # both cast bodies where the modes are plain (the kernels take the plain one then)
+    bodies = [ANY_MODES] + ([PLAIN_MODES] if plain_modes(fm[s : s + 1]) else [])
+    results = []
+    for modes in [*bodies, "scalar"]:
         dst = np.empty((len(P1_SIGNALS), 2))
         dst[:, 0], dst[:, 1] = np.inf, -np.inf
         ov = np.zeros(len(P1_SIGNALS), dtype=np.int64)
         q, flags = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_)
-        if fn_div is model.divide_row:
-            fn_div(num, fn, den, fd, s, DIV_RECIPROCAL, lut, r_bits, fm, dst, ov, q, flags)
+        if modes == "scalar":
+            model.divide_row(num, fn, den, fd, s, DIV_RECIPROCAL, lut, r_bits, fm, dst, ov, q,
+                             flags)  # fmt: skip
         else:
-            fn_div(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, q, flags, True)
-        out.extend([q, flags, ov[s], dst[s]])
-    assert np.array_equal(got[0], want[0])
-    assert np.array_equal(got[1], want[1])
-    assert got[2] == want[2]
-    assert np.array_equal(got[3], want[3])
+            model.divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, q, flags, True,
+                                   modes)  # fmt: skip
+        results.append([q, flags, ov[s], dst[s]])
+    want = results[-1]
+    for got in results[:-1]:
+        assert np.array_equal(got[0], want[0])
+        assert np.array_equal(got[1], want[1])
+        assert got[2] == want[2]
+        assert np.array_equal(got[3], want[3])

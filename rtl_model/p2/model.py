@@ -222,7 +222,9 @@ def _p2_bands(
     im1, im2, regs, kind, lut, r_bits, fm, st, dst, ov, j0, j1,
     out_range, out_valid, taps, want_taps, log, modes,
 ):  # fmt: skip
-    """Lines ``j0 <= j < j1`` of :func:`_p2_kernel` in bands of :data:`BAND` lines."""
+    """Lines ``j0 <= j < j1`` of :func:`_p2_kernel` in bands of :data:`BAND` lines;
+    ``modes``: the casts' body (:func:`~rangefx.rtl_model.fixedpoint.cast_modes` of
+    ``fm``)."""
     n = im1.shape[1]
     ka, m_reg, cmin, s_end, td, rmax = regs[0], regs[1], regs[2], regs[3], regs[4], regs[5]
     f_pix, f_d, f_g, f_ka, f_a = fm[PIX, 1], fm[DD, 1], fm[GH, 1], fm[KA, 1], fm[AA, 1]

@@ -31,6 +31,7 @@ from rangefx.rtl_model.fixedpoint import (
     Quant,
     cast_array,
     cast_by_plan,
+    cast_modes,
     cast_plan,
 )
 from rangefx.rtl_model.p1 import P1_SIGNALS, P1Config
@@ -415,10 +416,12 @@ def plan_cast_loop(raw, out, reps, modes):
 
 
 @njit(cache=True, nogil=True)
-def divide_row_loop(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, reps):
-    """``reps`` calls of P1's ``divide_row_lanes`` (log off) on one row."""
+def divide_row_loop(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, reps, modes):
+    """``reps`` calls of P1's ``divide_row_lanes`` (log off, cast body ``modes``) on one
+    row."""
     for _ in range(reps):
-        divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, False)
+        divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, out, flags, False,
+                         modes)  # fmt: skip
     return out[0]
 
 
@@ -438,7 +441,8 @@ def _divide_row_ns(size: int = 512, reps: int = 2000, repeats: int = 7) -> float
     dst, ov = np.zeros((fm.shape[0], 2)), np.zeros(fm.shape[0], dtype=np.int64)
     out, flags = np.empty(size, dtype=np.int64), np.empty(size, dtype=np.bool_)
     args = (num, fn, den, fd, quot, lut, config.recip_bits, fm, dst, ov, out, flags)
-    return _min_ns_per_element(lambda r: divide_row_loop(*args, r), size, reps, repeats)
+    modes = cast_modes(fm)  # the default config's: the plain cast body
+    return _min_ns_per_element(lambda r: divide_row_loop(*args, r, modes), size, reps, repeats)
 
 
 def cold_run() -> None:
