@@ -544,10 +544,10 @@ def _cast_short_any(raw, shift, word, signed, quant, overflow, modes):
 def _cast_short_plain(raw, shift, word, signed, quant, overflow, modes):
     one = np.int64(1)
     one_s = one << shift
-    half = one_s >> 1
-    a = np.int64(0) if quant == _Q_TRN else (half if quant == _Q_RND else half - (shift > 0))
+    a, _, _ = _round_offsets(shift, quant)  # b = c = 0 for the plain modes
     carry = np.int64(np.uint64((raw & (one_s - 1)) + a) >> np.uint64(shift))
     x = (raw >> shift) + carry
+    # the range of overflow_raw (SAT_SYM's lo), without its wrap and mode selects
     hi = (one << (word - 1)) - 1 if signed else (one << word) - 1
     lo = (-hi if (overflow == _O_SAT_SYM and word > 1) else -hi - 1) if signed else np.int64(0)
     below_hi = x <= hi
