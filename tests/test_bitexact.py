@@ -18,6 +18,7 @@ and smooth random textures shifted by 0.5-3 px.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -440,7 +441,7 @@ def test_the_plain_cast_body_is_taken_exactly_when_every_mode_is_plain(name):
         f = config.formats[signal]
         formats = {**config.formats, signal: FixedFormat(f.signed, f.word, f.frac, quant,
                                                          overflow)}  # fmt: skip
-        fm = format_table(type(config)(**{**config.__dict__, "formats": formats}))
+        fm = format_table(dataclasses.replace(config, formats=formats))
         plain = quant in fixedpoint.PLAIN_QUANTS and overflow in fixedpoint.PLAIN_OVERFLOWS
         assert (cast_modes(fm) is PLAIN_MODES) == plain, (quant, overflow)
 
