@@ -441,10 +441,10 @@ PLAIN_OVERFLOWS = (_O_SAT, _O_SAT_SYM)
 def plain_modes(fm: np.ndarray) -> bool:
     """Whether every format of the table ``fm`` (rows ``(word, frac, signed, quant,
     overflow)``) quantises and overflows with a plain mode (:data:`PLAIN_QUANTS`,
-    :data:`PLAIN_OVERFLOWS`), so that the plain cast body is exact for all its casts."""
-    quants = np.isin(fm[:, 3], PLAIN_QUANTS)
-    overflows = np.isin(fm[:, 4], PLAIN_OVERFLOWS)
-    return bool(quants.all() and overflows.all())
+    :data:`PLAIN_OVERFLOWS`), so that the plain cast body is exact for all its casts.
+    Called once per model run: a loop over the table's Python ints (~2 µs for P2's 16
+    rows) rather than two ``np.isin`` (~39 µs, ~1 % of a two-thread P2 run, measured)."""
+    return all(q in PLAIN_QUANTS and o in PLAIN_OVERFLOWS for q, o in fm[:, 3:5].tolist())
 
 
 #: Whether kernels take the plain cast body where it applies (False: the body for any
