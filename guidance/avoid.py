@@ -104,11 +104,17 @@ from .simulate import (
 )
 
 __all__ = [
+    "MANOEUVRES",
+    "OUTCOMES",
+    "WHEN_BLOCKED",
     "AvoidConfig",
     "AvoidPlan",
     "InfeasibleClearanceWarning",
+    "SafeManoeuvre",
     "limit_margins",
     "limited_command",
+    "manoeuvre_candidates",
+    "plan_safe_manoeuvre",
     "plan_trajectory",
     "simulate_avoid",
     "within_limits",
@@ -117,6 +123,18 @@ __all__ = [
 
 class InfeasibleClearanceWarning(UserWarning):
     """No trajectory meets the required clearance within the vehicle limits."""
+
+
+#: What the law may do when no path to the touch-down keeps the clearance.
+WHEN_BLOCKED: tuple[str, ...] = ("manoeuvre", "best-effort")
+
+#: The safe manoeuvres, in the order they are tried (the least departure first).
+MANOEUVRES: tuple[str, ...] = ("hover", "climb", "turn-away")
+
+#: How a closed-loop flight ends: at the touch-down, holding at a hover point short of
+#: the obstacles, after a go-around (climb over or turn away, then hold), or not at all
+#: (the model left its domain: reported, never raised).
+OUTCOMES: tuple[str, ...] = ("landing", "hover", "go-around", "crash")
 
 
 @dataclass(frozen=True)
@@ -150,6 +168,12 @@ class AvoidConfig:
         Tracking-term natural frequency (rad/s) and damping ratio.
     maxiter, ftol
         SLSQP iteration limit and cost tolerance per solve.
+    when_blocked
+        What the law does when no trajectory to the touch-down keeps the clearance:
+        ``"manoeuvre"`` (default) takes a safe manoeuvre (:func:`plan_safe_manoeuvre`:
+        decelerate to a hover and hold, climb over, or turn away to a safe point);
+        ``"best-effort"`` lands anyway on the best-effort plan (flagged), as before
+        issue 39.
     """
 
     clearance_ft: float = 20.0
@@ -166,8 +190,14 @@ class AvoidConfig:
     track_damping: float = 0.9
     maxiter: int = 200
     ftol: float = 1e-6
+    when_blocked: str = "manoeuvre"
 
     def __post_init__(self) -> None:
+        if self.when_blocked not in WHEN_BLOCKED:
+            raise ValueError(
+                f"avoid when_blocked must be one of {', '.join(WHEN_BLOCKED)}, "
+                f"not {self.when_blocked!r}"
+            )
         for name in (
             "clearance_ft", "max_load_factor", "max_theta_deg", "max_phi_deg",
             "replan_interval", "terminal_time", "track_omega", "track_damping",
@@ -252,6 +282,7 @@ class AvoidPlan:
     solve_time_s: float = 0.0
     iterations: int = 0
     status: str = ""
+    meets_floor: bool = True  # met what was asked: the clearance, or what the end points leave
 
     def evaluate(self, tau: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity and acceleration at plan times ``tau`` (s from ``t0``)."""
@@ -631,6 +662,7 @@ def plan_trajectory(
     warm: AvoidPlan | None = None,
     t0: float = 0.0,
     t_go_max: float | None = None,
+    relax: bool = True,
 ) -> AvoidPlan:
     """Solve the programme of the module docstring once, from ``(r0, v0)`` at ``t0``.
 
@@ -641,7 +673,10 @@ def plan_trajectory(
     effort (``feasible=False``): the full clearance from the other extents, from those
     the end point's own distance less 10 % (at least 0.5 ft). If no seed meets what is
     asked, the relaxed programme (largest smallest-clearance within the limits) gives
-    the plan, with ``feasible=False`` unless it still meets the clearance.
+    the plan, with ``feasible=False`` unless it still meets the clearance; with
+    ``relax=False`` (the caller has a safe manoeuvre to fall back on) the relaxed
+    programme is not solved and the lowest-cost result of the seeds is returned,
+    ``feasible=False``. ``meets_floor`` says whether the plan met what was asked.
     """
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
@@ -683,6 +718,7 @@ def plan_trajectory(
     amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
     seeds += [np.concatenate([[t_rep], c.ravel()]) for c in _side_seeds(prob, t_rep, c_rep, amp)]
     best, best_res, iters = None, None, 0
+    unmet: tuple[np.ndarray, object] | None = None  # the first seed's result, not acceptable
     for k, x0 in enumerate(seeds):
         x, res = _solve(prob, x0, relaxed=False)
         iters += int(getattr(res, "nit", 0))
@@ -691,20 +727,162 @@ def plan_trajectory(
                 best, best_res = x, res
             if k == 0 or warm is None:
                 break  # the first acceptable solution from the preferred seed
+        elif unmet is None and np.all(np.isfinite(x)):
+            unmet = (x, res)
+    if best is None and not relax:  # the caller falls back on a safe manoeuvre
+        best, best_res = unmet if unmet is not None else (x_rep, None)
     if best is None:  # the relaxed programme: the largest smallest clearance
         best, best_res = _solve(prob, x_rep, relaxed=True)
         iters += int(getattr(best_res, "nit", 0))
     # Feasible: the required clearance from every extent within the limits (the
     # largest smallest clearance may still meet it).
-    feasible = not ends_inside and _meets(prob, best, floor)
+    meets_floor = _meets(prob, best, floor)
+    feasible = not ends_inside and meets_floor
     t_go, c = prob.unpack(best)
     cm = prob.clearances(best)
     min_clear = float(cm.min()) if cm.size else math.inf
     limits_ok = bool(prob.other_margins(best).min() >= -1e-3)
     return AvoidPlan(
         t0, t_go, r0, v0, bc.rf.copy(), bc.vf.copy(), c, feasible, min_clear, limits_ok,
-        time.perf_counter() - start, iters, str(getattr(best_res, "message", "")),
+        time.perf_counter() - start, iters, str(getattr(best_res, "message", "")), meets_floor,
     )  # fmt: skip
+
+
+# --------------------------------------------------------------------------- safe manoeuvres
+
+
+@dataclass(frozen=True)
+class SafeManoeuvre:
+    """A safe manoeuvre the law took because no path to the touch-down keeps the
+    clearance: ``kind`` (one of :data:`MANOEUVRES`), the hold point and velocity it flies
+    to (``goal``, whose ``r0``/``v0`` are the state it was decided from), its plan, the
+    time it was decided and how many candidates were tried."""
+
+    kind: str
+    goal: BoundaryConditions
+    plan: AvoidPlan
+    decided_at_s: float
+    candidates_tried: int
+
+    @property
+    def outcome(self) -> str:
+        """``hover`` (held short of the obstacles) or ``go-around`` (climbed over or
+        turned away, then held)."""
+        return "hover" if self.kind == "hover" else "go-around"
+
+    def to_dict(self) -> dict:
+        return {
+            "kind": self.kind,
+            "outcome": self.outcome,
+            "hold_point_ft": [float(c) for c in self.goal.rf],
+            "hold_velocity_ft_s": [float(c) for c in self.goal.vf],
+            "decided_at_s": self.decided_at_s,
+            "candidates_tried": self.candidates_tried,
+            "planned_min_clearance_ft": self.plan.min_clearance_ft,
+        }
+
+
+def manoeuvre_candidates(
+    r: np.ndarray,
+    v: np.ndarray,
+    boxes: tuple[ObstacleBox, ...],
+    cfg: AvoidConfig,
+) -> list[tuple[str, np.ndarray]]:
+    """Hold points of the safe manoeuvres from position ``r`` flying at ``v``, in the order
+    they are tried: decelerate to a hover ahead on the present track (150, 100, 220 ft);
+    climb over (to ``clearance + margin + 2`` ft above the highest extent, 150 or 250 ft
+    ahead); turn away (150 ft at ±90° and ±135° from the track, at the present altitude,
+    then at the climb height). Only points at least ``clearance + margin + 2`` ft from
+    every extent are returned (the hold point must itself keep the clearance)."""
+    speed_h = float(np.hypot(v[0], v[1]))
+    ahead = np.array([v[0], v[1], 0.0]) / speed_h if speed_h > 1e-6 else np.array([1.0, 0, 0])
+    side = np.array([-ahead[1], ahead[0], 0.0])
+    top = max((b.top for b in boxes), default=0.0)
+    z_hold = max(float(r[2]), 5.0)
+    z_over = max(z_hold, top + cfg.clearance_ft + cfg.margin_ft + 2.0)
+    cands: list[tuple[str, np.ndarray]] = []
+    for d in (150.0, 100.0, 220.0):
+        cands.append(("hover", np.array([*(r[:2] + d * ahead[:2]), z_hold])))
+    for d in (150.0, 250.0):
+        cands.append(("climb", np.array([*(r[:2] + d * ahead[:2]), z_over])))
+    for z in (z_hold, z_over):
+        for deg in (90.0, -90.0, 135.0, -135.0):
+            a = math.radians(deg)
+            p = r[:2] + 150.0 * (math.cos(a) * ahead[:2] + math.sin(a) * side[:2])
+            cands.append(("turn-away", np.array([*p, z])))
+    need = cfg.clearance_ft + cfg.margin_ft + 2.0
+    return [(k, p) for k, p in cands if not boxes or _clearances(p[None], boxes).min() >= need]
+
+
+def plan_safe_manoeuvre(
+    r: np.ndarray,
+    v: np.ndarray,
+    field: ObstacleField,
+    boxes: tuple[ObstacleBox, ...],
+    *,
+    hold_speed: float = 1.0,
+    params: VehicleParams | None = None,
+    config: AvoidConfig | None = None,
+    t0: float = 0.0,
+) -> SafeManoeuvre | None:
+    """The first safe manoeuvre (:func:`manoeuvre_candidates`, in order) whose plan keeps
+    the clearance from every extent within the limits, ending at its hold point at
+    ``hold_speed`` ft/s (the point-mass model, eqs 2-3, needs ``V > 0``: the hold begins
+    there). The plan is the programme of the module docstring with the hold point as
+    its final state. If ``r`` itself is within the clearance of an extent, a plan is
+    accepted when it keeps what the start leaves (never closer than it already is, less
+    10 %). ``None`` when no candidate has such a plan."""
+    params = params or VehicleParams()
+    cfg = config or AvoidConfig()
+    r = np.asarray(r, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    tried = 0
+    for kind, point in manoeuvre_candidates(r, v, boxes, cfg):
+        chord = point - r
+        chord[2] = 0.0
+        n = float(np.linalg.norm(chord))
+        vf = hold_speed * (chord / n if n > 1e-6 else v / np.linalg.norm(v))
+        goal = BoundaryConditions(r0=r, v0=v, rf=point, vf=vf)
+        tried += 1
+        plan = plan_trajectory(
+            r, v, goal, field, boxes, params=params, config=cfg, t0=t0, relax=False
+        )
+        if plan.meets_floor:
+            return SafeManoeuvre(kind, goal, plan, t0, tried)
+    return None
+
+
+def _decide(r, v, bc, field, boxes, params, av) -> tuple[AvoidPlan, SafeManoeuvre | None, str]:
+    """The first plan: to the touch-down if one keeps the clearance, else a safe
+    manoeuvre (``when_blocked="manoeuvre"``), else the best-effort landing (flagged);
+    and why the landing was blocked (``""`` when it was not)."""
+    blocked_ok = av.when_blocked == "best-effort"
+    td_clear = float(_clearances(bc.rf[None], boxes).min()) if boxes else math.inf
+    start_clear = float(_clearances(r[None], boxes).min()) if boxes else math.inf
+    landing = None
+    if blocked_ok or td_clear >= av.clearance_ft:  # else no landing plan can keep it
+        landing = plan_trajectory(
+            r, v, bc, field, boxes, params=params, config=av, relax=blocked_ok
+        )
+        # A start within the clearance (the path can only move away) does not block
+        # the landing when the plan keeps what the start leaves.
+        start_only = start_clear < av.clearance_ft and landing.meets_floor
+        if landing.feasible or start_only:
+            return landing, None, ""
+        why = "no plan to the touch-down keeps the clearance within the limits"
+        if blocked_ok:
+            return landing, None, why
+    else:
+        why = f"the touch-down point is {td_clear:.1f} ft from an extent"
+    man = plan_safe_manoeuvre(
+        r, v, field, boxes, hold_speed=float(np.linalg.norm(bc.vf)), params=params, config=av
+    )
+    if man is not None:
+        return man.plan, man, why
+    # No manoeuvre keeps the clearance either: the best-effort landing, flagged.
+    if landing is None or not landing.meets_floor:
+        landing = plan_trajectory(r, v, bc, field, boxes, params=params, config=av)
+    return landing, None, why + "; no safe manoeuvre keeps it either"
 
 
 # --------------------------------------------------------------------------- closed loop
@@ -721,19 +899,24 @@ def simulate_avoid(
     """Fly the avoiding law in closed loop on the nonlinear model (module docstring).
 
     ``field`` carries the report's weights and obstacle points (the eq-20 cost);
-    ``boxes`` the obstacle extents the clearance is kept from. ``extras`` of the result
-    hold ``feasible``, ``plans`` (count), ``replan_failures``, per-solve times
-    (``solve_times_s``), SLSQP iterations, the planned minimum clearance, the boxes and
-    ``terminal_segment_skipped_s``: when the last held command (≤ 1.5 guidance
+    ``boxes`` the obstacle extents the clearance is kept from. The first plan goes to
+    the touch-down if one keeps the clearance; otherwise (``avoid.when_blocked ==
+    "manoeuvre"``) the law takes a safe manoeuvre (:func:`plan_safe_manoeuvre`) and
+    flies to its hold point instead, with :class:`InfeasibleClearanceWarning` naming it.
+
+    The simulation does not raise when the model leaves its domain (zero airspeed, an
+    integrator failure, no end within ``config.max_time``): the flight ends there with
+    ``outcome == "crash"`` and the reason in ``crash_reason``.
+
+    ``extras`` of the result hold ``outcome`` (one of :data:`OUTCOMES`), ``manoeuvre``
+    (:meth:`SafeManoeuvre.to_dict` or ``None``), ``touchdown`` (the original final
+    point; ``result.bc`` is the goal flown), ``feasible`` (the touch-down was reached on
+    plans that keep the clearance), ``plans`` (count), ``replan_failures``, per-solve
+    times (``solve_times_s``), SLSQP iterations, the planned minimum clearance, the
+    boxes and ``terminal_segment_skipped_s``: when the last held command (≤ 1.5 guidance
     intervals before the end) would bring the airspeed to zero, where eqs 2-3 are
     singular, the flight ends at the start of that segment and this says how long it
     was (0 otherwise).
-
-    Raises
-    ------
-    RuntimeError
-        If the flight does not end within ``config.max_time`` or the model leaves its
-        domain.
     """
     params = params or VehicleParams()
     cfg = config or SimulationConfig()
@@ -743,12 +926,14 @@ def simulate_avoid(
     t = 0.0
     ts, states = [0.0], [state.copy()]
     rec: dict[str, list] = {k: [] for k in ("t_cmd", "a_cmd", "a_ach", "T", "th", "ph", "tgo")}
-    plan = plan_trajectory(bc.r0, bc.v0, bc, field, boxes, params=params, config=av)
+    plan, manoeuvre, blocked = _decide(bc.r0, bc.v0, bc, field, boxes, params, av)
+    goal = bc if manoeuvre is None else manoeuvre.goal
     plans = [plan]
-    feasible = plan.feasible
+    feasible = plan.feasible and manoeuvre is None
     failures = 0
     terminal_skip = 0.0
     limited = 0
+    crash = ""
     last_plan_t = 0.0
     w, zt = av.track_omega, av.track_damping
     while True:
@@ -756,7 +941,7 @@ def simulate_avoid(
         remaining = plan.t_go - (t - plan.t0)
         if t - last_plan_t >= av.replan_interval - 1e-9 and remaining > av.terminal_time:
             new = plan_trajectory(
-                r, v, bc, field, boxes, params=params, config=av, warm=plan, t0=t,
+                r, v, goal, field, boxes, params=params, config=av, warm=plan, t0=t,
                 # A re-plan may delay the arrival by at most one re-plan interval (and
                 # never past 1.25 x the first plan's), a relaxed plan (whose cost is the
                 # clearance, not time) not at all: else the time-to-go drifts up.
@@ -767,14 +952,17 @@ def simulate_avoid(
                     ),
                     remaining + 1e-6,
                 ),
+                # Following a plan that keeps the clearance, a re-plan that does not is
+                # dropped anyway: do not pay for the relaxed programme.
+                relax=not plan.meets_floor,
             )  # fmt: skip
             plans.append(new)
             last_plan_t = t
-            if new.feasible or (not plan.feasible and new.limits_ok):
+            if new.feasible or (not plan.feasible and new.limits_ok and new.meets_floor):
                 plan = new
                 feasible = feasible and new.feasible
             else:
-                failures += 1  # keep following the last feasible plan
+                failures += 1  # keep following the last plan that kept the clearance
             remaining = plan.t_go - (t - plan.t0)
         rp, vp, ap = plan.evaluate(t - plan.t0)
         track = w * w * (rp[0] - r) + 2.0 * zt * w * (vp[0] - v)
@@ -786,9 +974,10 @@ def simulate_avoid(
         t_end, t_eval = held_sample_times(t, dt, cfg.sample_interval)
         try:
             sol = integrate_held_controls(state, ctrl, params, t, t_end, t_eval, cfg)
-        except RuntimeError:
+        except RuntimeError as exc:
             if not last:
-                raise
+                crash = str(exc)  # the model left its domain: the flight ends, said so
+                break
             # The last held command would stop the vehicle (V -> 0, eqs 2-3 singular)
             # within the final sliver of the flight: it ends here, and says so.
             terminal_skip = dt
@@ -800,8 +989,25 @@ def simulate_avoid(
         if last:
             break
         if t > cfg.max_time:
-            raise RuntimeError(f"flight did not end within max_time = {cfg.max_time:g} s")
-    if not feasible:
+            crash = f"flight did not end within max_time = {cfg.max_time:g} s"
+            break
+    if crash:
+        outcome = "crash"
+    elif manoeuvre is not None:
+        outcome = manoeuvre.outcome
+    else:
+        outcome = "landing"
+    if manoeuvre is not None:
+        hold = ", ".join(f"{c:.0f}" for c in manoeuvre.goal.rf)
+        warnings.warn(
+            f"no trajectory to the touch-down keeps {av.clearance_ft:g} ft from every "
+            f"obstacle within the limits ({blocked}); safe manoeuvre: {manoeuvre.kind} to the "
+            f"hold point "
+            f"({hold}) ft ({outcome}, {manoeuvre.plan.min_clearance_ft:.2f} ft planned)",
+            InfeasibleClearanceWarning,
+            stacklevel=2,
+        )
+    elif not feasible:
         worst = min(p.min_clearance_ft for p in plans if not p.feasible)
         warnings.warn(
             f"no trajectory keeps {av.clearance_ft:g} ft from every obstacle within the "
@@ -819,10 +1025,15 @@ def simulate_avoid(
         h_residual=np.full(n_upd, np.nan),
         root_found=np.ones(n_upd, dtype=bool),
         obstacles=field.points,
-        bc=bc,
+        bc=goal,
         params=params,
         extras={
             "law": "avoid",
+            "outcome": outcome,
+            "crash_reason": crash,
+            "manoeuvre": None if manoeuvre is None else manoeuvre.to_dict(),
+            "landing_blocked": blocked,
+            "touchdown": [float(c) for c in bc.rf],
             "feasible": bool(feasible),
             "plans": len(plans),
             "replan_failures": failures,

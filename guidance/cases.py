@@ -176,7 +176,9 @@ def guidance_metrics(
     ``min_obstacle_distance`` (to the obstacles that law uses: extents for ``avoid``,
     points for ``report``), ``clearance_kept`` (true distance >= clearance),
     ``max_abs_phi_deg_excluding_final_0_5s`` and the same for θ and the load factor,
-    and for ``avoid`` ``feasible`` and the compute cost.
+    and for ``avoid`` ``feasible``, ``outcome`` (landing, hover, go-around, crash),
+    ``manoeuvre`` (the safe manoeuvre taken, or ``None``), ``landing_blocked`` (why no
+    landing, ``""`` if none) and the compute cost.
     """
     m = trajectory_metrics(res)
     pos = res.positions
@@ -203,6 +205,10 @@ def guidance_metrics(
         ex = res.extras
         times = np.asarray(ex["solve_times_s"])
         m["feasible"] = ex["feasible"]
+        m["outcome"] = ex["outcome"]
+        m["manoeuvre"] = ex["manoeuvre"]
+        m["landing_blocked"] = ex["landing_blocked"]
+        m["crash_reason"] = ex["crash_reason"]
         m["compute"] = {
             "solves": int(ex["plans"]),
             "replan_failures": int(ex["replan_failures"]),
@@ -325,6 +331,7 @@ def layout_sweep(
                 "layout": name,
                 "vehicles": [list(v.centre) for v in vehicles],
                 "feasible": m["feasible"],
+                "outcome": m["outcome"],
                 "min_true_obstacle_distance_ft": m["min_true_obstacle_distance_ft"],
                 "min_extent_distance_ft": m["min_extent_distance_ft"],
                 "clearance_kept": m["clearance_kept"],

@@ -185,7 +185,11 @@ def save_figures(
         fp = np.vstack([box.footprint(), box.footprint()[:1]])
         ax.fill(fp[:, 1], fp[:, 0], color="k", alpha=0.6, label="true vehicles" if k == 0 else None)
     ax.plot(*res.bc.r0[[1, 0]], "g^", label="start")
-    ax.plot(*res.bc.rf[[1, 0]], "rv", label="touch-down")
+    man = res.extras.get("manoeuvre")
+    td = np.asarray(res.extras.get("touchdown", res.bc.rf))
+    ax.plot(td[1], td[0], "rv", label="touch-down")
+    if man:  # the law took a safe manoeuvre: where it holds
+        ax.plot(*res.bc.rf[[1, 0]], "bs", mfc="none", label=f"hold point ({man['kind']})")
     ax.set_xlabel("cross range y (ft)")
     ax.set_ylabel("down range x (ft)")
     ax.set_aspect("equal", adjustable="datalim")
@@ -256,7 +260,8 @@ def save_figures(
     for i in range(0, len(pos), step):  # vertical lines: altitude above the runway
         if f_t[i] and f_g[i]:
             ax.plot([c_t[i], c_g[i]], [r_t[i], r_g[i]], "-", lw=0.6, color="orange")
-    ax.plot(c_t[-1], r_t[-1], marker=7, ms=9, color="r", ls="none", label="touch-down")
+    end_label = f"hold point ({man['kind']})" if man else "touch-down"
+    ax.plot(c_t[-1], r_t[-1], marker=7, ms=9, color="r", ls="none", label=end_label)
     ax.set_xlim(0, camera.width - 1)
     ax.set_ylim(camera.height - 1, 0)
     if image is None:  # no picture to show: zoom on the rows that hold the manoeuvre
@@ -270,3 +275,58 @@ def save_figures(
     ax.legend(loc="lower left", fontsize=8)
     finish(fig, ax, "fig10_image_projection.png")
     return written
+
+
+def save_stress_figure(stress, path: str | Path, k: int = 4) -> Path:
+    """The ``k`` stress layouts that came closest to a true vehicle, in plan view
+    (:class:`~rangefx.guidance.stress.StressResult`): extents and their clearance, true
+    vehicles, the avoiding law's path (its hold point when it took a safe manoeuvre)
+    and the report law's path."""
+    worst = stress.worst(k)
+    n = max(len(worst), 1)
+    cols = min(n, 2)
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(6 * cols, 6 * rows), squeeze=False)
+    for ax in axes.ravel()[len(worst) :]:
+        ax.set_visible(False)
+    for ax, row in zip(axes.ravel(), worst, strict=False):
+        case, run, rep = stress.runs[row["name"]]
+        pos, pr = run.result.positions, rep.result.positions
+        for j, box in enumerate(case.boxes):
+            fp = np.vstack([box.footprint(), box.footprint()[:1]])
+            ax.plot(fp[:, 1], fp[:, 0], "-", color="darkorange", lw=1.0,
+                    label="obstacle extents" if j == 0 else None)  # fmt: skip
+            ring = _clearance_ring(box, stress.clearance_ft)
+            ax.plot(ring[:, 1], ring[:, 0], ":", color="darkorange", lw=0.7,
+                    label=f"clearance {stress.clearance_ft:g} ft" if j == 0 else None)  # fmt: skip
+        for j, box in enumerate(case.truth):
+            fp = np.vstack([box.footprint(), box.footprint()[:1]])
+            ax.fill(fp[:, 1], fp[:, 0], color="k", alpha=0.6,
+                    label="true vehicles" if j == 0 else None)  # fmt: skip
+        ax.plot(pr[:, 1], pr[:, 0], "m--", lw=1.0, label="report law")
+        ax.plot(pos[:, 1], pos[:, 0], "b-", label=f"avoid law: {row['outcome']}")
+        td = run.result.extras["touchdown"]
+        ax.plot(td[1], td[0], "rv", label="touch-down")
+        if row["hold_point_ft"]:
+            hp = row["hold_point_ft"]
+            ax.plot(hp[1], hp[0], "bs", mfc="none", label=f"hold point ({row['manoeuvre']})")
+        ax.set_title(
+            f"{row['name']}: {row['vehicle']} at t = {row['path_time_s']:.1f} s, "
+            f"{row['offset_ft']:+.1f} ft\nmin true distance {row['min_true_distance_ft']:.1f} ft"
+            f" (report law {row['report_law_min_true_distance_ft']:.1f} ft)",
+            fontsize=9,
+        )
+        lo = np.minimum(pos.min(axis=0), pr.min(axis=0)) - 60
+        hi = np.maximum(pos.max(axis=0), pr.max(axis=0)) + 60
+        ax.set_xlim(lo[1], hi[1])
+        ax.set_ylim(lo[0], hi[0])
+        ax.set_xlabel("cross range y (ft)")
+        ax.set_ylabel("down range x (ft)")
+        ax.set_aspect("equal", adjustable="box")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize=7)
+    fig.suptitle(f"stress programme ({stress.source}): the closest layouts", fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
+    _save(fig, out)
+    return out

@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from rangefx.guidance.avoid import (
+    MANOEUVRES,
     AvoidConfig,
     InfeasibleClearanceWarning,
     limit_margins,
@@ -298,10 +300,13 @@ def test_vehicle_on_the_straight_path_is_avoided(blocked):
     assert _dist(avoid.positions, boxes).min() >= FAST.clearance_ft
 
 
+BEST_EFFORT = replace(FAST, when_blocked="best-effort")
+
+
 def test_impossible_layout_is_flagged_not_flown_silently():
     boxes = (_box(300.0, 0.0, half_u=4.0, half_v=4.0),)  # on the touch-down point
     with pytest.warns(InfeasibleClearanceWarning, match="no trajectory keeps 20 ft"):
-        res = simulate_avoid(BC, _field(boxes), boxes, config=SIM, avoid=FAST)
+        res = simulate_avoid(BC, _field(boxes), boxes, config=SIM, avoid=BEST_EFFORT)
     assert res.extras["feasible"] is False
     assert res.extras["planned_min_clearance_ft"] < FAST.clearance_ft
 
@@ -314,7 +319,7 @@ def test_best_effort_keeps_the_full_clearance_from_the_other_extents():
     truck = _box(150.0, 2.0, half_u=4.0, half_v=10.0)
     boxes = (near, truck)
     with pytest.warns(InfeasibleClearanceWarning):
-        res = simulate_avoid(BC, _field(boxes), boxes, config=SIM, avoid=FAST)
+        res = simulate_avoid(BC, _field(boxes), boxes, config=SIM, avoid=BEST_EFFORT)
     assert res.extras["feasible"] is False
     assert _dist(res.positions, (truck,)).min() >= FAST.clearance_ft
     assert _dist(res.positions, (near,)).min() >= 8.0
@@ -331,8 +336,11 @@ def test_fly_reports_infeasible_layout_in_metrics():
         avoid=AvoidConfig(n_samples=24, n_basis=4, replan_interval=50.0),
     )  # fmt: skip
     assert run.metrics["feasible"] is False
-    assert any("no trajectory keeps" in w for w in run.warnings)
-    assert run.metrics["min_true_obstacle_distance_ft"] < 20.0
+    assert any("no trajectory to the touch-down keeps" in w for w in run.warnings)
+    # it does not land 10 ft from vehicle 1: it holds short, clear of every vehicle
+    assert run.metrics["outcome"] in ("hover", "go-around")
+    assert run.metrics["manoeuvre"]["kind"] in MANOEUVRES
+    assert run.metrics["min_true_obstacle_distance_ft"] >= 20.0
 
 
 def test_layout_sweep_names_the_infeasible_layout():

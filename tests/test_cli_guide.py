@@ -78,6 +78,9 @@ def test_guide_prints_one_json_object(tmp_path, capsys):
         (["--clearance", "-5"], "--clearance"),
         (["--clearance", "inf"], "--clearance"),
         (["--replan-interval", "0"], "--replan-interval"),
+        (["--stress", "-1"], "--stress"),
+        (["--stress", "1", "--layout-sweep", "1"], "--stress"),
+        (["--stress", "1", "--pipeline", "p3"], "--pipeline p3"),
     ],
 )
 def test_guide_bad_input_is_one_line_error(tmp_path, capsys, argv, culprit):
@@ -139,6 +142,21 @@ def test_guide_avoid_infeasible_clearance_is_flagged(tmp_path, capsys):
     assert main(["guide", "--out", str(out), "--json", "--clearance", "40", *COARSE]) == 0
     cap = capsys.readouterr()
     data = json.loads(cap.out.strip())
-    assert data["feasible"] is False and data["clearance_kept"] is False
-    assert "no trajectory keeps 40 ft" in cap.err
+    assert data["feasible"] is False and data["outcome"] in ("hover", "go-around")
+    assert "no trajectory to the touch-down keeps 40 ft" in cap.err
+    assert "safe manoeuvre" in cap.err
     assert all(line.startswith("rangefx: warning:") for line in cap.err.strip().splitlines())
+
+
+def test_guide_stress_json_and_worst_case_plot(tmp_path, capsys):
+    out = tmp_path / "o"
+    argv = ["guide", "--out", str(out), "--json", "--stress", "1", "--seed", "2", *COARSE]
+    assert main(argv) == 0
+    data = json.loads(capsys.readouterr().out.strip())
+    assert data["source"] == "runway-p1" and data["seed"] == 2
+    (row,) = data["layouts"]
+    assert row["outcome"] in ("landing", "hover", "go-around", "crash")
+    s = data["summary"]
+    assert s["layouts"] == 1 and sum(s["outcomes"].values()) == 1
+    assert data["extent_along_ray_ft"]["n"] >= 1
+    assert (out / "stress.json").is_file() and (out / "stress_worst.png").is_file()

@@ -15,6 +15,11 @@ set chosen with ``--obstacles``:
 With ``--law avoid`` the report's law is also flown on the same obstacles and its
 figures are given under ``report_law``. ``--layout-sweep N`` flies the avoiding law over
 the ±10 ft shift grid and ``N`` seeded random layouts of the synthetic set instead.
+``--stress N [--pipeline NAME] [--seed S]`` flies both laws over ``N`` seeded layouts of
+the ``runway`` scene ranged by the pipeline, each moved so that a true vehicle stands on
+or near the nominal path (:mod:`rangefx.guidance.stress`), and writes ``stress.json``
+and ``stress_worst.png``. When no path to the touch-down keeps the clearance the
+avoiding law takes a safe manoeuvre (hover and hold, climb over, turn away) and says so.
 
 Writes Figs 4-10 look-alikes (extents, clearance and true vehicles drawn),
 ``trajectory.csv``, ``obstacles.csv``, ``extents.csv`` and ``summary.json`` to ``--out``
@@ -32,10 +37,12 @@ from pathlib import Path
 
 import numpy as np
 
+from rangefx.rtl_model.registry import PIPELINES
+
 from ..errors import UserError
 from ..report import atomic_output_dir, atomic_write_text, json_safe
 
-__all__ = ["add_parser", "cmd_guide", "guide_into"]
+__all__ = ["add_parser", "cmd_guide", "guide_into", "stress_into", "stress_table"]
 
 _HEADLINE = (
     "flight_time_s",
@@ -60,6 +67,8 @@ def cmd_guide(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.clearance) and args.clearance > 0):
         raise UserError(f"--clearance must be a positive number of feet, not {args.clearance}")
     out = Path(args.out)
+    if args.stress is not None:
+        return _cmd_stress(args, out)
     if args.layout_sweep is not None:
         if args.layout_sweep < 0:
             raise UserError(f"--layout-sweep must be >= 0, not {args.layout_sweep}")
@@ -110,6 +119,53 @@ def cmd_guide(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_stress(args: argparse.Namespace, out: Path) -> int:
+    if args.stress < 0:
+        raise UserError(f"--stress must be >= 0, not {args.stress}")
+    if args.layout_sweep is not None:
+        raise UserError("--stress and --layout-sweep are separate programmes: give one")
+    with atomic_output_dir(out) as tmp:
+        res = stress_into(
+            tmp, args.stress, args.pipeline, seed=args.seed, clearance_ft=args.clearance,
+            guidance_interval=args.guidance_interval, replan_interval=args.replan_interval,
+        )  # fmt: skip
+    data = res.to_dict()
+    if args.json:
+        print(json.dumps(json_safe(data)))
+    else:
+        print(stress_table(data))
+        print(f"results written to {out}/")
+    return 0
+
+
+def stress_table(data: dict) -> str:
+    """The stress programme's per-layout table and summary as text."""
+    head = (
+        f"{'layout':<12} {'vehicle':<10} {'t (s)':>6} {'off':>6} {'outcome':<10} "
+        f"{'manoeuvre':<10} {'true':>7} {'extent':>7} {'time':>6} {'n':>6} {'|θ|':>5} "
+        f"{'|φ|':>5} {'report':>7}"
+    )
+    lines = [head]
+    for r in data["layouts"]:
+        lines.append(
+            f"{r['name']:<12} {r['vehicle']:<10} {r['path_time_s']:6.1f} {r['offset_ft']:+6.1f} "
+            f"{r['outcome']:<10} {r['manoeuvre'] or '-':<10} {r['min_true_distance_ft']:7.2f} "
+            f"{r['min_extent_distance_ft']:7.2f} {r['flight_time_ratio']:6.3f} "
+            f"{r['max_load_factor']:6.3f} {r['max_abs_theta_deg']:5.1f} "
+            f"{r['max_abs_phi_deg']:5.1f} {r['report_law_min_true_distance_ft']:7.2f}"
+        )
+    s = data["summary"]
+    lines.append(
+        f"stress ({data['source']}, {s['layouts']} layouts, clearance {data['clearance_ft']:g} "
+        f"ft): outcomes {s['outcomes']}, collisions {s['collisions']} (report law "
+        f"{s['report_law_collisions']}), crashes {s['crashes']}, landings keeping the "
+        f"clearance {s['landings_keeping_clearance']} of {s['outcomes']['landing']}, min true "
+        f"distance {s['min_true_distance_ft']:.2f} ft, max load factor "
+        f"{s['max_load_factor']:.3f}"
+    )
+    return "\n".join(lines)
+
+
 def _line(prefix: str, m: dict) -> str:
     return (
         f"{prefix}: flight time {m['flight_time_s']:.2f} s, "
@@ -124,27 +180,97 @@ def _line(prefix: str, m: dict) -> str:
 
 
 def _case(obstacles: str):
-    from rangefx.guidance.cases import runway_case, synthetic_case
+    from rangefx.guidance.cases import synthetic_case
 
-    if obstacles in ("runway", "runway-p1"):
-        from rangefx.rtl_model.p1 import P1Config
-
-        from ..studies.runner import range_source
-
-        consistent = P1Config.default(variant="consistent")
-        source = range_source("p1", consistent) if obstacles == "runway-p1" else None
-        try:
-            case = runway_case(source)
-        except ValueError as exc:
-            raise UserError(f"--obstacles {obstacles}: {exc}") from None
-        case.info["method"] = (
-            "P1 fixed point, motion mode, consistent, default config"
-            if source
-            else "golden g4_consistent"
-        )
-        case.info["reduction"] = "voxel"
-        return case
+    if obstacles == "runway":
+        return _runway_case(None)
+    if obstacles == "runway-p1":
+        return _runway_case("p1")
     return synthetic_case()
+
+
+def _runway_case(pipeline: str | None):
+    """The ``runway`` scene end to end, ranged by golden ``g4_consistent`` (``None``) or
+    by the bit-accurate ``pipeline`` in the scene's mode (motion)."""
+    from rangefx.guidance.cases import runway_case
+    from rangefx.rtl_model.registry import get_pipeline
+
+    from ..studies.runner import range_source
+
+    source = None
+    label = f"--pipeline {pipeline}" if pipeline else "--obstacles runway"
+    if pipeline is not None:
+        pipe = get_pipeline(pipeline)
+        if "motion" not in pipe.modes:
+            raise UserError(
+                f"--pipeline {pipeline}: {pipeline.upper()} models "
+                f"{' and '.join(pipe.modes)} mode only; the runway scene is a motion pair"
+            )
+        if pipeline == "p1":  # the consistent variant, as the documented figures
+            from rangefx.rtl_model.p1 import P1Config
+
+            config = P1Config.default(variant="consistent")
+        else:
+            config = pipe.default_config()
+        source = range_source(pipe, config)
+    try:
+        case = runway_case(source)
+    except ValueError as exc:
+        raise UserError(f"{label}: {exc}") from None
+    case.info["method"] = (
+        f"{pipeline.upper()} fixed point, motion mode, default config"
+        + (", consistent" if pipeline == "p1" else "")
+        if pipeline
+        else "golden g4_consistent"
+    )
+    case.info["reduction"] = "voxel"
+    return case
+
+
+def stress_into(
+    tmp: Path,
+    count: int,
+    pipeline: str,
+    *,
+    seed: int = 0,
+    clearance_ft: float = 20.0,
+    guidance_interval: float = 0.1,
+    replan_interval: float = 0.5,
+):
+    """The stress programme (:func:`rangefx.guidance.stress.stress_programme`) on the
+    ``runway`` scene ranged by ``pipeline``, into ``tmp``: ``stress.json`` and
+    ``stress_worst.png`` (the closest layouts). Returns the
+    :class:`~rangefx.guidance.stress.StressResult`."""
+    from tqdm import tqdm
+
+    from rangefx.guidance.avoid import AvoidConfig
+    from rangefx.guidance.plots import save_stress_figure
+    from rangefx.guidance.simulate import SimulationConfig
+    from rangefx.guidance.stress import stress_programme
+
+    try:
+        config = SimulationConfig(
+            guidance_interval=guidance_interval, sample_interval=min(0.02, guidance_interval)
+        )
+    except ValueError as exc:
+        raise UserError(f"--guidance-interval: {exc}") from None
+    try:
+        avoid = AvoidConfig(clearance_ft=clearance_ft, replan_interval=replan_interval)
+    except ValueError as exc:
+        raise UserError(f"--clearance / --replan-interval: {exc}") from None
+    case = _runway_case(pipeline)
+    bar = tqdm(total=count, desc="stress", disable=not sys.stderr.isatty())
+    try:
+        res = stress_programme(
+            case, count, seed=seed, source=f"runway-{pipeline}", clearance_ft=clearance_ft,
+            config=config, avoid=avoid, progress=lambda _n: bar.update(),
+        )  # fmt: skip
+    finally:
+        bar.close()
+    atomic_write_text(tmp / "stress.json", json.dumps(json_safe(res.to_dict()), indent=2) + "\n")
+    if res.rows:
+        save_stress_figure(res, tmp / "stress_worst.png")
+    return res
 
 
 def guide_into(
@@ -348,5 +474,21 @@ def add_parser(sub) -> None:
         help="fly the avoiding law over the +-10 ft shift grid and N seeded random layouts "
         "of the synthetic set (writes sweep.json)",
     )
+    p.add_argument(
+        "--stress",
+        type=int,
+        default=None,
+        metavar="N",
+        help="stress programme: N seeded layouts of the runway scene ranged by --pipeline, "
+        "each moved so that a true vehicle stands on or near the nominal path; the avoiding "
+        "law and the report's flown on each (writes stress.json, stress_worst.png)",
+    )
+    p.add_argument(
+        "--pipeline",
+        choices=tuple(PIPELINES),
+        default="p1",
+        help="--stress: the bit-accurate pipeline that ranges the runway scene (default p1)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="--stress: layout seed (default 0)")
     p.add_argument("--json", action="store_true", help="print one JSON object with the figures")
     p.set_defaults(func=cmd_guide)

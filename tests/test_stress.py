@@ -1,0 +1,173 @@
+"""Safe manoeuvres of the avoiding law and the stress programme (issue 39, SPEC §13).
+
+Short problems and coarse settings keep these fast; the figures of the full runs are
+in docs/guidance.md.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from rangefx.guidance.avoid import (
+    MANOEUVRES,
+    OUTCOMES,
+    AvoidConfig,
+    InfeasibleClearanceWarning,
+    manoeuvre_candidates,
+    simulate_avoid,
+)
+from rangefx.guidance.cases import synthetic_case
+from rangefx.guidance.extraction import ObstacleBox
+from rangefx.guidance.law import BoundaryConditions, GuidanceWeights, ObstacleField
+from rangefx.guidance.simulate import SimulationConfig
+from rangefx.guidance.stress import stress_layouts, stress_programme
+
+# A short straight-in problem: 300 ft down range, the report's weights.
+BC = BoundaryConditions(
+    r0=[0.0, 0.0, 10.0], v0=[30.0, 0.0, 0.0], rf=[300.0, 0.0, 5.0], vf=[5.0, 0.0, 0.0]
+)
+WEIGHTS = GuidanceWeights(zeta=0.96, alpha=0.5, mu=0.0, beta=1e-6)
+FAST = AvoidConfig(n_samples=24, n_basis=5, replan_interval=2.0, terminal_time=2.0)
+SIM = SimulationConfig(guidance_interval=0.25, sample_interval=0.02)
+
+
+def _box(x, y, half_u=4.0, half_v=4.0, top=8.0):
+    return ObstacleBox("box", (x, y), 0.0, half_u, half_v, top)
+
+
+def _field(boxes):
+    return ObstacleField(np.array([[b.centre[0], b.centre[1], 4.0] for b in boxes]), WEIGHTS)
+
+
+def _dist(pos, boxes):
+    return np.min([b.signed_distance(pos) for b in boxes], axis=0)
+
+
+def _fly(boxes, **kw):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = simulate_avoid(BC, _field(boxes), boxes, config=SIM, avoid=FAST, **kw)
+    return res, [str(w.message) for w in caught if w.category is InfeasibleClearanceWarning]
+
+
+def test_blocked_touchdown_takes_a_safe_manoeuvre_not_the_landing():
+    # A box on the touch-down point: no landing keeps 20 ft. The law decelerates to a
+    # hover short of it and holds, says so, and keeps the clearance on the integrated
+    # trajectory (before issue 39 it flew the best-effort plan into the box's clearance).
+    boxes = (_box(300.0, 0.0),)
+    res, notes = _fly(boxes)
+    ex = res.extras
+    assert ex["outcome"] == "hover" and ex["manoeuvre"]["kind"] == "hover"
+    assert ex["feasible"] is False and "touch-down point is" in ex["landing_blocked"]
+    assert any("safe manoeuvre: hover" in n for n in notes)
+    assert _dist(res.positions, boxes).min() >= FAST.clearance_ft
+    hold = np.array(ex["manoeuvre"]["hold_point_ft"])
+    assert np.linalg.norm(res.positions[-1] - hold) < 2.0  # it got there
+    assert np.allclose(ex["touchdown"], BC.rf)
+
+
+def test_wall_ahead_gives_a_climb_over():
+    # A long low wall across the track from 100 to 290 ft down range: the touch-down
+    # point is 10 ft from it and every hover point ahead inside its clearance; the law
+    # climbs over it and holds.
+    boxes = (_box(195.0, 0.0, half_u=95.0, half_v=120.0, top=6.0),)
+    res, notes = _fly(boxes)
+    ex = res.extras
+    assert ex["outcome"] == "go-around" and ex["manoeuvre"]["kind"] == "climb"
+    assert _dist(res.positions, boxes).min() >= FAST.clearance_ft
+    assert any("safe manoeuvre: climb" in n for n in notes)
+
+
+def test_best_effort_option_lands_anyway():
+    boxes = (_box(300.0, 0.0),)
+    av = AvoidConfig(**{**FAST.__dict__, "when_blocked": "best-effort"})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = simulate_avoid(BC, _field(boxes), boxes, config=SIM, avoid=av)
+    assert res.extras["outcome"] == "landing" and res.extras["manoeuvre"] is None
+    assert np.linalg.norm(res.positions[-1] - BC.rf) < 1.0
+
+
+def test_manoeuvre_hold_points_keep_the_clearance():
+    boxes = (_box(120.0, 0.0), _box(60.0, 90.0), _box(0.0, -140.0))
+    cands = manoeuvre_candidates(np.array(BC.r0), np.array(BC.v0), boxes, FAST)
+    assert cands and {k for k, _ in cands} <= set(MANOEUVRES)
+    need = FAST.clearance_ft + FAST.margin_ft + 2.0
+    for _, p in cands:
+        assert _dist(p[None], boxes)[0] >= need
+    # hover points lie on the track ahead, at the present altitude
+    for k, p in cands:
+        if k == "hover":
+            assert p[1] == 0.0 and p[0] > 0 and p[2] == BC.r0[2]
+
+
+def test_the_simulation_reports_a_crash_instead_of_raising():
+    boxes = (_box(150.0, 60.0),)
+    short = SimulationConfig(guidance_interval=0.25, sample_interval=0.02, max_time=2.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = simulate_avoid(BC, _field(boxes), boxes, config=short, avoid=FAST)
+    assert res.extras["outcome"] == "crash"
+    assert "max_time" in res.extras["crash_reason"]
+    assert res.t[-1] <= 2.0 + SIM.guidance_interval + 1e-9
+
+
+# --------------------------------------------------------------------------- stress
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    return synthetic_case()
+
+
+def _nominal():
+    t = np.linspace(0.0, 18.0, 91)
+    pos = np.column_stack([532 + 208 * t / 18, 590 - 590 * t / 18, np.full_like(t, 7.0)])
+    return t, pos
+
+
+def test_stress_layouts_put_a_vehicle_on_the_nominal_path(synthetic):
+    t, pos = _nominal()
+    a = stress_layouts(synthetic, t, pos, 6, seed=3, max_offset_ft=12.0)
+    assert a == stress_layouts(synthetic, t, pos, 6, seed=3, max_offset_ft=12.0)
+    assert a != stress_layouts(synthetic, t, pos, 6, seed=4, max_offset_ft=12.0)
+    for lay in a:
+        moved = synthetic.shifted(lay.shift_ft)
+        box = next(b for b in moved.truth if b.name == lay.vehicle)
+        # the chosen vehicle's centre stands |offset| <= 12 ft from the nominal path's
+        # position at the drawn time
+        p = [np.interp(lay.path_time_s, t, pos[:, i]) for i in range(2)]
+        off = np.asarray(box.centre) - p
+        assert math.hypot(*off) == pytest.approx(abs(lay.offset_ft))
+        assert abs(lay.offset_ft) <= 12.0
+        tangent = pos[1, :2] - pos[0, :2]  # the nominal path is straight
+        assert abs(off @ tangent) / np.linalg.norm(tangent) < 1e-6  # beside it, not along
+        assert 0.15 * 18 <= lay.path_time_s <= 0.85 * 18
+        # no true vehicle on the start or the touch-down
+        assert _dist(pos[[0, -1]], moved.truth).min() >= 5.0
+
+
+def test_stress_programme_scores_against_the_true_vehicles(synthetic):
+    coarse = AvoidConfig(n_samples=24, n_basis=5, replan_interval=50.0)
+    res = stress_programme(
+        synthetic, 1, seed=1, source="synthetic", config=SimulationConfig(guidance_interval=0.5),
+        avoid=coarse,
+    )  # fmt: skip
+    (row,) = res.rows
+    assert row["outcome"] in OUTCOMES
+    moved, run, rep = res.runs[row["name"]]
+    d_true = _dist(run.result.positions, moved.truth).min()
+    assert row["min_true_distance_ft"] == pytest.approx(d_true)
+    assert row["collision"] is bool(d_true < 0)
+    assert row["report_law_min_true_distance_ft"] == pytest.approx(
+        _dist(rep.result.positions, moved.truth).min()
+    )
+    s = res.summary
+    assert s["layouts"] == 1 and sum(s["outcomes"].values()) == 1
+    assert s["collisions"] == 0 and s["crashes"] == 0
+    json.dumps(res.to_dict())  # plain data
