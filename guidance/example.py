@@ -13,8 +13,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .law import BoundaryConditions, GuidanceWeights, ObstacleField
-from .model import VehicleParams
+from .law import (
+    BoundaryConditions,
+    GuidanceWeights,
+    ObstacleField,
+    open_loop_solution,
+    solve_time_to_go,
+)
+from .model import VehicleParams, inverse_controls
 from .obstacles import synthetic_runway_obstacles
 from .simulate import SimulationConfig, SimulationResult, simulate, trajectory_metrics
 
@@ -23,6 +29,7 @@ __all__ = [
     "REPORT_FIGURES",
     "REPORT_WEIGHTS",
     "ExampleRun",
+    "extremal_figures",
     "run_example",
 ]
 
@@ -79,3 +86,36 @@ def run_example(
     metrics = trajectory_metrics(res)
     metrics["obstacle_centroid"] = [float(c) for c in field.centroid]
     return ExampleRun(res, metrics, field)
+
+
+def extremal_figures(
+    field: ObstacleField,
+    *,
+    boundary: BoundaryConditions = REPORT_BOUNDARY,
+    params: VehicleParams | None = None,
+    t_go: float | None = None,
+    samples: int = 400,
+) -> dict[str, float]:
+    """The report's figures on the open-loop extremal from the initial state (eqs 37-52
+    at eq 55's time-to-go, or at ``t_go``): ``flight_time_s``, ``max_load_factor``,
+    ``max_abs_theta_deg``, ``max_abs_phi_deg`` (by the inverse, eqs 12-19) and
+    ``max_accel_ft_s2``.
+
+    The closed loop follows this extremal within 1 ft (tested in ``test_guidance``), so
+    these are the closed loop's figures without its guidance-interval effects; they
+    depend on the obstacles only through their number and centroid (SPEC §9), which is
+    what makes them cheap to scan over obstacle placements.
+    """
+    params = params or VehicleParams()
+    t = solve_time_to_go(boundary.r0, boundary.v0, boundary, field).t_go if t_go is None else t_go
+    sol = open_loop_solution(boundary.r0, boundary.v0, t, boundary, field)
+    ts = np.linspace(0.0, t, samples)
+    v, a = sol.derivative(ts, 1), sol.derivative(ts, 2)
+    ctrl = [inverse_controls(vi, ai, params) for vi, ai in zip(v, a, strict=True)]
+    return {
+        "flight_time_s": float(t),
+        "max_load_factor": max(c.load_factor(params) for c in ctrl),
+        "max_abs_theta_deg": float(np.degrees(max(abs(c.theta) for c in ctrl))),
+        "max_abs_phi_deg": float(np.degrees(max(abs(c.phi) for c in ctrl))),
+        "max_accel_ft_s2": float(np.linalg.norm(a, axis=1).max()),
+    }

@@ -530,3 +530,26 @@ def test_runway_obstacles_take_any_range_source():
     # the scene vehicle lands at the example's start, flying along -y
     xv = scene.motion.xv
     assert fmap.to_guidance(np.array([xv[0], xv[1], 0.0])) == pytest.approx([532.0, 590.0, 0.0])
+
+
+def test_report_example_figures_are_set_by_the_obstacle_centroid():
+    # Issue 39: the report's load factor (<= 1.02) and |θ| (< ~12°) are missed with the
+    # synthetic stand-in, whose centroid (735, 118) ft sits by the touch-down point, and
+    # met, with the report's 20 s, by the same law, model and constants when the 293
+    # points' centroid lies where the start's camera sees them, (640, 375) ft.
+    from rangefx.guidance.example import REPORT_WEIGHTS, extremal_figures
+    from rangefx.guidance.law import ObstacleField
+    from rangefx.guidance.obstacles import synthetic_runway_obstacles
+
+    ours = extremal_figures(ObstacleField(synthetic_runway_obstacles(), REPORT_WEIGHTS))
+    assert ours["max_load_factor"] > 1.035 and ours["max_abs_theta_deg"] > 14.5
+    assert 18.0 < ours["flight_time_s"] < 18.5
+    seen = extremal_figures(ObstacleField(np.tile([640.0, 375.0, 4.2], (293, 1)), REPORT_WEIGHTS))
+    assert 19.5 < seen["flight_time_s"] < 20.5
+    assert seen["max_load_factor"] <= 1.02 and seen["max_abs_theta_deg"] < 12.0
+    assert seen["max_abs_phi_deg"] < 15.0
+    # flight time alone is not the cause: our centroid at a forced 20 s still misses
+    forced = extremal_figures(
+        ObstacleField(synthetic_runway_obstacles(), REPORT_WEIGHTS), t_go=20.0
+    )
+    assert forced["max_load_factor"] > 1.02 and forced["max_abs_theta_deg"] > 12.0
