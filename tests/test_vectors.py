@@ -396,8 +396,11 @@ def test_stream_words_round_trip(word, data):
 def test_readers_reject_garbage():
     with pytest.raises(ValueError, match="not a hexadecimal"):
         fio.read_mem(b"00\nqq\n")
-    with pytest.raises(ValueError, match="@address"):
+    with pytest.raises(ValueError, match="unloaded"):  # a plain list cannot hold a gap
         fio.read_mem(b"@10\n00\n")
+    with pytest.raises(ValueError, match="@address"):
+        fio.read_mem_words(b"@zz\n00\n")
+    assert fio.read_mem(b"@1 01 @0 00") == [0, 1]
     assert fio.read_mem(b"// c\n0a /* b */ xx\n\n1_f\n") == [10, None, 31]
     with pytest.raises(ValueError, match="whole number"):
         fio.read_stream_bin(b"\x00\x01\x02", 8)
@@ -440,12 +443,137 @@ def test_diff_never_masks_bits_outside_the_format(tmp_path, vec, kind, capsys):
 def test_diff_accepts_consistent_sign_extension(tmp_path, vec):
     tap = "e1.col_s2"
     exp = read_tap(vec, tap)
-    wide = {k: f"{int(v) & 0xFFFFFFFF:08x}" for k, v in enumerate(exp)}  # 32-bit sign extension
-    _rewrite_mem(vec / f"{tap}.mem", tmp_path / f"{tap}.mem", wide)
-    assert diff_dump(vec, tmp_path / f"{tap}.mem").ok
-    assert dump_code(0xFF000188, 21, True) is None
+    for width in (32, 64):  # sign extension to a 32- and a 64-bit register
+        wide = {k: f"{int(v) & ((1 << width) - 1):0{width // 4}x}" for k, v in enumerate(exp)}
+        _rewrite_mem(vec / f"{tap}.mem", tmp_path / f"{tap}.mem", wide)
+        assert diff_dump(vec, tmp_path / f"{tap}.mem").ok
+    assert dump_code(0xFF000188, 21, True, 32) is None
     assert dump_code(-1, 21, False) is None
     assert dump_code(-1, 21, True) == (1 << 21) - 1
+
+
+# -- issue 40: the verdict cannot be fooled ------------------------------------------------
+def test_issue40_partial_sign_extension_is_a_mismatch(tmp_path, vec, capsys):
+    """The issue's false pass: ``v | 0x0FE00000`` for a negative s21.11 ``v`` (bits 21-27
+    ones, 28-31 zeros) is no sign extension; nor is a negative code zero-extended."""
+    tap = "e1.col_s2"
+    exp = read_tap(vec, tap)
+    neg = np.flatnonzero(exp < 0)
+    code = {int(k): int(exp[k]) & ((1 << 21) - 1) for k in neg[:2]}
+    k0, k1 = code
+    dump = tmp_path / f"{tap}.mem"
+    wide = {k: f"{int(v) & 0xFFFFFFFF:08x}" for k, v in enumerate(exp)}
+    wide[k0] = f"{code[k0] | 0x0FE00000:08x}"
+    wide[k1] = f"{code[k1]:08x}"  # zero-extended to 32 bits: the sign is lost
+    _rewrite_mem(vec / f"{tap}.mem", dump, wide)
+    r = diff_dump(vec, dump)
+    assert r.mismatches == 2 and r.first["index"] == k0
+    assert r.first["got_hex"] == f"{code[k0] | 0x0FE00000:08x}" and r.first["outside_format"]
+    assert main(["vectors", "diff", str(vec), str(dump)]) == 1
+    assert "2 mismatches" in capsys.readouterr().out
+
+
+def _writememh(words: dict[int, int], digits: int, order: list[int]) -> str:
+    """``$writememh``-style text: an ``@address`` before each run of addresses."""
+    lines, last = ["// dumped by the bench"], None
+    for a in order:
+        if last is None or a != last + 1:
+            lines.append(f"@{a:x}")
+        lines.append(f"{words[a]:0{digits}x}")
+        last = a
+    return "\n".join(lines) + "\n"
+
+
+def test_issue40_readmemh_address_directives_are_read(tmp_path, vec):
+    """``@address`` moves the next word; runs in any order read as one dump; a gap
+    (an address no word is loaded at) is a missing sample, a mismatch each."""
+    tap = "e1.col_s2"
+    codes = fio.read_mem((vec / f"{tap}.mem").read_bytes())
+    words = dict(enumerate(codes))
+    n = len(codes)
+    half = n // 2
+    order = list(range(half, n)) + list(range(half))  # second half first
+    dump = tmp_path / f"{tap}.mem"
+    dump.write_text(_writememh(words, 6, order))
+    r = diff_dump(vec, dump)
+    assert r.ok and r.got_count == n
+    gapped = [a for a in range(n) if a not in (5, 6, 7)]
+    dump.write_text(_writememh(words, 6, gapped))
+    r = diff_dump(vec, dump)
+    assert r.mismatches == 3 and r.first["index"] == 5 and r.first["got_hex"] == "not loaded"
+    dump.write_text(_writememh({**words, n + 40: 0}, 6, [*range(n), n + 40]))
+    r = diff_dump(vec, dump)
+    assert r.mismatches == 1 and r.got_count == n + 1
+
+
+def _reference_code(bits: str, word: int, signed: bool) -> int | None:
+    """Written from the rule, on the dump word's bit string (MSB first), apart from the
+    reader: the bits above the tap's width must be all zero (the tap's own hex width may
+    pad a negative code with zeros) or, for a signed tap, all copies of the sign bit."""
+    if len(bits) < word:
+        bits = "0" * (word - len(bits)) + bits
+    high, code = bits[: len(bits) - word], bits[len(bits) - word :]
+    own_width = len(bits) <= -(-word // 4) * 4
+    if all(b == "0" for b in high) and (own_width or not signed or code[0] == "0"):
+        return int(code, 2)
+    if signed and all(b == code[0] for b in high):
+        return int(code, 2)
+    return None
+
+
+@st.composite
+def _dump_words(draw):
+    word = draw(st.integers(1, 48))
+    signed = draw(st.booleans())
+    digits = draw(st.integers(1, 18))
+    width = 4 * digits
+    code = draw(st.integers(0, (1 << min(word, width)) - 1))
+    pattern = draw(st.sampled_from(["zeros", "ones", "any"]))
+    above = max(width - word, 0)
+    if pattern == "any":
+        high = draw(st.integers(0, (1 << above) - 1))
+    else:
+        high = 0 if pattern == "zeros" else (1 << above) - 1
+    return word, signed, digits, (high << word) | code if above else code
+
+
+@settings(max_examples=400, deadline=None)
+@given(_dump_words())
+def test_issue40_dump_word_verdict_matches_an_independent_reference(case):
+    word, signed, digits, value = case
+    token = f"{value:0{digits}x}"
+    (got, bits), *_ = fio.read_mem_words(f"// t\n{token}\n").values()
+    assert (got, bits) == (value, 4 * digits)
+    want = _reference_code(format(value, f"0{4 * digits}b"), word, signed)
+    assert dump_code(got, word, signed, bits) == want
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.sampled_from([24, 32, 48, 64]), st.sampled_from(["sign", "zero", "partial"]), st.data())
+def test_issue40_diff_verdict_over_dump_widths(vec, width, high, data):
+    """A whole dump of one width: sign extension passes; zero extension passes only for
+    non-negative values (or at the tap's own 24-bit width); a partial run of ones never."""
+    import tempfile
+
+    tap = "e1.col_s2"  # s21.11
+    exp = read_tap(vec, tap)
+    k = data.draw(st.sampled_from(np.flatnonzero(exp < 0).tolist()))
+    code = int(exp[k]) & ((1 << 21) - 1)
+    ones = (1 << width) - (1 << 21)
+    word = {"sign": code | ones, "zero": code}.get(high)
+    if word is None:
+        cut = data.draw(st.integers(22, width - 1)) if width > 24 else 23
+        word = code | (ones & ((1 << cut) - 1))
+    words = {i: int(v) & ((1 << width) - 1) for i, v in enumerate(exp)}
+    words[k] = word
+    with tempfile.TemporaryDirectory() as tmp:
+        dump = Path(tmp) / f"{tap}.mem"
+        dump.write_text(_writememh(words, width // 4, list(range(exp.size))))
+        r = diff_dump(vec, dump)
+    should_pass = high == "sign" or (high == "zero" and width == 24)
+    assert r.ok == should_pass, (width, high, f"{word:x}")
+    if not should_pass:
+        assert r.mismatches == 1 and r.first["index"] == k and r.first["outside_format"]
 
 
 def _malformed(tmp_path: Path, vec: Path, change) -> Path:

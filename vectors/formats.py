@@ -31,6 +31,7 @@ __all__ = [
     "read_coe",
     "read_csv",
     "read_mem",
+    "read_mem_words",
     "read_mif",
     "read_stream_bin",
     "read_stream_bin_valid",
@@ -235,37 +236,67 @@ def read_stream_bin_valid(data: bytes, word: int) -> np.ndarray:
 
 # -- readers ------------------------------------------------------------------------------
 _TOKEN = re.compile(rb"[^\s,;]+")
+_HEX_WORD = re.compile(rb"[0-9a-fA-F]+")
+_XZ_WORD = re.compile(rb"[0-9a-fA-FxXzZ?]+")
 
 
-def read_mem(data: bytes | str) -> list[int | None]:
-    """Words of a ``$readmemh`` file as unsigned integers, ``None`` for ``x``/``z`` words.
+def read_mem_words(data: bytes | str) -> dict[int, tuple[int | None, int]]:
+    """Words of a ``$readmemh`` file by word address: ``address -> (value, bits)``.
 
-    ``//`` and ``/* */`` comments and blank lines are skipped; ``@address`` directives are
-    not supported (vector files never use them).
+    ``value`` is the unsigned integer the hex digits spell (``None`` for a word with
+    ``x``/``z`` digits), ``bits`` the width the word was written with (4 bits per hex
+    digit, ``_`` separators not counted), which :func:`rangefx.vectors.generate.dump_code`
+    needs to tell a sign extension from garbage. ``//`` and ``/* */`` comments and blank
+    lines are skipped. As IEEE 1364 §17.2.8 defines ``$readmemh``: the words load at
+    consecutive addresses from 0, an ``@hhh`` directive (hexadecimal word address) moves
+    the next word to ``hhh``, a later word at an address already loaded replaces it, and
+    addresses no word names are not loaded (they keep what the memory held: a gap).
 
     Raises
     ------
     ValueError
-        An ``@address`` directive or a token that is not hexadecimal.
+        A token that is neither a hexadecimal word nor an ``@`` followed by one.
     """
     raw = data.encode() if isinstance(data, str) else data
     raw = re.sub(rb"/\*.*?\*/", b" ", raw, flags=re.S)
     raw = re.sub(rb"//[^\n]*", b"", raw)
-    out: list[int | None] = []
+    out: dict[int, tuple[int | None, int]] = {}
+    address = 0
     for tok in _TOKEN.findall(raw):
         t = tok.replace(b"_", b"")
         if t.startswith(b"@"):
-            raise ValueError("$readmemh @address directives are not supported")
-        try:
-            out.append(int(t, 16))
-        except ValueError:
-            if re.fullmatch(rb"[0-9a-fA-FxXzZ?]+", t):
-                out.append(None)
-            else:
-                raise ValueError(
-                    f"not a hexadecimal word: {t.decode(errors='replace')!r}"
-                ) from None
+            if not _HEX_WORD.fullmatch(t[1:]):
+                raise ValueError(f"not a hexadecimal @address: {t.decode(errors='replace')!r:.40}")
+            address = int(t[1:], 16)
+            continue
+        if _HEX_WORD.fullmatch(t):
+            value: int | None = int(t, 16)
+        elif _XZ_WORD.fullmatch(t):
+            value = None
+        else:
+            raise ValueError(f"not a hexadecimal word: {t.decode(errors='replace')!r:.40}")
+        out[address] = (value, 4 * len(t))
+        address += 1
     return out
+
+
+def read_mem(data: bytes | str) -> list[int | None]:
+    """Words of a ``$readmemh`` file as unsigned integers in address order, ``None`` for
+    ``x``/``z`` words (:func:`read_mem_words`; the words must fill addresses 0 to N-1).
+
+    Raises
+    ------
+    ValueError
+        A token that is not hexadecimal, or ``@address`` directives leaving a gap.
+    """
+    raw = data.encode() if isinstance(data, str) else data
+    if b"@" not in raw:  # the vector files' own case: no addresses, a plain list
+        return [w for w, _ in read_mem_words(raw).values()]
+    words = read_mem_words(raw)
+    if words and max(words) != len(words) - 1:
+        gap = next(k for k in range(len(words) + 1) if k not in words)
+        raise ValueError(f"$readmemh words leave address {gap:x} (hex) unloaded")
+    return [words[k][0] for k in range(len(words))]
 
 
 def read_coe(data: bytes | str) -> list[int]:

@@ -565,15 +565,32 @@ class DiffReport:
         return "\n".join(lines)
 
 
+#: Memory that reading one byte of a ``.mem``/``.csv`` dump may take (the bytes, their
+#: tokens and the words as Python objects; tracemalloc peak of read_mem_words: 29 for
+#: 6-digit lines, 69 for 1-digit lines, the worst case): :func:`dump_memory_bytes`.
+DUMP_BYTES_PER_FILE_BYTE = 80
+
+
+def dump_memory_bytes(dump: str | Path) -> int:
+    """Memory :func:`diff_dump` needs to read ``dump`` (0 if it cannot be sized)."""
+    try:
+        return Path(dump).stat().st_size * DUMP_BYTES_PER_FILE_BYTE
+    except OSError:
+        return 0
+
+
 def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -> DiffReport:
     """Compare an RTL dump (``.mem`` or ``.csv``, samples in scan order) with a tap.
 
     ``tap`` defaults to the dump's file name without its extension (``e1.row_r1.mem`` ->
     ``e1.row_r1``). Codes are compared as ``W``-bit two's complement words; ``x``/``z``
     words and words with bits outside the format (:func:`dump_code`) always mismatch. A
-    dump shorter or longer than expected counts every missing or extra sample as a
-    mismatch; the first mismatch is the first differing sample in scan order (cycle = the
-    model's cycle for that sample).
+    ``.mem`` dump is read as ``$readmemh`` reads it (:func:`~rangefx.vectors.formats.
+    read_mem_words`): sample ``k`` is the word at address ``k``; an address no word was
+    loaded at (a gap left by ``@address`` directives) is a missing sample, a word at an
+    address past the last sample an extra one; each counts as a mismatch. The first
+    mismatch is the first differing sample in scan order (cycle = the model's cycle for
+    that sample).
 
     Raises
     ------
@@ -591,23 +608,30 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
         tap = dump.name.split(".mem")[0].split(".csv")[0]
     entry = _find_entry(manifest, tap)
     word, signed = int(entry["word"]), bool(entry["signed"])
-    if dump.suffix == ".csv":
-        read: list[int | None] = fmt_io.read_csv(data)["value"]
+    read: dict[int, tuple[int | None, int | None]]
+    if dump.suffix == ".csv":  # decimal numbers: no width (dump_code)
+        read = dict(enumerate((v, None) for v in fmt_io.read_csv(data)["value"]))
     elif dump.suffix == ".mem":
-        read = fmt_io.read_mem(data)
+        read = fmt_io.read_mem_words(data)
     else:
         raise ValueError(f"dump {dump.name}: expected a .mem or .csv file")
-    # a word that is not this format's (bits outside it) is a mismatch, never masked
-    got = [dump_code(v, word, signed) for v in read]
-    expected = fmt_io.to_unsigned(read_tap(d, tap, manifest), word)
-    n_exp, n_got = expected.size, len(got)
-    common = min(n_exp, n_got)
-    g = np.array([-1 if v is None else v for v in got[:common]], dtype=np.int64)
-    bad = g != expected[:common].astype(np.int64)
-    mismatches = int(np.count_nonzero(bad)) + abs(n_exp - n_got)
+    expected = fmt_io.to_unsigned(read_tap(d, tap, manifest), word).astype(np.int64)
+    n_exp, n_got = expected.size, len(read)
+    # a word that is not this format's (bits outside it) is a mismatch, never masked;
+    # -1 marks an x/z or outside word, -2 an address no word was loaded at
+    g = np.full(n_exp, -2, dtype=np.int64)
+    extra = 0
+    for address, (value, bits) in read.items():
+        if address >= n_exp:
+            extra += 1
+            continue
+        code = dump_code(value, word, signed, bits)
+        g[address] = -1 if code is None else code
+    bad = g != expected
+    mismatches = int(np.count_nonzero(bad)) + extra
     first = None
     if mismatches:
-        idx = int(np.flatnonzero(bad)[0]) if bad.any() else common
+        idx = int(np.flatnonzero(bad)[0]) if bad.any() else min(a for a in read if a >= n_exp)
         m, n = manifest["shape"]
         digits = fmt_io.hex_digits(word)
         base = int(entry["first_valid_cycle"])
@@ -616,11 +640,11 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
         exp_raw = (
             int(fmt_io.to_signed(expected[idx : idx + 1], word, signed)[0]) if idx < n_exp else None
         )
-        got_code = got[idx] if idx < n_got else None
-        got_word = read[idx] if idx < n_got else None
+        got_word = read.get(idx, (None, None))[0]
+        got_code = int(g[idx]) if idx < n_exp else dump_code(got_word, word, signed)
         got_raw = (
             got_word
-            if got_code is None
+            if got_code is None or got_code < 0
             else int(fmt_io.to_signed(np.array([got_code], dtype=np.uint64), word, signed)[0])
         )
         first = {
@@ -631,40 +655,55 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
             "expected": exp_raw,
             "expected_hex": "-" if exp_raw is None else f"{int(expected[idx]):0{digits}x}",
             "got": got_raw,
-            "got_hex": "x" if got_code is None else f"{got_code:0{digits}x}",
+            "got_hex": "x",
         }
-        if idx >= n_got:
-            first["got_hex"] = "missing"
-        elif got_word is not None and got_code is None:
-            first["got_hex"] = f"{got_word:x}" if got_word >= 0 else str(got_word)
+        if idx not in read:
+            first["got_hex"] = "missing" if dump.suffix == ".csv" or idx >= n_got else "not loaded"
+            first["got"] = None
+        elif got_word is not None and (got_code is None or got_code < 0):
+            width = read[idx][1] or 0  # the word as the dump wrote it, leading zeros too
+            first["got_hex"] = f"{got_word:0{width // 4}x}" if got_word >= 0 else str(got_word)
             first["outside_format"] = True
+        elif got_code is not None and got_code >= 0:
+            first["got_hex"] = f"{got_code:0{digits}x}"
     return DiffReport(
         tap, entry["signal"], entry["format"], entry["describe"], n_exp, n_got, mismatches, first
     )
 
 
-def dump_code(value: int | None, word: int, signed: bool) -> int | None:
+def dump_code(value: int | None, word: int, signed: bool, bits: int | None = None) -> int | None:
     """The ``word``-bit code of one RTL dump word, or ``None`` if it is not one.
 
-    Accepted: the code itself (``0 <= value < 2**word``; leading zero digits are fine),
-    for a signed format the signed raw value (``-2**(word-1) <= value < 0``, as the
-    ``.csv`` vectors write it) or a consistent sign extension of the code to a wider word
-    (every bit above ``word - 1`` equal to bit ``word - 1``: ``ffffffff`` is -1 of a 21-bit
-    tap). Anything else has bits outside the format (``ff000188`` for a 21-bit tap, a
-    negative value for an unsigned tap) and is ``None``: a mismatch, like an ``x`` word.
+    ``bits`` is the width the dump wrote the word with (4 bits per hex digit of a
+    ``.mem`` word); ``None`` for a decimal number (a ``.csv`` value), which has no width.
+    Accepted:
+
+    * the code itself, ``0 <= value < 2**word``, when the word is no wider than the
+      tap's own hex width (``4 * ceil(word / 4)`` bits, what ``$writememh`` writes for a
+      ``word``-bit register: its top bits are padding) or is a decimal number;
+    * in a wider word, bits ``word`` and up all zero for an unsigned tap or a
+      non-negative value of a signed one (zero extension), all equal to the sign bit
+      ``word - 1`` for a signed tap (sign extension: ``ffffffff`` is -1 of a 21-bit tap);
+    * for a signed tap, a negative decimal number ``-2**(word-1) <= value < 0`` (the
+      ``.csv`` vectors write the signed raw value).
+
+    Anything else has bits outside the format and is ``None``, a mismatch like an ``x``
+    word: ``0fe00188`` for a 21-bit signed tap (bits 21-27 ones, 28-31 zeros),
+    ``001fffff`` (a negative 21-bit code zero-extended to 32 bits), a negative value
+    for an unsigned tap.
     """
     if value is None:
         return None
-    if 0 <= value < (1 << word):
+    if value < 0:
+        return value + (1 << word) if signed and value >= -(1 << (word - 1)) else None
+    own = 4 * fmt_io.hex_digits(word)
+    if value < (1 << word):
+        wider = bits is not None and bits > own
+        if wider and signed and value >> (word - 1):
+            return None  # a negative code with zeros above it: not its sign extension
         return value
-    if not signed:
-        return None
-    if -(1 << (word - 1)) <= value < 0:
-        return value + (1 << word)
-    if value > 0:  # a wider word: the bits from word-1 up must all be ones
-        high = value >> (word - 1)
-        if high & (high + 1) == 0:
-            return value & ((1 << word) - 1)
+    if signed and bits is not None and value >> (word - 1) == (1 << (bits - word + 1)) - 1:
+        return value & ((1 << word) - 1)
     return None
 
 

@@ -19,10 +19,12 @@ from pathlib import Path
 from rangefx.golden.geometry import PinholeCamera
 from rangefx.rtl_model.pipeline import Case
 from rangefx.vectors.generate import (
+    DUMP_BYTES_PER_FILE_BYTE,
     FORMATS,
     build_vectors,
     check_vectors,
     diff_dump,
+    dump_memory_bytes,
     stream_memory_bytes,
     write_vectors,
 )
@@ -157,6 +159,10 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_diff(args: argparse.Namespace) -> int:
+    # a sparse or huge dump is refused before it is read (a MemoryError otherwise)
+    need = dump_memory_bytes(args.dump)
+    size = f"{need / DUMP_BYTES_PER_FILE_BYTE / 2**30:.2f} GiB"
+    require_memory(f"reading dump {args.dump} ({size})", need)
     try:
         report = diff_dump(args.dir, args.dump, args.signal)
     except ValueError as exc:
