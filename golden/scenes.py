@@ -37,8 +37,9 @@ import functools
 import math
 import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -715,6 +716,21 @@ class _Preset:
     supersample: int = 4
 
 
+_T = TypeVar("_T")
+
+
+def _result_interruptibly(future: Future[_T]) -> _T:
+    """``future.result()``, waited for in short slices: an untimed wait on a lock in the
+    main thread missed a SIGINT that arrived on the way into it (or on another thread),
+    and ``rangefx demo`` then ignored Ctrl-C until the render was done (> 60 s seen under
+    load; a stack dump showed the main thread in ``Future.result``)."""
+    while True:
+        try:
+            return future.result(timeout=0.1)
+        except TimeoutError:
+            continue
+
+
 def _render(
     preset: _Preset,
     camera: PinholeCamera,
@@ -729,12 +745,22 @@ def _render(
                     _texture_pyramid(layer.texture)
     jobs = ((1, supersample), (2, supersample), (1, 1))
     workers = max(1, min(len(jobs), os.cpu_count() or 1))
-    with ThreadPoolExecutor(max_workers=workers) as pool:
+    pool = ThreadPoolExecutor(max_workers=workers)
+    try:
         futures = [
             pool.submit(_trace, preset.world, camera, preset.motion, frame, ss)
             for frame, ss in jobs
         ]
-        (clean1, _, _), (clean2, _, _), (_, depth, labels) = (fut.result() for fut in futures)
+        (clean1, _, _), (clean2, _, _), (_, depth, labels) = (
+            _result_interruptibly(fut) for fut in futures
+        )
+    except BaseException:
+        # interrupted (Ctrl-C, kill): the traces are pure Python, seconds each; joining
+        # them held the interrupt 2-9 s (a pool's ``with`` waits), so they are left to
+        # finish on their own and the caller's cleanup runs now
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
     rng = np.random.default_rng(seed)
     noise1 = rng.standard_normal(clean1.shape)
     noise2 = rng.standard_normal(clean2.shape)

@@ -53,7 +53,9 @@ from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
 
 from ..errors import UserError, require_memory
+from ..interrupts import raise_if_interrupted
 from ..report import atomic_output_dir, atomic_write_text, json_safe
+from ..report.outdir import refuse_links
 from ..studies.cases import HELD_OUT_SCENES, REAL_PAIRS, held_out_case, real_pair_case
 from ..studies.runner import load_config
 from ..studies.sweep import RESULTS_NAME
@@ -126,17 +128,25 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         m * n * SWEEP_BYTES_PER_PIXEL * (1 if args.scheduler else args.workers),
     )
     identity, keys = _sweep_identity(defn, args.definition)
-    state = _claim_sweep_dir(out, identity, keys, restart=args.restart)
-    # a resumed sweep is incomplete until it finishes: the derived files of the earlier
-    # run (rangefx's own, listed in sweep.json) go, the user's files stay
-    for name in state.get("outputs", []):
-        if Path(name).name == name and name not in (RESULTS_NAME, SWEEP_STATE_NAME):
-            with contextlib.suppress(FileNotFoundError):
-                (out / name).unlink()
-    _write_state(out, {**identity, "outputs": []})
-    outcome = run_sweep(
-        defn, out, workers=args.workers, scheduler=args.scheduler, progress=not args.json
-    )
+    fresh = not out.exists()
+    try:
+        refuse_links(out, (RESULTS_NAME, SWEEP_STATE_NAME))
+        state = _claim_sweep_dir(out, identity, keys, restart=args.restart)
+        # a resumed sweep is incomplete until it finishes: the derived files of the earlier
+        # run (rangefx's own, listed in sweep.json) go, the user's files stay
+        for name in state.get("outputs", []):
+            if _own_plain_file(out, name):
+                with contextlib.suppress(FileNotFoundError):
+                    (out / name).unlink()
+        _write_state(out, {**identity, "outputs": []})
+        outcome = run_sweep(
+            defn, out, workers=args.workers, scheduler=args.scheduler, progress=not args.json
+        )
+    except BaseException:
+        if fresh:
+            _remove_if_no_results(out)
+        raise
+    raise_if_interrupted()  # an interrupt a finaliser swallowed: no summary "complete"
     before = _file_stamps(out)
     summary = write_outputs(defn, outcome, out)
     # rangefx's derived files: those write_outputs created or replaced (each is written
@@ -185,6 +195,35 @@ def _file_stamps(out: Path) -> dict[str, tuple[int, int]]:
     }
 
 
+def _own_plain_file(out: Path, name: object) -> bool:
+    """``name`` (from sweep.json) is a derived file rangefx may delete: a plain name in
+    ``out``, not the results or the state, and not a link the user put there."""
+    return (
+        isinstance(name, str)
+        and name not in ("", ".", "..", RESULTS_NAME, SWEEP_STATE_NAME)
+        and Path(name).name == name
+        and not (out / name).is_symlink()
+    )
+
+
+def _remove_if_no_results(out: Path) -> None:
+    """Undo the creation of sweep directory ``out`` by a run that failed or was stopped
+    before its first point (an unreachable ``--scheduler`` left an empty directory):
+    only if it holds nothing but an empty ``results.jsonl`` and ``sweep.json``."""
+    try:
+        names = {p.name for p in out.iterdir()}
+        if not names <= {RESULTS_NAME, SWEEP_STATE_NAME}:
+            return
+        results = out / RESULTS_NAME
+        if results.exists() and (results.is_symlink() or results.stat().st_size):
+            return
+        for name in names:
+            (out / name).unlink()
+        out.rmdir()
+    except OSError:
+        pass
+
+
 def _write_state(out: Path, state: dict[str, Any]) -> None:
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -220,7 +259,7 @@ def _claim_sweep_dir(
         return {}
     if restart:
         for name in [RESULTS_NAME, *state.get("outputs", [])]:
-            if Path(name).name == name and name != SWEEP_STATE_NAME:
+            if name == RESULTS_NAME or _own_plain_file(out, name):
                 with contextlib.suppress(FileNotFoundError):
                     (out / name).unlink()
         return {}

@@ -14,10 +14,13 @@ import os
 import re
 import secrets
 import shutil
-from collections.abc import Iterator
+import sys
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from ..errors import UserError
+from ..interrupts import Interrupted, deferred_signals, raise_if_interrupted
+from .lock import hidden_stem, output_lock
 
 __all__ = [
     "MARKER_NAME",
@@ -26,6 +29,7 @@ __all__ = [
     "atomic_write_text",
     "check_output_dir",
     "check_output_file",
+    "refuse_links",
     "remove_leftovers",
 ]
 
@@ -39,7 +43,7 @@ _MARKER_TEXT = (
 
 
 def _sibling_name(path: Path, kind: str) -> Path:
-    return path.parent / f".{path.name}.{kind}-{os.getpid()}-{secrets.token_hex(4)}"
+    return path.parent / f".{hidden_stem(path.name)}.{kind}-{os.getpid()}-{secrets.token_hex(4)}"
 
 
 def _reason(exc: OSError) -> str:
@@ -107,16 +111,44 @@ def atomic_write_text(path: str | os.PathLike[str], text: str, encoding: str = "
 
 
 def _is_ours(path: Path) -> bool:
-    return (path / MARKER_NAME).is_file()
+    marker = path / MARKER_NAME
+    return marker.is_file() and not marker.is_symlink()
 
 
 def _marker_text(files: list[str], state: str = "complete") -> str:
     return _MARKER_TEXT + f"state: {state}\n" + "".join(f"file: {f}\n" for f in files)
 
 
+def _plain_inside(entry: str) -> bool:
+    """A marker entry rangefx may act on: a relative path of plain names, no ``..``."""
+    parts = entry.split("/")
+    return (
+        bool(entry)
+        and not entry.startswith("/")
+        and all(p not in ("", ".", "..") and "\\" not in p and "\0" not in p for p in parts)
+    )
+
+
+def _symlink_on_the_way(root: Path, entry: str) -> str | None:
+    """The first component of ``entry`` below ``root`` that is a symbolic link, if any."""
+    here = root
+    for part in entry.split("/"):
+        here = here / part
+        if here.is_symlink():
+            return str(here.relative_to(root))
+    return None
+
+
+_REPORTED: set[Path] = set()  # markers whose foreign entries were reported in this process
+
+
 def _own_files(path: Path) -> set[str] | None:
     """Files (relative paths) an earlier rangefx run listed in ``path``'s marker; ``None``
-    for a marker written before the marker listed them."""
+    for a marker written before the marker listed them.
+
+    The marker is a file in a folder others can write: an entry that is not a plain
+    relative path inside ``path`` (absolute, ``..``) is never acted on, and is reported
+    once on stderr (a ``file: ../precious.txt`` line once deleted a file outside)."""
     try:
         text = (path / MARKER_NAME).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
@@ -124,7 +156,18 @@ def _own_files(path: Path) -> set[str] | None:
     lines = text.splitlines()
     if not any(line.startswith("state: ") for line in lines):
         return None
-    return {line[len("file: ") :] for line in lines if line.startswith("file: ")}
+    entries = {line[len("file: ") :] for line in lines if line.startswith("file: ")}
+    foreign = sorted(e for e in entries if not _plain_inside(e))
+    if foreign and path not in _REPORTED:
+        _REPORTED.add(path)
+        print(
+            f"rangefx: warning: {path / MARKER_NAME} lists {len(foreign)} entries outside "
+            f"{str(path)!r} ({', '.join(repr(e) for e in foreign[:3])}"
+            f"{', ...' if len(foreign) > 3 else ''}); rangefx did not write them there and "
+            "leaves them alone",
+            file=sys.stderr,
+        )
+    return {e for e in entries if _plain_inside(e) and e != MARKER_NAME}
 
 
 def _files_under(root: Path) -> list[str]:
@@ -133,8 +176,42 @@ def _files_under(root: Path) -> list[str]:
     )
 
 
+def _refuse_link(path: Path, link: str) -> UserError:
+    return UserError(
+        f"output directory {str(path)!r} holds {link!r}, a symbolic link; rangefx never "
+        "writes or deletes through a link inside an output directory (remove the link or "
+        "choose another --out)"
+    )
+
+
+def refuse_links(directory: str | os.PathLike[str], names: Iterable[str]) -> None:
+    """Raise :class:`UserError` if one of the files ``names`` that rangefx writes in place
+    in ``directory`` (a sweep's ``results.jsonl``, appended to) is a symbolic link: it
+    would write to wherever the link points."""
+    directory = Path(directory)
+    for name in names:
+        if (directory / name).is_symlink():
+            raise _refuse_link(directory, name)
+
+
+def _real_dir(path: Path) -> Path:
+    """``path``, or the directory it links to if it is a symbolic link the user made to one
+    (the output directory itself may be a link; links inside it are refused)."""
+    if path.name in ("", ".", ".."):
+        return path.resolve()
+    if path.is_symlink():
+        if not path.is_dir():
+            raise UserError(
+                f"output path {str(path)!r} is a symbolic link to no directory; refusing to "
+                "replace it"
+            )
+        return Path(os.path.realpath(path))
+    return path
+
+
 def _check_replaceable(path: Path) -> None:
-    """Raise :class:`UserError` unless ``path`` is absent, empty, or a directory we wrote."""
+    """Raise :class:`UserError` unless ``path`` is absent, empty, or a directory we wrote
+    whose own files are reached without a symbolic link."""
     if path.is_symlink():
         raise UserError(f"output path {str(path)!r} is a symbolic link; refusing to replace it")
     if not path.exists():
@@ -142,6 +219,10 @@ def _check_replaceable(path: Path) -> None:
     if not path.is_dir():
         raise UserError(f"output path {str(path)!r} exists and is not a directory")
     if _is_ours(path):
+        for f in sorted(_own_files(path) or ()):
+            link = _symlink_on_the_way(path, f)
+            if link is not None:
+                raise _refuse_link(path, link)
         return
     if any(path.iterdir()):
         raise UserError(
@@ -179,7 +260,7 @@ def remove_leftovers(path: str | os.PathLike[str]) -> list[Path]:
         return removed
     for p in siblings:
         m = _LEFTOVER.match(p.name)
-        if m is None or m["name"] != path.name or _pid_alive(int(m["pid"])):
+        if m is None or m["name"] != hidden_stem(path.name) or _pid_alive(int(m["pid"])):
             continue
         if p.is_dir() and not p.is_symlink():
             shutil.rmtree(p, ignore_errors=True)
@@ -198,6 +279,9 @@ def _merge(tmp: Path, path: Path) -> None:
     if own is None:  # an old-style marker: only the names this run writes are taken as ours
         own = {f for f in new_files if (path / f).is_file()}
     for f in new_files:
+        link = _symlink_on_the_way(path, f)
+        if link is not None:
+            raise _refuse_link(path, link)
         target = path / f
         for parent in target.parents:
             if parent == path:
@@ -215,6 +299,8 @@ def _merge(tmp: Path, path: Path) -> None:
     # kill here leaves a directory the next run still recognises as its own
     atomic_write_text(path / MARKER_NAME, _marker_text(sorted(own | set(new_files)), "incomplete"))
     for f in sorted(own - set(new_files)):
+        if _symlink_on_the_way(path, f) is not None:
+            continue  # a link the user put there, or a path through one: not rangefx's file
         with contextlib.suppress(OSError):
             (path / f).unlink()
         for parent in (path / f).parents:
@@ -250,9 +336,7 @@ def check_output_dir(path: str | os.PathLike[str]) -> None:
         ``path`` is not replaceable (see :func:`atomic_output_dir`), or its parent cannot
         be created or written (read-only file system, no permission, immutable directory).
     """
-    path = Path(path)
-    if path.name in ("", ".", ".."):
-        path = path.resolve()
+    path = _real_dir(Path(path))
     _check_replaceable(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -305,26 +389,37 @@ def atomic_output_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
         ``path`` exists and is not a replaceable rangefx output directory, or cannot be
         written.
     """
-    path = Path(path)
-    if path.name in ("", ".", ".."):
-        path = path.resolve()
+    path = _real_dir(Path(path))
+    with output_lock(path):
+        yield from _fill_and_commit(path)
+
+
+def _fill_and_commit(path: Path) -> Iterator[Path]:
     _check_replaceable(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(path)
-        tmp = _sibling_name(path, "tmp")
-        tmp.mkdir()
     except OSError as exc:
         raise UserError(f"cannot write output directory {str(path)!r}: {_reason(exc)}") from None
+    tmp = _sibling_name(path, "tmp")
     try:
+        tmp.mkdir()  # inside the try: a signal right after it still removes it
         yield tmp
+        raise_if_interrupted()  # an interrupt a finaliser swallowed still writes nothing
         atomic_write_text(tmp / MARKER_NAME, _marker_text(_files_under(tmp)))
-        _commit(tmp, path)
+        try:
+            with deferred_signals():  # the output goes in place whole, or not at all
+                _commit(tmp, path)
+        except Interrupted as exc:
+            exc.output_in_place = str(path)  # a signal during the commit: it went through
+            raise
     except OSError as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
+        with deferred_signals():
+            shutil.rmtree(tmp, ignore_errors=True)
         raise UserError(f"cannot write output directory {str(path)!r}: {_reason(exc)}") from None
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        with deferred_signals():
+            shutil.rmtree(tmp, ignore_errors=True)
         raise
     _fsync_dir(path.parent)
 

@@ -80,6 +80,8 @@ from rangefx.rtl_model.registry import get_pipeline
 
 from .. import report
 from ..errors import UserError
+from ..report.lock import output_lock
+from ..report.outdir import refuse_links
 from .buildup import PROFILE_AXES, buildup_for
 from .cases import scene_case
 from .runner import compare_ranges
@@ -605,31 +607,36 @@ class SweepOutcome:
     seconds: float
 
 
+#: After an interrupt, how long the points already running may take to finish and be
+#: recorded; the command exits within about 2 s (docs/guarantees.md).
+INTERRUPT_GRACE_S = 1.0
+
+
 def _run_local(
     specs: list[dict[str, Any]],
     workers: int,
     sink: Callable[[dict[str, Any]], None],
     record: Callable[[dict[str, Any]], None],
 ) -> None:
-    with ThreadPoolExecutor(workers) as pool:
-        pending: set[Future] = {pool.submit(evaluate_point, s) for s in specs}
-        try:
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    sink(fut.result())
-        except BaseException:
-            # interrupted: drop what has not started, let what is running finish and
-            # record it (without the callback), so that no computed point is lost
-            for fut in pending:
-                fut.cancel()
-            for fut in pending:
-                if not fut.cancelled():
-                    try:
-                        record(fut.result())
-                    except Exception:
-                        continue
-            raise
+    pool = ThreadPoolExecutor(workers)
+    pending: set[Future] = {pool.submit(evaluate_point, s) for s in specs}
+    try:
+        while pending:
+            # short waits: an untimed one in the main thread can miss a signal
+            done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+            for fut in done:
+                sink(fut.result())
+    except BaseException:
+        # interrupted: drop what has not started; what is running gets a short grace to
+        # finish and be recorded (without the callback), then is abandoned (its point is
+        # computed again by the next run)
+        pool.shutdown(wait=False, cancel_futures=True)
+        done, _ = wait(pending, timeout=INTERRUPT_GRACE_S)
+        for fut in done:
+            if not fut.cancelled() and fut.exception() is None:
+                record(fut.result())
+        raise
+    pool.shutdown()
 
 
 def _run_dask(
@@ -690,11 +697,25 @@ def run_sweep(
         except ValueError as exc:
             raise UserError(f"sweep {defn.name!r}: {exc}") from None
     out = Path(out_dir)
+    with output_lock(out):  # one writer per sweep directory (re-entered under the CLI's)
+        return _run_sweep_locked(defn, out, workers, scheduler, on_point, progress, connect_timeout)
+
+
+def _run_sweep_locked(
+    defn: SweepDef,
+    out: Path,
+    workers: int,
+    scheduler: str | None,
+    on_point: Callable[[dict[str, Any]], None] | None,
+    progress: bool,
+    connect_timeout: float,
+) -> SweepOutcome:
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"cannot create output directory {str(out)!r}: {exc.strerror}") from None
     path = out / RESULTS_NAME
+    refuse_links(out, (RESULTS_NAME,))
     records = load_results(path)
     points = expand(defn)
     seen: set[str] = set()

@@ -1,0 +1,138 @@
+"""SIGINT, SIGTERM and SIGHUP all stop a command the way Ctrl-C does (docs/guarantees.md).
+
+:func:`handle_stop_signals` installs one handler for the three: it records the signal
+and raises :class:`Interrupted` (a ``KeyboardInterrupt``), so every ``finally`` and
+context manager that cleans up after Ctrl-C (temporary siblings, the sweep's points in
+flight, the output lock) does so for ``kill`` and a closed terminal too, and the command
+line exits with 128 + the signal's number, as a shell reports it.
+
+Python raises a signal handler's exception in whatever the main thread runs at that
+moment; if that is a finaliser (``__del__``) or a weakref callback, the interpreter
+prints "Exception ignored in ... KeyboardInterrupt" and carries on, so an interrupt can
+be lost (seen once in 28 Ctrl-C of ``rangefx demo``, which then wrote its output and
+exited 0). The recorded signal makes that deterministic: :func:`raise_if_interrupted`
+at the points of no return (before an output directory is put in place, before a sweep
+writes its summary) and the command line at its end raise it again.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from types import FrameType
+
+__all__ = [
+    "STOP_SIGNALS",
+    "Interrupted",
+    "deferred_signals",
+    "exit_soon",
+    "handle_stop_signals",
+    "pending_signal",
+    "raise_if_interrupted",
+]
+
+#: The signals handled as Ctrl-C is (those that exist on this platform).
+STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop signal arrived; ``signum`` is its number (``SIGINT`` for a plain Ctrl-C)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+_pending: list[int] = []  # the first stop signal received, if any
+_deferring: list[int] = []  # depth of deferred_signals() blocks; signals wait meanwhile
+_deferred: list[int] = []  # signals received inside such a block
+
+
+def pending_signal() -> int | None:
+    """The number of the first stop signal received since :func:`handle_stop_signals`."""
+    return _pending[0] if _pending else None
+
+
+def raise_if_interrupted() -> None:
+    """Raise :class:`Interrupted` if a stop signal arrived, even one whose exception a
+    finaliser swallowed; call it before anything that cannot be undone."""
+    if _pending:
+        raise Interrupted(_pending[0])
+
+
+def _on_signal(signum: int, frame: FrameType | None) -> None:
+    if not _pending:
+        _pending.append(signum)
+    if _deferring:
+        _deferred.append(signum)
+        return
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def deferred_signals() -> Iterator[None]:
+    """Let a stop signal wait until the ``with`` body is done, then raise it: for work
+    that must not be cut in two (removing a temporary directory, putting an output in
+    place). A flag, not a signal mask: the handler runs in the main thread whichever
+    thread the kernel delivered the signal to."""
+    _deferring.append(1)
+    try:
+        yield
+    finally:
+        _deferring.pop()
+        if not _deferring and _deferred:
+            signum = _deferred[0]
+            _deferred.clear()
+            raise Interrupted(signum)
+
+
+def handle_stop_signals() -> Callable[[], None]:
+    """Install the handler for :data:`STOP_SIGNALS` (main thread only; elsewhere a no-op)
+    and forget any earlier signal; returns a function that restores the earlier handlers."""
+    _pending.clear()
+    _deferred.clear()
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    earlier = {s: signal.signal(s, _on_signal) for s in STOP_SIGNALS}
+    earlier_hook = sys.unraisablehook
+
+    def quiet(unraisable: sys.UnraisableHookArgs) -> None:
+        # a finaliser swallowed the interrupt: it is recorded and acted on, so Python's
+        # "Exception ignored in ..." lines would only break the one-line message
+        if not isinstance(unraisable.exc_value, Interrupted):
+            earlier_hook(unraisable)
+
+    sys.unraisablehook = quiet
+
+    def restore() -> None:
+        for s, h in earlier.items():
+            signal.signal(s, h)
+        sys.unraisablehook = earlier_hook
+
+    return restore
+
+
+def exit_soon(status: int, grace: float = 0.5) -> None:
+    """End the process with ``status`` within ``grace`` seconds, whatever threads still run.
+
+    For the command line after an interrupt, once its cleanup is done: Python's exit
+    joins every pool thread, and a thread in the middle of a scene render (pure Python,
+    seconds) or a sweep point held the exit that long. A daemon thread waits ``grace``
+    and then ends the process without those joins (``os._exit``); a process that exits
+    sooner on its own is not affected."""
+
+    def end() -> None:
+        time.sleep(grace)
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        os._exit(status)
+
+    threading.Thread(target=end, name="rangefx-exit", daemon=True).start()
