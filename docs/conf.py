@@ -82,5 +82,60 @@ def repository_path_link(app, env, node, contnode):
     return nodes.literal(shown, shown)
 
 
+#: The API reference: one page per package, listing every public module under it (the
+#: CLI's own modules are documented by the CLI reference, from the parser).
+API_PACKAGES = {
+    "rangefx": "The package: numba's cache and CPU settings.",
+    "rangefx.golden": "Float64 reference of every algorithm of the report (SPEC §3).",
+    "rangefx.rtl_model": "The bit-accurate, cycle-faithful pipelines and their interface.",
+    "rangefx.vectors": "Test vectors, their files and manifest, the HDL replay.",
+    "rangefx.guidance": "Chapter 6: the guidance law, obstacles, the simulation.",
+    "rangefx.tools.studies": "Cases, the runner, sweeps, the optimiser, the benchmark.",
+    "rangefx.tools.report": "Tables, plots and rangefx's output directories.",
+}
+API_SKIP = ("rangefx.tools.cli",)
+API_DIR = Path(__file__).resolve().parent / "api" / "generated"
+
+
+def public_modules(package: str) -> list[str]:
+    """``package`` and its modules and subpackages, without private (``_``) names; the
+    top package alone for ``rangefx`` (its subpackages have their own pages)."""
+    import importlib
+    import pkgutil
+
+    mod = importlib.import_module(package)
+    names = [package]
+    if package == "rangefx" or not hasattr(mod, "__path__"):
+        return names + (["rangefx.numba_cache"] if package == "rangefx" else [])
+    for info in pkgutil.walk_packages(mod.__path__, prefix=package + "."):
+        leaf = info.name.rsplit(".", 1)[1]
+        if leaf.startswith("_") or info.name.startswith(API_SKIP):
+            continue
+        names.append(info.name)
+    return names
+
+
+def write_api_pages(app) -> None:
+    """Write one Markdown page per package of :data:`API_PACKAGES` into
+    ``api/generated/`` (not committed), so that a module added, moved or removed is
+    documented without editing a page by hand."""
+    API_DIR.mkdir(parents=True, exist_ok=True)
+    wanted = set()
+    for order, (package, summary) in enumerate(API_PACKAGES.items()):
+        name = f"{order:02d}_{package.replace('.', '_')}.md"
+        wanted.add(name)
+        parts = [f"# {package}\n\n{summary}\n"]
+        for module in public_modules(package):
+            parts.append(f"\n## {module}\n\n```{{automodule}} {module}\n```\n")
+        text = "".join(parts)
+        page = API_DIR / name
+        if not page.exists() or page.read_text() != text:
+            page.write_text(text)
+    for stale in API_DIR.glob("*.md"):
+        if stale.name not in wanted:
+            stale.unlink()
+
+
 def setup(app):
+    app.connect("builder-inited", write_api_pages)
     app.connect("missing-reference", repository_path_link)

@@ -31,6 +31,7 @@ DOCS = REPO / "docs"
 #: The pages whose code blocks are executed.
 RUNNABLE_PAGES = (
     "tutorial.md",
+    "pipelines.md",
     "recipes/testbench_vectors.md",
     "recipes/check_rtl_dump.md",
     "recipes/wordlength_study.md",
