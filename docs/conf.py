@@ -1,0 +1,141 @@
+"""Sphinx configuration of the rangefx documentation site.
+
+Build (from the repository root, with the ``docs`` extra installed)::
+
+    python -m sphinx -W --keep-going -b html docs docs/_build/html
+
+The pages are Markdown (MyST); the API reference is autodoc + napoleon over the
+numpy-style docstrings, the CLI reference sphinx-argparse over the parser that
+``rangefx`` itself uses (:func:`rangefx.tools.cli.main.build_parser`).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from docutils import nodes
+
+REPO = Path(__file__).resolve().parent.parent
+
+# Plots in docstrings and the CLI import matplotlib: never open a window while building.
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+project = "rangefx"
+author = "rangefx developers"
+copyright = "rangefx developers"  # noqa: A001 (Sphinx's name)
+
+extensions = [
+    "myst_parser",
+    "sphinx.ext.autodoc",
+    "sphinx.ext.napoleon",
+    "sphinxarg.ext",
+]
+
+source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
+root_doc = "index"
+exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
+
+html_theme = "furo"
+html_title = "rangefx"
+html_static_path = ["_static"]
+
+# `#anchor` links to headings of other pages (`p1_datapath.md#speed-...`) and `$...$`
+# math are used by the pages.
+myst_heading_anchors = 4
+myst_enable_extensions = ["dollarmath"]
+
+autodoc_default_options = {"members": True, "show-inheritance": False}
+autodoc_member_order = "bysource"
+autodoc_typehints = "description"
+napoleon_google_docstring = False
+napoleon_numpy_docstring = True
+
+
+def repository_path_link(app, env, node, contnode):
+    """Render a Markdown link to a file of the repository outside ``docs/`` as a code
+    path.
+
+    The pages link source files (``[rtl_model/p1/cost.py](../rtl_model/p1/cost.py)``)
+    that are not part of the site. Such a link is a real file, so it stays readable on
+    GitHub; on the site it becomes the path in code font (no dead link). A link whose
+    target does not exist in the repository is left to Sphinx, which warns (and ``-W``
+    fails the build): ``tests/test_docs.py`` checks those paths too.
+    """
+    if node.get("refdomain") not in (None, "") and node.get("reftype") != "myst":
+        return None
+    target = node.get("reftarget", "")
+    if not target or "://" in target:
+        return None
+    path = target.split("#", 1)[0]
+    if not path:
+        return None
+    here = (REPO / "docs" / node.get("refdoc", "index")).parent
+    resolved = (here / path).resolve()
+    if not resolved.exists() or REPO not in (resolved, *resolved.parents):
+        return None
+    shown = resolved.relative_to(REPO).as_posix() + ("/" if resolved.is_dir() else "")
+    text = contnode.astext()
+    if text and text != shown and text != path:
+        return nodes.inline("", "", nodes.Text(text + " ("), nodes.literal(shown, shown),
+                            nodes.Text(")"))  # fmt: skip
+    return nodes.literal(shown, shown)
+
+
+#: The API reference: one page per package, listing every public module under it (the
+#: CLI's own modules are documented by the CLI reference, from the parser).
+API_PACKAGES = {
+    "rangefx": "The package: numba's cache and CPU settings.",
+    "rangefx.golden": "Float64 reference of every algorithm of the report (SPEC §3).",
+    "rangefx.rtl_model": "The bit-accurate, cycle-faithful pipelines and their interface.",
+    "rangefx.vectors": "Test vectors, their files and manifest, the HDL replay.",
+    "rangefx.guidance": "Chapter 6: the guidance law, obstacles, the simulation.",
+    "rangefx.tools.studies": "Cases, the runner, sweeps, the optimiser, the benchmark.",
+    "rangefx.tools.report": "Tables, plots and rangefx's output directories.",
+}
+API_SKIP = ("rangefx.tools.cli",)
+API_DIR = Path(__file__).resolve().parent / "api" / "generated"
+
+
+def public_modules(package: str) -> list[str]:
+    """``package`` and its modules and subpackages, without private (``_``) names; the
+    top package alone for ``rangefx`` (its subpackages have their own pages)."""
+    import importlib
+    import pkgutil
+
+    mod = importlib.import_module(package)
+    names = [package]
+    if package == "rangefx" or not hasattr(mod, "__path__"):
+        return names + (["rangefx.numba_cache"] if package == "rangefx" else [])
+    for info in pkgutil.walk_packages(mod.__path__, prefix=package + "."):
+        leaf = info.name.rsplit(".", 1)[1]
+        if leaf.startswith("_") or info.name.startswith(API_SKIP):
+            continue
+        names.append(info.name)
+    return names
+
+
+def write_api_pages(app) -> None:
+    """Write one Markdown page per package of :data:`API_PACKAGES` into
+    ``api/generated/`` (not committed), so that a module added, moved or removed is
+    documented without editing a page by hand."""
+    API_DIR.mkdir(parents=True, exist_ok=True)
+    wanted = set()
+    for order, (package, summary) in enumerate(API_PACKAGES.items()):
+        name = f"{order:02d}_{package.replace('.', '_')}.md"
+        wanted.add(name)
+        parts = [f"# {package}\n\n{summary}\n"]
+        for module in public_modules(package):
+            parts.append(f"\n## {module}\n\n```{{automodule}} {module}\n```\n")
+        text = "".join(parts)
+        page = API_DIR / name
+        if not page.exists() or page.read_text() != text:
+            page.write_text(text)
+    for stale in API_DIR.glob("*.md"):
+        if stale.name not in wanted:
+            stale.unlink()
+
+
+def setup(app):
+    app.connect("builder-inited", write_api_pages)
+    app.connect("missing-reference", repository_path_link)
