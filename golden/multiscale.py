@@ -63,7 +63,9 @@ from .geometry import MotionIncrement, PinholeCamera
 from .ranging import RangeResult, RangingConfig
 
 __all__ = [
+    "AUTO_DISPARITY_FRACTION",
     "MultiscaleConfig",
+    "auto_levels",
     "claimed_max_disparity",
     "disparity_g6",
     "pyramid_levels",
@@ -77,6 +79,11 @@ _BINOMIAL5 = np.array([1.0, 4.0, 6.0, 4.0, 1.0]) / 16.0
 _CENTRAL = np.array([-0.5, 0.0, 0.5])
 #: Keys' cubic convolution parameter (a = -1/2: exact for quadratics).
 _KEYS_A = -0.5
+#: The disparity limit chosen without the user: this fraction of the image width (the
+#: rule of OpenCV's ``stereo_match`` sample, ``numDisparities = width / 8``). No setting
+#: comes from a ground truth (SPEC §12).
+AUTO_DISPARITY_FRACTION = 1 / 8
+_MAX_LEVELS = 6
 
 
 @dataclass(frozen=True)
@@ -89,7 +96,10 @@ class MultiscaleConfig:
     ----------
     levels
         Pyramid levels ``L`` (1 = no pyramid); the estimate is claimed up to
-        ``2^(L-1) * coarse_px`` px (:func:`claimed_max_disparity`).
+        ``2^(L-1) * coarse_px`` px (:func:`claimed_max_disparity`). ``None``: chosen from
+        the disparity limit, the fewest levels whose claim covers it
+        (:func:`auto_levels`); either way no more than the image's size allows
+        (:func:`pyramid_levels`).
     warps
         Gauss–Newton steps (warp + windowed eq 10) per level.
     sigma
@@ -104,9 +114,10 @@ class MultiscaleConfig:
     coarse_px
         Disparity (px at the coarsest level) the warps converge from; sets the claim.
     max_disparity
-        Largest disparity, px at full scale (= the width of the E2 line buffer that
-        the warp reads); ``None``: the claim. Estimates are clipped to
-        ``[0, max_disparity]`` at every step.
+        Largest disparity, px of the input (= the width of the E2 line buffer that the
+        warp reads): the user's setting; ``None``: chosen from the image width,
+        :data:`AUTO_DISPARITY_FRACTION` of it (:meth:`resolve`). Estimates are clipped
+        to ``[0, max_disparity]`` at every step.
     coarse_lag
         Lines (of the finer level) by which the up-sampled coarse estimate reaches each
         finer level late: fine line ``y`` starts from the coarse estimate of line
@@ -114,7 +125,7 @@ class MultiscaleConfig:
         buffer per image at that level (:func:`streaming_schedule`); 0 = none.
     """
 
-    levels: int = 4
+    levels: int | None = None
     warps: int = 2
     sigma: float = 2.0
     radius: int = 4
@@ -125,8 +136,11 @@ class MultiscaleConfig:
     coarse_lag: int = 0
 
     def __post_init__(self) -> None:
+        if self.levels is not None:
+            v = self.levels
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 6:
+                raise ValueError(f"levels must be an integer in 1..6 or None, not {v!r}")
         for name, lo, hi in (
-            ("levels", 1, 6),
             ("warps", 1, 5),
             ("radius", 1, 16),
             ("coarse_lag", 0, 1024),
@@ -149,10 +163,25 @@ class MultiscaleConfig:
     def with_(self, **changes) -> MultiscaleConfig:
         return replace(self, **changes)
 
+    def resolve(self, width: int) -> MultiscaleConfig:
+        """This config for images ``width`` px wide with nothing left to choose: the
+        disparity limit (``max_disparity`` or :data:`AUTO_DISPARITY_FRACTION` of the
+        width) and the levels (``levels`` or :func:`auto_levels` of that limit)."""
+        if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
+            raise ValueError(f"width must be a positive integer, not {width!r}")
+        md = self.max_disparity
+        if md is None:
+            md = max(float(width) * AUTO_DISPARITY_FRACTION, self.coarse_px)
+        levels = self.levels if self.levels is not None else auto_levels(md, self.coarse_px)
+        return replace(self, max_disparity=float(md), levels=int(levels))
+
     @property
     def disparity_limit(self) -> float:
-        """The clip (and E2 line-buffer width) in full-scale px."""
-        return self.max_disparity if self.max_disparity is not None else claimed_max_disparity(self)
+        """The clip (and E2 line-buffer width) in full-scale px of a resolved config
+        (:meth:`resolve`)."""
+        if self.max_disparity is None:
+            raise ValueError("the disparity limit depends on the image width: resolve(width)")
+        return float(self.max_disparity)
 
     def window(self) -> np.ndarray:
         """The normalised Gaussian window taps (sum 1), length ``2 radius + 1``."""
@@ -161,11 +190,19 @@ class MultiscaleConfig:
         return w / w.sum()
 
 
+def auto_levels(limit: float, coarse_px: float) -> int:
+    """The fewest pyramid levels whose claim ``2^(L-1) coarse_px`` covers ``limit`` px
+    (1..6)."""
+    need = 1 + math.ceil(math.log2(max(limit / coarse_px, 1.0)))
+    return int(min(max(need, 1), _MAX_LEVELS))
+
+
 def pyramid_levels(config: MultiscaleConfig, shape: tuple[int, int]) -> int:
     """Levels actually built for an image of ``shape``: the pyramid stops before a level
     whose parent is smaller than the window (``2 radius + 2`` rows or columns), where a
     coarser level adds nothing."""
     m, n = shape
+    config = config.resolve(int(n))
     built = 1
     while built < config.levels and min(m, n) >= 2 * config.radius + 2:
         m, n = (m + 1) // 2, (n + 1) // 2
@@ -174,7 +211,10 @@ def pyramid_levels(config: MultiscaleConfig, shape: tuple[int, int]) -> int:
 
 
 def claimed_max_disparity(config: MultiscaleConfig) -> float:
-    """The disparity (full-scale px) the pyramid claims: ``2^(L-1) * coarse_px``."""
+    """The disparity (full-scale px) the pyramid claims: ``2^(L-1) * coarse_px`` (a
+    config with its levels set, e.g. resolved)."""
+    if config.levels is None:
+        raise ValueError("the claim needs the levels: set them or resolve(width)")
     return float(2 ** (config.levels - 1) * config.coarse_px)
 
 
@@ -256,6 +296,7 @@ def disparity_g6(
     e2 = validate_image(image2, "image2")
     if e1.shape != e2.shape:
         raise ValueError(f"image pair shapes differ: {e1.shape} vs {e2.shape}")
+    config = config.resolve(e1.shape[1])
     w = config.window()
     pyr = [(e1, e2)]
     for _ in range(pyramid_levels(config, e1.shape) - 1):
@@ -387,6 +428,7 @@ def streaming_schedule(config: MultiscaleConfig, width: int, height: int | None 
             continue
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"{name} must be a positive integer, not {v!r}")
+    config = config.resolve(width)
     r, k = config.radius, config.warps
     built = config.levels if height is None else pyramid_levels(config, (height, width))
     levels = []

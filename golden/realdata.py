@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -43,12 +43,14 @@ from .geometry import MotionIncrement, PinholeCamera
 __all__ = [
     "MIDDLEBURY_THRESHOLDS",
     "MOTORCYCLE_CALIBRATION",
+    "Perturbation",
     "StereoData",
     "choose_factor",
     "disparity_from_range",
     "evaluate",
     "load_motorcycle",
     "middlebury_metrics",
+    "perturb_right",
     "search_range",
 ]
 
@@ -327,3 +329,55 @@ def middlebury_metrics(
     rel = np.abs(z - zt[scored]) / zt[scored]
     out["rel_depth_error"] = float(np.median(rel)) if n else nan
     return out
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """What differs between the two cameras of a real rig, applied to the right image
+    (E2) in this order: ``blur`` (Gaussian, σ px), ``vshift`` (vertical misalignment,
+    px down, linear interpolation), ``gain`` (× grey level), ``offset`` (+ grey levels),
+    ``noise`` (Gaussian, σ grey levels, ``seed``), then clipped to 0..255 as a sensor
+    does. Borders replicate."""
+
+    gain: float = 1.0
+    offset: float = 0.0
+    noise: float = 0.0
+    vshift: float = 0.0
+    blur: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name == "seed":
+                if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+                    raise ValueError(f"seed must be an integer >= 0, not {v!r}")
+            elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"{f.name} must be a finite number, not {v!r}")
+        if self.gain <= 0 or self.noise < 0 or self.blur < 0:
+            raise ValueError("gain must be > 0, noise and blur >= 0")
+
+    @property
+    def is_identity(self) -> bool:
+        return self == Perturbation(seed=self.seed)
+
+    def apply(self, image: np.ndarray) -> np.ndarray:
+        """The perturbed copy of ``image`` (float64 grey levels)."""
+        from scipy.ndimage import gaussian_filter, shift
+
+        out = np.asarray(image, dtype=np.float64)
+        if self.blur > 0:
+            out = gaussian_filter(out, self.blur, mode="nearest")
+        if self.vshift != 0:
+            out = shift(out, (self.vshift, 0.0), order=1, mode="nearest")
+        out = self.gain * out + self.offset
+        if self.noise > 0:
+            out = out + np.random.default_rng(self.seed).normal(0.0, self.noise, out.shape)
+        return np.clip(out, 0.0, 255.0)
+
+
+def perturb_right(data: StereoData, perturbation: Perturbation) -> StereoData:
+    """``data`` with its right image perturbed (the ground truth unchanged)."""
+    image2 = perturbation.apply(data.image2)
+    image2.setflags(write=False)
+    return replace(data, image2=image2)

@@ -115,8 +115,9 @@ class PipelineResult:
     Buffers in bits: ``line_buffer_bits`` (line buffers of the filters / input lines),
     ``frame_store_bits`` (motion mode), ``sweep_buffer_bits`` (a sweep's stored line).
     ``registers``: host register name -> (float requested, value held);
-    ``saturated_registers`` the registers whose value lies outside their format (held at
-    its limit: a silent scale error no overflow counter sees); ``register_codes``: host
+    ``saturated_registers`` the registers whose value lies outside their format (cast
+    with its overflow mode: held at its limit under SAT, wrapped under WRAP; a silent
+    error no overflow counter sees); ``register_codes``: host
     register name -> (signal whose format holds it, raw code written); ``timing`` the
     input stream's timing. ``schedule``:
     pipeline-specific timing facts (e.g. the sweep's lanes and periods);

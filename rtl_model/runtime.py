@@ -190,11 +190,12 @@ class SignalStats:
 class RegisterFile:
     """The host's per-frame constants quantised into their register formats.
 
-    :meth:`write` quantises one float into a signal's format (round to nearest,
-    saturating, as :meth:`FixedFormat.from_float`) and records ``name -> (float
-    requested, value held)`` in :attr:`values`, and in :attr:`saturated` every register
-    whose value lies outside its format's range: it is held at the format's limit,
-    silently scaling whatever depends on it, and no datapath overflow counter sees it.
+    :meth:`write` quantises one float into a signal's format with the signal's modes
+    (:meth:`FixedFormat.from_float`) and records ``name -> (float requested, value
+    held)`` in :attr:`values`, and in :attr:`saturated` every register whose value lies
+    outside its format's range: its overflow mode acts (SAT holds it at the format's
+    limit, WRAP wraps it), silently changing whatever depends on it, and no datapath
+    overflow counter sees it.
     """
 
     def __init__(self, config: WordLengthConfig) -> None:

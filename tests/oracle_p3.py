@@ -37,6 +37,11 @@ _BINOM = (1, 4, 6, 4, 1)
 _WARP_TAPS = ("warp", "wx", "g", "err", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
 
 
+def _scale(f: int) -> Fraction:
+    """``2**-f`` exactly, for fraction bits of either sign (``u1.-15`` formats)."""
+    return Fraction(1, 1 << f) if f >= 0 else Fraction(1 << -f)
+
+
 def _dyadic(x: Fraction) -> tuple[int, int]:
     """``(n, f)`` with ``x = n 2**-f`` (``x`` has a power-of-two denominator)."""
     f = x.denominator.bit_length() - 1
@@ -64,7 +69,7 @@ class _Ctx:
         self.lut = _recip_lut(config.recip_lut_bits, config.recip_bits)
 
     def val(self, raw: int, name: str) -> Fraction:
-        return Fraction(raw, 1 << self.config.fmt(name).frac)
+        return raw * _scale(self.config.fmt(name).frac)
 
     def _log(self, name: str, x: Fraction) -> None:
         if name not in self.lo or x < self.lo[name]:
@@ -107,7 +112,7 @@ def oracle_p3(
     """Run the P3 datapath of ``docs/multiscale.md`` on a small stereo pair."""
     ctx = _Ctx(config)
     fmt = config.fmt
-    ms = config.multiscale()
+    ms = config.multiscale().resolve(len(image1[0]))
     r, K, T = config.radius, config.warps, config.keys_bits
     f_u = fmt("p3_u").frac
     im = [np.asarray(image1).tolist(), np.asarray(image2).tolist()]
@@ -126,8 +131,9 @@ def oracle_p3(
     UMIN = min(math.ceil(Fraction(fb_value) * 2**f_u / Fraction(ranging.range_max)), u_top)
     RMAX = reg_raw(ranging.range_max, fmt("p3_range"))
     rows = 1 << T
-    ROM = [[ctx.val(cast_exact(*_dyadic(w), fmt("p3_keys"))[0], "p3_keys")
-            for w in _keys(Fraction(i, rows))] for i in range(rows)]  # fmt: skip
+    # the ROM is datapath: each weight cast (logged, counted) once, when it is built
+    ROM = [[ctx.val(ctx.cast(w, "p3_keys"), "p3_keys") for w in _keys(Fraction(i, rows))]
+           for i in range(rows)]  # fmt: skip
 
     # the pyramid (exact values of each level's codes)
     pyr: list[list[list[list[Fraction]]]] = [[], []]
@@ -182,7 +188,8 @@ def oracle_p3(
         ax = [[ctx.val(ctx.cast((a[y][_clip(x + 1, w)] - a[y][_clip(x - 1, w)]) / 2, "p3_grad"),
                        "p3_grad") for x in range(w)] for y in range(h)]  # fmt: skip
         if record:
-            taps["ax"] = np.array([[int(v * 2 ** fmt("p3_grad").frac) for v in row] for row in ax])
+            grad_lsb = _scale(fmt("p3_grad").frac)
+            taps["ax"] = np.array([[int(v / grad_lsb) for v in row] for row in ax])
             taps["u_start"] = np.array(u)
         for k in range(K):
             W, WX, G, E = [], [], [], []
@@ -231,7 +238,7 @@ def oracle_p3(
                     num, den = (-ge, gg) if gg > 0 else (0, 1)
                     q, _ = ctx.divide(num, f_sge, den, f_sgg, "p3_du")
                     drow.append(q)
-                    un = ctx.cast(ctx.val(u[y][x], "p3_u") + Fraction(q, 1 << f_du), "p3_u")
+                    un = ctx.cast(ctx.val(u[y][x], "p3_u") + q * _scale(f_du), "p3_u")
                     u[y][x] = min(max(un, 0), UMAX[lv])
                 DU.append(drow)
             if record:

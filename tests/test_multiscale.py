@@ -16,19 +16,28 @@ from rangefx.golden.multiscale import (
     MultiscaleConfig,
     claimed_max_disparity,
     disparity_g6,
+    range_g6,
     streaming_schedule,
     warp_rows,
 )
 from rangefx.golden.ranging import RangingConfig
-from rangefx.golden.realdata import middlebury_metrics
+from rangefx.golden.realdata import (
+    disparity_from_range,
+    load_motorcycle,
+    middlebury_metrics,
+    search_range,
+)
 from rangefx.golden.scenes import render_scene
 from rangefx.tools import report
+from rangefx.tools.cli import eval as eval_cli
 from rangefx.tools.cli import main
 from rangefx.tools.cli.eval import (
     MIDDLEBURY_KEYS,
     MIDDLEBURY_METHODS,
     MIDDLEBURY_PIPELINES,
     PEERS,
+    peer_disparities,
+    run_peers,
 )
 
 #: Sub-pixel steps of the synthetic shift: the texture is area-averaged over blocks of
@@ -82,7 +91,7 @@ def test_g6_error_stays_under_the_fixed_point_bound_up_to_the_claimed_disparity(
     (t = 1/2, where cubic interpolation errs most), for every shift up to the claim of the
     default pyramid (2^(L-1) px); the clip is set beyond the claim so that it cannot help.
     G3 exceeds the same bound from 3 px on (the first-order Taylor limit)."""
-    cfg = MultiscaleConfig(max_disparity=12.0)
+    cfg = MultiscaleConfig(levels=4, max_disparity=12.0)
     assert claimed_max_disparity(cfg) == 8.0
     e1, e2 = shifted_pair(texture, 0.5)
     bound = float(np.median(fixed_point_bound(e1, e2, 0.5, cfg)[_INTERIOR]))
@@ -160,9 +169,9 @@ def test_window_is_normalised_and_symmetric():
 
 
 def test_streaming_schedule_by_hand():
-    """Default (L = 4, k = 2 warps, r = 4): λ3 = k r = 8 coarse lines; each finer level
-    waits 4 + 2 λ_{l+1} lines for the coarse estimate, then adds k r."""
-    cfg = MultiscaleConfig()
+    """L = 4, limit 8 px, k = 2 warps, r = 4: λ3 = k r = 8 coarse lines; each finer
+    level waits 4 + 2 λ_{l+1} lines for the coarse estimate, then adds k r."""
+    cfg = MultiscaleConfig(levels=4, max_disparity=8.0)
     s = streaming_schedule(cfg, 512)
     lam = [lv["latency_lines"] for lv in s["levels"]]
     delay = [lv["delay_lines"] for lv in s["levels"]]
@@ -218,6 +227,8 @@ def test_eval_middlebury_json_keys(capsys):
     assert list(out["factors"]) == ["19"]
     methods = out["factors"]["19"]["methods"]
     assert list(methods) == [*MIDDLEBURY_METHODS, *MIDDLEBURY_PIPELINES]
+    assert out["factors"]["19"]["overflows"] == {"p3": 0, "p3_gt_informed": 0}
+    assert set(out["factors"]["19"]["gt_informed"]) == {"g6_multiscale", "p3"}
     for figures in methods.values():
         assert set(figures) == set(MIDDLEBURY_KEYS)
         assert 0 < figures["density"] <= 1
@@ -258,10 +269,105 @@ def test_eval_peers_need_the_middlebury_protocol(capsys):
 
 
 def test_coarse_lag_trades_delay_lines_for_a_stale_coarse_estimate():
-    lagged = streaming_schedule(MultiscaleConfig(coarse_lag=8), 512, 512)
+    lagged = streaming_schedule(
+        MultiscaleConfig(levels=4, max_disparity=8.0, coarse_lag=8), 512, 512
+    )
     assert [lv["delay_lines"] for lv in lagged["levels"]] == [84, 36, 12, 0]
     assert lagged["latency_lines"] == 92
     e1 = np.tile(np.arange(40.0), (40, 1)) ** 2 % 97
     a = disparity_g6(e1, e1, MultiscaleConfig(levels=2))
     b = disparity_g6(e1, e1, MultiscaleConfig(levels=2, coarse_lag=3))
     assert a["disparity"].shape == b["disparity"].shape
+
+
+@pytest.mark.parametrize(
+    ("width", "given", "limit", "levels"),
+    [
+        (185, {}, 185 / 8, 6),  # the motorcycle pair at 1/4
+        (39, {}, 39 / 8, 4),  # and at 1/19
+        (4, {}, 1.0, 1),  # never below the coarse level's pixel
+        (185, {"max_disparity": 16.0}, 16.0, 5),  # the user's limit sets the depth
+        (185, {"levels": 3}, 185 / 8, 3),  # the user's depth is kept
+    ],
+)
+def test_the_limit_and_the_depth_come_from_the_user_or_the_width(width, given, limit, levels):
+    """No ground truth: the disparity limit is the user's or 1/8 of the width, the
+    pyramid depth the user's or the fewest levels whose claim covers the limit."""
+    cfg = MultiscaleConfig(**given).resolve(width)
+    assert cfg.disparity_limit == pytest.approx(limit) and cfg.levels == levels
+    assert claimed_max_disparity(cfg) >= limit or "levels" in given
+    assert cfg.resolve(width) == cfg  # resolved: nothing left to choose
+    with pytest.raises(ValueError, match="resolve"):
+        _ = MultiscaleConfig().disparity_limit
+
+
+@pytest.mark.parametrize("factor", [4, 8, 16, 19])
+def test_g6_as_shipped_scores_as_with_the_ground_truth_limit(factor):
+    """The shipped settings (limit from the width) on the motorcycle pair give the
+    figures of the run given the ground truth's search range, within 1 %."""
+    data = load_motorcycle(factor)
+    figures = {}
+    for label, cfg in (
+        ("shipped", MultiscaleConfig()),
+        ("gt", MultiscaleConfig(max_disparity=float(search_range(data)))),
+    ):
+        r = range_g6(data.image1, data.image2, data.camera, data.motion, cfg,
+                     RangingConfig(range_max=data.range_max))  # fmt: skip
+        figures[label] = middlebury_metrics(
+            disparity_from_range(r.range, data), r.valid, data.disparity, data.metric_depth,
+            data.doffs_px, data.camera.f_px, abs(float(data.motion.camera_displacement[1])),
+        )  # fmt: skip
+    shipped, gt = figures["shipped"], figures["gt"]
+    assert shipped["density"] >= 0.99 * gt["density"]
+    assert shipped["mae_px"] <= 1.01 * gt["mae_px"]
+
+
+def test_eval_headline_takes_nothing_from_the_ground_truth(capsys, monkeypatch):
+    """A different ground-truth search range changes the ``gt_informed`` rows and not a
+    figure of the headline (every method, P3 and the peers included)."""
+    pytest.importorskip("cv2")
+    argv = ["eval", "--factor", "19", "--peers", "--json"]
+    plain = _eval_json(capsys, argv)["factors"]["19"]
+    monkeypatch.setattr(eval_cli, "search_range", lambda data: 40)
+    moved = _eval_json(capsys, argv)["factors"]["19"]
+    assert moved["methods"] == plain["methods"]
+    assert moved["valid_in_both"] == plain["valid_in_both"]
+    assert moved["gt_informed"] != plain["gt_informed"]
+
+
+def test_eval_max_disparity_is_the_users_setting(capsys):
+    """``--max-disparity`` equal to the search range reproduces the gt_informed rows."""
+    pytest.importorskip("cv2")
+    data = load_motorcycle(19)
+    out = _eval_json(
+        capsys, ["eval", "--factor", "19", "--peers", "--json",
+                 "--max-disparity", str(search_range(data))]
+    )  # fmt: skip
+    assert out["max_disparity"] == search_range(data)
+    figures = out["factors"]["19"]
+    for name, gt in figures["gt_informed"].items():
+        assert figures["methods"][name] == gt, name
+
+
+def test_peers_are_padded_on_the_left():
+    """Unpadded, OpenCV returns nothing in the leftmost numDisparities columns; padded,
+    SGBM covers most of them."""
+    pytest.importorskip("cv2")
+    data = load_motorcycle(19)
+    ndisp = peer_disparities(data.camera.width, None)
+    assert ndisp == 16  # 39 px wide: OpenCV's sample rule, width / 8 rounded up to 16
+    found, note = run_peers(data)
+    assert note is None
+    disparity, valid = found["opencv_sgbm"]
+    assert disparity.shape == data.image1.shape
+    assert valid[:, :ndisp].mean() > 0.8
+
+
+def test_eval_perturb_changes_the_right_image_only(capsys):
+    """``--perturb`` is reported and moves the figures; the P3 overflow count is there."""
+    argv = ["eval", "--factor", "19", "--json"]
+    plain = _eval_json(capsys, argv)
+    out = _eval_json(capsys, [*argv, "--perturb", "gain=1.1,vshift=1,seed=2"])
+    assert out["perturbation"]["gain"] == 1.1 and out["perturbation"]["vshift"] == 1.0
+    assert out["factors"]["19"]["methods"] != plain["factors"]["19"]["methods"]
+    assert "p3" in out["factors"]["19"]["overflows"]

@@ -12,11 +12,19 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
+from oracles import ORACLES
+from test_bitexact import assert_bit_exact, p3_case
 
 from rangefx.golden.geometry import MotionIncrement
 from rangefx.golden.multiscale import streaming_schedule
-from rangefx.golden.realdata import load_motorcycle, search_range
-from rangefx.rtl_model.p3.model import buffer_bits, keys_rom, keys_weights
+from rangefx.golden.realdata import (
+    Perturbation,
+    load_motorcycle,
+    perturb_right,
+    search_range,
+)
+from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p3.model import buffer_bits, keys_exact, keys_rom, keys_weights
 from rangefx.rtl_model.pipeline import Case
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.tools import report
@@ -47,10 +55,11 @@ def test_default_on_lab_meets_the_issue_targets():
         assert abs(row["estimated_median"] / row["actual"] - 1) <= 0.03, row["object"]
 
 
-@pytest.mark.parametrize("factor", [4, 8, 16])
+@pytest.mark.parametrize("factor", [4, 8, 16, 19])
 def test_no_overflow_on_the_motorcycle_pair(factor):
-    """The factors ``rangefx eval`` scores, with the search range as max_disparity (as
-    eval gives it) and with the claim: 0 overflows, P3 within 0.5 % of G6."""
+    """The factors ``rangefx eval`` scores, as shipped (the limit from the width) and
+    with the search range as a user's max_disparity: 0 overflows, P3 within 0.5 % of
+    G6."""
     case = real_pair_case("motorcycle", factor)
     md = float(search_range(load_motorcycle(factor)))
     for config in (P3.default_config(), P3.default_config(max_disparity=md)):
@@ -83,7 +92,8 @@ def test_line_buffers_and_latency_follow_the_streaming_schedule():
     assert P3.cost(wider, (m, n)).line_buffer_bits > cost.line_buffer_bits
     case = scene_case("lab")
     result = P3.run(case, taps=False)
-    assert result.schedule["latency_lines"] == sched["latency_lines"] == 148
+    # 512 px wide: limit 64 px, 6 levels (auto), each coarser level doubling the delay
+    assert result.schedule["latency_lines"] == sched["latency_lines"] == 628
     assert result.line_buffer_bits == cost.line_buffer_bits
     lines = (result.out_cycles - result.in_cycles) // n  # no blanking: n clocks per line
     assert lines.min() == sched["latency_lines"]
@@ -117,3 +127,57 @@ def test_range_max_option_reaches_p3(capsys):
     assert main(argv) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["registers"]["range_max"] == [50.0, 50.0] and out["overflows"]["total"] == 0
+
+
+def test_keys_rom_overflow_is_counted_as_its_signal():
+    """A ROM that cannot hold its weights (s11.11 WRAP turns the weight 1.0 into 0) is
+    counted under ``p3_keys``, once per weight, and logged with the exact weights'
+    range; the default ROM holds them all."""
+    case = p3_case(4, "random")
+    default = P3.run(case, taps=False)
+    assert default.overflows["p3_keys"] == 0
+    exact = [Fraction(w, 2 ** (3 * 8 + 1)) for i in range(256) for w in keys_exact(i, 8)]
+    assert default.minmax["p3_keys"] == (float(min(exact)), 1.0)
+    f = default.config.formats["p3_keys"]
+    wrap = default.config.with_formats(p3_keys=FixedFormat(True, 11, 11, Quant.TRN, Overflow.WRAP))
+    result = P3.run(case, wrap, taps=False)
+    outside = sum(not -0.5 <= w < 0.5 for w in exact)  # the weights s11.11 cannot hold
+    assert outside > 0 and result.overflows["p3_keys"] == outside
+    assert result.overflow_total >= outside
+    assert keys_rom(wrap)[0].tolist() == [0, 0, 0, 0]  # t = 0: W = 0, silently
+    assert f.signed
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("quant", [Quant.RND, Quant.TRN])
+def test_oracle_and_model_agree_on_negative_fraction_bits(seed, quant):
+    """The optimiser's ``u1.-15`` style formats (an LSB above 1): every signal that may
+    have them gets 1..4 negative fraction bits, narrowed so that some overflow; the
+    model and the oracle agree bit for bit."""
+    rng = np.random.default_rng(seed)
+    base = P3.default_config()
+    keep = {"p3_pix", "p3_u", "p3_keys", "p3_win", "p3_sgg", *base.HOST_REGISTERS}
+    formats = {}
+    for name, f in base.formats.items():
+        if name in keep:
+            formats[name] = f
+            continue
+        frac = -int(rng.integers(1, 5))
+        word = max(2, f.word - (f.frac - frac) - int(rng.integers(0, 3)))
+        formats[name] = FixedFormat(f.signed, word, frac, quant, f.overflow)
+    config = base.with_(formats=formats)
+    case = p3_case(seed, "random" if seed != 2 else "lab")
+    ref = ORACLES["p3"].run(case, config)
+    assert_bit_exact(P3.run(case, config, taps=True), ref)
+    assert any(np.any(ref.taps[t] != 0) for t in ("warp0", "sge0", "du0"))
+
+
+@pytest.mark.parametrize("perturb", [{"gain": 0.9}, {"gain": 1.1}, {"vshift": 1.0}])
+def test_no_overflow_when_the_cameras_differ(perturb):
+    """1/4, the right image as a real rig's (``rangefx eval --perturb``): the shipped
+    formats still give 0 overflows (a gain of 0.9 drives |du| to 34.8 px)."""
+    case = real_pair_case("motorcycle", 4)
+    data = perturb_right(load_motorcycle(4), Perturbation(**perturb))
+    image2 = np.clip(np.rint(data.image2), 0, 255).astype(np.int64)
+    result = P3.run(replace(case, image2=image2), taps=False)
+    assert result.overflow_total == 0, {k: v for k, v in result.overflows.items() if v}

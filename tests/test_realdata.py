@@ -15,9 +15,11 @@ from hypothesis.extra.numpy import arrays
 from rangefx.golden import realdata
 from rangefx.golden.realdata import (
     MOTORCYCLE_CALIBRATION,
+    Perturbation,
     choose_factor,
     evaluate,
     load_motorcycle,
+    perturb_right,
 )
 from rangefx.golden.scenes import render_scene
 from rangefx.tools.cli import main
@@ -164,9 +166,32 @@ def test_eval_command_json(capsys):
         (["eval", "--dataset", "kitti"], "unknown dataset 'kitti'"),
         (["eval", "--factor", "x"], "--factor must be an integer"),
         (["eval", "--factor", "0"], "factor"),
+        (["eval", "--factor", "19", "--max-disparity", "-3"], "--max-disparity must be"),
+        (["eval", "--factor", "19", "--perturb", "gain=x"], "--perturb: gain must be"),
+        (["eval", "--factor", "19", "--perturb", "tilt=2"], "--perturb: 'tilt=2' is not"),
+        (["eval", "--factor", "19", "--perturb", "gain=0"], "--perturb: gain must be > 0"),
+        (["eval", "--protocol", "report", "--perturb", "gain=2"], "--perturb applies to"),
     ],
 )
 def test_eval_command_errors(capsys, argv, message):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("rangefx: error:") and message in err[0]
+
+
+def test_perturbation_does_what_it_says():
+    """Gain and offset exactly, a 1 px vertical shift moves the rows down by one, noise
+    is seeded, the result is clipped to the sensor's 0..255, the truth is kept."""
+    data = load_motorcycle(19)
+    e2 = data.image2
+    p = Perturbation(gain=1.1, offset=-5.0)
+    np.testing.assert_allclose(p.apply(e2), np.clip(1.1 * e2 - 5.0, 0, 255))
+    np.testing.assert_allclose(Perturbation(vshift=1.0).apply(e2)[1:], e2[:-1], atol=1e-9)
+    noisy = Perturbation(noise=5.0, seed=3)
+    assert np.array_equal(noisy.apply(e2), noisy.apply(e2))
+    assert not np.array_equal(noisy.apply(e2), Perturbation(noise=5.0, seed=4).apply(e2))
+    assert Perturbation(gain=3.0).apply(e2).max() == 255.0
+    assert Perturbation().is_identity and not p.is_identity
+    out = perturb_right(data, Perturbation(blur=1.0))
+    assert out.image1 is data.image1 and out.disparity is data.disparity
+    assert not np.array_equal(out.image2, e2)

@@ -71,11 +71,15 @@ class P3Config(WordLengthConfig):
     ----------
     formats
         One :class:`FixedFormat` per name in :data:`P3_SIGNALS`.
-    levels, warps, sigma, radius, threshold_g, threshold_r, coarse_px, coarse_lag
+    warps, sigma, radius, threshold_g, threshold_r, coarse_px, coarse_lag
         G6's settings (:class:`~rangefx.golden.multiscale.MultiscaleConfig`).
+    levels
+        Pyramid levels; 0 = chosen from the disparity limit (G6's ``None``,
+        :func:`~rangefx.golden.multiscale.auto_levels`).
     max_disparity
-        Largest disparity, full-scale px (the clip and the E2 row buffers); 0 = the
-        pyramid's claim ``2^(L-1) coarse_px`` (G6's ``None``).
+        Largest disparity, px of the input (the clip and the E2 row buffers): the
+        user's setting; 0 = chosen from the image width (G6's ``None``,
+        :data:`~rangefx.golden.multiscale.AUTO_DISPARITY_FRACTION` of it).
     keys_bits
         Fraction bits of the warp's position ``x - u`` (rounded to them) that index the
         Keys weight ROM (``2**keys_bits`` rows of 4 weights).
@@ -89,7 +93,7 @@ class P3Config(WordLengthConfig):
     QUOTIENTS: ClassVar[tuple[str, ...]] = ("p3_du", "p3_range")
     DOC: ClassVar[str] = "docs/multiscale.md"
 
-    levels: int = _G6.levels
+    levels: int = 0
     warps: int = _G6.warps
     sigma: float = _G6.sigma
     radius: int = _G6.radius
@@ -127,6 +131,7 @@ class P3Config(WordLengthConfig):
         """The golden G6 settings of this config."""
         kw = {k: getattr(self, k) for k in MULTISCALE_FIELDS}
         kw["max_disparity"] = float(self.max_disparity) or None
+        kw["levels"] = self.levels or None
         return MultiscaleConfig(**kw)
 
     def exact_intermediates(self) -> Iterable[tuple[str, Terms, int]]:

@@ -27,6 +27,7 @@ from rangefx.golden.ranging import RangingConfig
 
 from .. import runtime
 from ..config import TimingConfig
+from ..fixedpoint import cast_raw
 from ..p1.model import at_frac as _at
 from ..p1.model import cast_site as _cast
 from ..p1.model import divide_into as _divide_into
@@ -44,7 +45,9 @@ __all__ = [
     "WARP_TAPS",
     "P3Registers",
     "buffer_bits",
+    "keys_exact",
     "keys_rom",
+    "keys_rom_casts",
     "keys_weights",
     "level_shapes",
     "p3_registers",
@@ -302,15 +305,46 @@ def keys_weights(t: float) -> tuple[float, float, float, float]:
     )
 
 
+def keys_exact(i: int, keys_bits: int) -> tuple[int, int, int, int]:
+    """The four Keys weights of fraction ``t = i 2**-T`` (``T = keys_bits``) exactly, as
+    integers ``n`` with ``w = n 2**-(3T + 1)`` (``a = -½``; the cubic times ``2^(3T+1)``)."""
+    s, i2, i3 = 1 << keys_bits, i * i, i * i * i
+    return (
+        -(i3 - 2 * i2 * s + i * s * s),
+        3 * i3 - 5 * i2 * s + 2 * s**3,
+        -3 * i3 + 4 * i2 * s + i * s * s,
+        i3 - i2 * s,
+    )
+
+
+def keys_rom_casts(config: P3Config) -> tuple[np.ndarray, int, tuple[float, float]]:
+    """The Keys ROM (:func:`keys_rom`), the number of its weights whose cast into
+    ``p3_keys`` overflowed (its mode acted: SAT holds a weight at the limit, WRAP wraps
+    1.0 to 0 in a format without an integer bit) and the exact weights' (min, max).
+
+    The ROM is datapath: it is counted and logged as the signal ``p3_keys`` (once per
+    weight, at the ROM's build, not per read) rather than as a saturated host register,
+    because the word-length studies size it like every signal and judge a config by its
+    overflow count, which must therefore see a ROM that cannot hold its weights."""
+    fmt = config.formats["p3_keys"]
+    bits = config.keys_bits
+    frac_in = 3 * bits + 1
+    rom = np.empty((1 << bits, 4), dtype=np.int64)
+    overflows, lo, hi = 0, 0, 0
+    for i in range(1 << bits):
+        for j, w in enumerate(keys_exact(i, bits)):
+            raw, acted = cast_raw(w, frac_in, fmt.word, fmt.frac, fmt.signed, int(fmt.quant),
+                                  int(fmt.overflow))  # fmt: skip
+            rom[i, j] = raw
+            overflows += int(acted)
+            lo, hi = min(lo, w), max(hi, w)
+    return rom, overflows, (math.ldexp(lo, -frac_in), math.ldexp(hi, -frac_in))
+
+
 def keys_rom(config: P3Config) -> np.ndarray:
     """The warp's weight ROM: ``2**keys_bits`` rows (fraction ``i 2**-keys_bits``) of 4
-    weights, raw codes of ``p3_keys`` (quantised with its modes)."""
-    fmt = config.formats["p3_keys"]
-    rows = 1 << config.keys_bits
-    rom = np.empty((rows, 4), dtype=np.int64)
-    for i in range(rows):
-        rom[i] = [fmt.from_float(w) for w in keys_weights(i / rows)]
-    return rom
+    weights, raw codes of ``p3_keys`` (the exact weights quantised with its modes)."""
+    return keys_rom_casts(config)[0]
 
 
 class P3Registers:
@@ -318,9 +352,9 @@ class P3Registers:
 
     def __init__(
         self, config: P3Config, camera: PinholeCamera, baseline: float, range_max: float,
-        built: int,
+        built: int, width: int,
     ) -> None:  # fmt: skip
-        ms = config.multiscale()
+        ms = config.multiscale().resolve(width)
         rf = runtime.RegisterFile(config)
         window = ms.window()
         r = config.radius
@@ -368,7 +402,9 @@ def p3_registers(
 ) -> P3Registers:  # fmt: skip
     """The host's registers for a case (window taps, thresholds, fB, clips, range_max)."""
     built = pyramid_levels(config.multiscale(), shape)
-    return P3Registers(config, camera, stereo_baseline(motion), ranging.range_max, built)
+    return P3Registers(
+        config, camera, stereo_baseline(motion), ranging.range_max, built, int(shape[1])
+    )
 
 
 def level_shapes(config: P3Config, shape: tuple[int, int]) -> list[tuple[int, int]]:
@@ -524,7 +560,7 @@ def run_p3(
     regs = p3_registers(config, camera, motion, ranging, (m, n))
     fm = runtime.format_table(config)
     kind, lut = runtime.divider_setup(config)
-    rom = keys_rom(config)
+    rom, rom_overflows, rom_range = keys_rom_casts(config)
     shapes = level_shapes(config, (m, n))
     f_pix, f_pyr = fm[PIX, 1], fm[PYR, 1]
 
@@ -572,6 +608,8 @@ def run_p3(
         out_valid, tp, len(names) - 4, taps,
     )  # fmt: skip
     overflows, minmax = runtime.SignalStats.merge([s1, s2, stats], P3_SIGNALS)
+    overflows["p3_keys"] += rom_overflows  # the ROM is datapath (keys_rom_casts)
+    minmax["p3_keys"] = rom_range
     tap_dict = {name: tp[k] for k, name in enumerate(names)} if taps else {}
     in_cycles = input_cycles((m, n), timing)[-1]
     out_cycles = tap_cycles("range", config, in_cycles, timing.hblank)

@@ -22,11 +22,18 @@ Two protocols (``--protocol``):
     factors 4, 8, 16 and the default one (or the one ``--factor``), for every method of
     :data:`MIDDLEBURY_METHODS` (G6 included) and for the fixed-point pipelines of
     :data:`MIDDLEBURY_PIPELINES` (P3, the fixed-point G6, on the pair's integer grey
-    levels, shipped default config with the search range as ``max_disparity``).
-    ``--peers`` adds OpenCV's StereoSGBM and StereoBM under the same protocol in the same
-    run (extra ``rangefx[peers]``; without OpenCV a one-line note, and they are skipped).
-    Every method, G6, P3 and the peers alike, is given the dataset's disparity search range
-    (:func:`~rangefx.golden.realdata.search_range`, as Middlebury's ``ndisp``).
+    levels, shipped default config). ``--peers`` adds OpenCV's StereoSGBM and StereoBM
+    under the same protocol in the same run (extra ``rangefx[peers]``; without OpenCV a
+    one-line note, and they are skipped), padded on the left (:func:`run_peers`).
+
+    No setting comes from the ground truth (SPEC §12): the headline runs every method
+    with what a user has, ``--max-disparity`` (px of the input) or, without it, each
+    method's own choice (G6 and P3: 1/8 of the width; the peers: OpenCV's sample rule,
+    the width / 8 rounded up to 16). Beside it, labelled ``gt_informed``, G6, P3 and the
+    peers given the dataset's search range (:func:`~rangefx.golden.realdata.search_range`,
+    Middlebury's ``ndisp``); and, per peer, P3 and the peer scored over the pixels valid
+    in both (``valid_in_both``). ``--perturb`` changes the right image as a real rig
+    does (:class:`~rangefx.golden.realdata.Perturbation`) before everything runs.
 ``report``
     The figures this command printed before: density among the pixels with known truth
     and the relative error of ``f B / d`` (no ``doffs``), one factor.
@@ -35,6 +42,7 @@ Two protocols (``--protocol``):
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -47,11 +55,13 @@ from rangefx.golden.methods import run_method
 from rangefx.golden.multiscale import MultiscaleConfig
 from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.realdata import (
+    Perturbation,
     StereoData,
     disparity_from_range,
     evaluate,
     load_motorcycle,
     middlebury_metrics,
+    perturb_right,
     search_range,
 )
 from rangefx.golden.riccati import bryson_config
@@ -82,7 +92,7 @@ EVAL_METHODS: tuple[str, ...] = ("g2_central", "g3_consistent", "g3_paper", "g5_
 #: Methods scored under the Middlebury protocol: the report's and G6.
 MIDDLEBURY_METHODS: tuple[str, ...] = (*EVAL_METHODS, "g6_multiscale")
 #: Fixed-point pipelines scored as methods under the Middlebury protocol (P3 beside its
-#: golden G6); each is given the search range as its ``max_disparity`` design field.
+#: golden G6), at the shipped default config and the user's ``max_disparity``.
 MIDDLEBURY_PIPELINES: tuple[str, ...] = ("p3",)
 #: Factors of the Middlebury tables (the default factor is added).
 MIDDLEBURY_FACTORS: tuple[int, ...] = (4, 8, 16)
@@ -103,8 +113,11 @@ DATASETS: tuple[str, ...] = ("motorcycle",)
 _THRESHOLD = 2.0  # grey levels (T_E, T_g), the lab setting
 
 
-def _method_results(data: StereoData, methods: tuple[str, ...]) -> dict:
-    """Range results of ``methods`` on ``data`` with the settings of the module docstring."""
+def _method_results(
+    data: StereoData, methods: tuple[str, ...], max_disparity: float | None = None
+) -> dict:
+    """Range results of ``methods`` on ``data`` with the settings of the module docstring;
+    G6 is given ``max_disparity`` (None: its own choice)."""
     ranging = RangingConfig(
         threshold_e=_THRESHOLD, threshold_g=_THRESHOLD, range_max=data.range_max
     )
@@ -117,7 +130,7 @@ def _method_results(data: StereoData, methods: tuple[str, ...]) -> dict:
         threshold_e=_THRESHOLD,
         range_max=data.range_max,
     )
-    multiscale = MultiscaleConfig(max_disparity=float(search_range(data)))
+    multiscale = MultiscaleConfig(max_disparity=max_disparity)
     out = {}
     for m in methods:
         out[m] = run_method(
@@ -155,24 +168,45 @@ def _middlebury(data: StereoData, disparity: np.ndarray, valid: np.ndarray) -> d
     )
 
 
-def run_peers(data: StereoData) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], str | None]:
-    """OpenCV StereoSGBM and StereoBM on ``data`` (8-bit grey), with the dataset's search
-    range rounded up to a multiple of 16: ``({name: (disparity, valid)}, None)``, or
-    ``({}, note)`` when OpenCV is not installed.
+def peer_disparities(width: int, max_disparity: float | None) -> int:
+    """OpenCV's ``numDisparities`` (a multiple of 16): the user's ``max_disparity``
+    rounded up, or without it the rule of OpenCV's ``stereo_match`` sample,
+    ``((width / 8) + 15) & -16``."""
+    if max_disparity is None:
+        return max(16, ((width // 8) + 15) & -16)
+    return 16 * math.ceil(max_disparity / 16)
 
-    Settings are OpenCV's usual ones, not tuned on this pair: SGBM block 5,
-    ``P1 = 8·5²``, ``P2 = 32·5²``, uniqueness 10, speckle window 100 / range 2,
-    left-right check 1 px (``disp12MaxDiff``); BM block 9 (its prefilter and texture
-    check at their defaults), uniqueness 10, speckle window 100 / range 2. Pixels with a
-    negative (invalid) output are invalid.
+
+def run_peers(
+    data: StereoData, max_disparity: float | None = None
+) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], str | None]:
+    """OpenCV StereoSGBM and StereoBM on ``data`` (8-bit grey) as their users run them:
+    ``({name: (disparity, valid)}, None)``, or ``({}, note)`` when OpenCV is not
+    installed.
+
+    ``numDisparities`` = :func:`peer_disparities`. Both images are padded on the left by
+    ``numDisparities`` replicated columns and the output cropped back: unpadded, OpenCV
+    returns nothing for the leftmost ``numDisparities`` columns (35-41 % of the image at
+    1/16 and 1/19). Settings are those OpenCV's documentation and its ``stereo_match``
+    sample give, not tuned on this pair: SGBM block 5, ``P1 = 8·cn·5²``, ``P2 =
+    32·cn·5²`` (``cn = 1``, grey), ``preFilterCap`` 63, uniqueness 10, speckle filter on
+    (window 100, range 2 px: SGBM multiplies its ``speckleRange`` by 16), left-right
+    check 1 px (``disp12MaxDiff``); BM block 9, ``preFilterCap`` 31, texture threshold 10,
+    uniqueness 15, speckle filter on (window 100, range 32 = 2 px: BM's is in its 1/16 px
+    output units), ``disp12MaxDiff`` 1. Pixels with a negative (invalid) output are
+    invalid.
     """
     try:
         import cv2
     except ImportError:
         return {}, "OpenCV is not installed (pip install 'rangefx[peers]'): peers skipped"
-    ndisp = 16 * math.ceil(search_range(data) / 16)
-    left = np.clip(np.rint(data.image1), 0, 255).astype(np.uint8)
-    right = np.clip(np.rint(data.image2), 0, 255).astype(np.uint8)
+    ndisp = peer_disparities(data.camera.width, max_disparity)
+    left, right = (
+        cv2.copyMakeBorder(
+            np.clip(np.rint(im), 0, 255).astype(np.uint8), 0, 0, ndisp, 0, cv2.BORDER_REPLICATE
+        )
+        for im in (data.image1, data.image2)
+    )
     block = 5
     sgbm = cv2.StereoSGBM_create(
         minDisparity=0,
@@ -181,44 +215,73 @@ def run_peers(data: StereoData) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]
         P1=8 * block * block,
         P2=32 * block * block,
         disp12MaxDiff=1,
+        preFilterCap=63,
         uniquenessRatio=10,
         speckleWindowSize=100,
         speckleRange=2,
     )
     bm = cv2.StereoBM_create(numDisparities=ndisp, blockSize=9)
-    bm.setUniquenessRatio(10)
+    bm.setPreFilterCap(31)
+    bm.setTextureThreshold(10)
+    bm.setUniquenessRatio(15)
     bm.setSpeckleWindowSize(100)
-    bm.setSpeckleRange(2)
+    bm.setSpeckleRange(32)
+    bm.setDisp12MaxDiff(1)
     out = {}
     for name, matcher in (("opencv_sgbm", sgbm), ("opencv_bm", bm)):
-        raw = matcher.compute(left, right)  # int16, 4 fraction bits; < 0 invalid
+        raw = matcher.compute(left, right)[:, ndisp:]  # int16, 4 fraction bits; < 0 invalid
         out[name] = (raw.astype(np.float64) / 16.0, raw >= 0)
     return out, None
 
 
-def evaluate_middlebury(
-    data: StereoData, *, peers: bool = False
-) -> tuple[dict[str, dict[str, float | int]], str | None]:
-    """Every method of :data:`MIDDLEBURY_METHODS` (and the OpenCV peers if ``peers``) on
-    ``data``, scored with :func:`~rangefx.golden.realdata.middlebury_metrics`; the
-    second item is the note of skipped peers (or None)."""
-    out = {}
-    for m, r in _method_results(data, MIDDLEBURY_METHODS).items():
-        out[m] = _middlebury(data, disparity_from_range(r.range, data), r.valid)
+def _p3_run(data: StereoData, max_disparity: float | None) -> tuple[np.ndarray, np.ndarray, int]:
+    """P3 at its shipped default on ``data``'s (possibly perturbed) pair rounded to
+    integer grey levels: (disparity, valid, overflows)."""
     case = real_pair_case(DATASETS[0], data.factor)
+    image1, image2 = (
+        np.clip(np.rint(im), 0, 255).astype(np.int64) for im in (data.image1, data.image2)
+    )
+    case = dataclasses.replace(case, image1=image1, image2=image2)
     to_dataset_unit = 1e3  # the case is in metres, the dataset's depth in mm
-    for name in MIDDLEBURY_PIPELINES:
-        pipeline = PIPELINES[name]
-        config = load_config(pipeline, None, max_disparity=float(search_range(data)))
-        result = run_case(pipeline, case, config, taps=False)
-        disparity = disparity_from_range(result.range * to_dataset_unit, data)
-        out[name] = _middlebury(data, disparity, result.valid)
+    pipeline = PIPELINES[MIDDLEBURY_PIPELINES[0]]
+    config = load_config(pipeline, None, max_disparity=float(max_disparity or 0.0))
+    result = run_case(pipeline, case, config, taps=False)
+    disparity = disparity_from_range(result.range * to_dataset_unit, data)
+    return disparity, result.valid, result.overflow_total
+
+
+def evaluate_middlebury(
+    data: StereoData, *, peers: bool = False, max_disparity: float | None = None
+) -> tuple[dict[str, dict], str | None]:
+    """Every method of :data:`MIDDLEBURY_METHODS`, P3 (and the OpenCV peers if
+    ``peers``) on ``data`` with the user's ``max_disparity`` (None: each its own
+    choice), scored with :func:`~rangefx.golden.realdata.middlebury_metrics`:
+    ``{"methods": ..., "gt_informed": ..., "valid_in_both": ..., "overflows": ...}``
+    (module docstring) and the note of skipped peers (or None)."""
+    gt = float(search_range(data))
+    methods, informed, both, overflows = {}, {}, {}, {}
+    for m, r in _method_results(data, MIDDLEBURY_METHODS, max_disparity).items():
+        methods[m] = _middlebury(data, disparity_from_range(r.range, data), r.valid)
+    r = _method_results(data, ("g6_multiscale",), gt)["g6_multiscale"]
+    informed["g6_multiscale"] = _middlebury(data, disparity_from_range(r.range, data), r.valid)
+    p3_disparity, p3_valid, overflows["p3"] = _p3_run(data, max_disparity)
+    methods["p3"] = _middlebury(data, p3_disparity, p3_valid)
+    d, v, overflows["p3_gt_informed"] = _p3_run(data, gt)
+    informed["p3"] = _middlebury(data, d, v)
     note = None
     if peers:
-        found, note = run_peers(data)
+        found, note = run_peers(data, max_disparity)
         for name, (disparity, valid) in found.items():
-            out[name] = _middlebury(data, disparity, valid)
-    return out, note
+            methods[name] = _middlebury(data, disparity, valid)
+            common = valid & p3_valid
+            both[name] = {
+                "p3": _middlebury(data, p3_disparity, common),
+                name: _middlebury(data, disparity, common),
+            }
+        for name, (disparity, valid) in run_peers(data, gt)[0].items():
+            informed[name] = _middlebury(data, disparity, valid)
+    out = {"methods": methods, "gt_informed": informed, "valid_in_both": both}
+    return {**out, "overflows": overflows}, note
 
 
 def evaluate_fixed_point(
@@ -308,8 +371,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
         raise UserError(f"unknown protocol {args.protocol!r}; choose from {', '.join(PROTOCOLS)}")
     if args.protocol == "middlebury":
         return _cmd_middlebury(args)
-    if args.peers:
-        raise UserError("--peers applies to --protocol middlebury only")
+    for flag, given in (("--peers", args.peers), ("--perturb", args.perturb),
+                        ("--max-disparity", args.max_disparity)):  # fmt: skip
+        if given:
+            raise UserError(f"{flag} applies to --protocol middlebury only")
     data = _load(args.dataset, args.factor)
     figures = evaluate_dataset(data)
     fixed = evaluate_fixed_point(data, args.dataset, _factor(args.factor), args.pipeline)
@@ -348,16 +413,67 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def parse_perturbation(text: str | None) -> Perturbation:
+    """``--perturb gain=1.1,offset=5,noise=2,vshift=0.5,blur=1,seed=0`` (any subset)."""
+    if not text:
+        return Perturbation()
+    names = {f for f in Perturbation.__dataclass_fields__}
+    kw: dict[str, float | int] = {}
+    for item in text.split(","):
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or key not in names:
+            raise UserError(
+                f"--perturb: {item!r} is not NAME=VALUE with NAME one of {', '.join(names)}"
+            )
+        try:
+            kw[key] = int(value) if key == "seed" else float(value)
+        except ValueError:
+            raise UserError(f"--perturb: {key} must be a number, not {value!r}") from None
+    try:
+        return Perturbation(**kw)
+    except ValueError as exc:
+        raise UserError(f"--perturb: {exc}") from None
+
+
+def _max_disparity(text: str | None) -> float | None:
+    if text is None:
+        return None
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise UserError(f"--max-disparity must be a positive number of pixels, not {text!r}")
+    return v
+
+
+def _print_table(title: str, figures: dict[str, dict]) -> None:
+    print(title)
+    print(
+        f"{'method':<14} {'density':>8} {'MAE px':>7} {'bad0.5%':>8} {'bad1%':>6} "
+        f"{'bad2%':>6} {'rel Z err':>9}"
+    )
+    for m, v in figures.items():
+        print(
+            f"{m:<14} {v['density']:>8.3f} {v['mae_px']:>7.3f} {v['bad_0_5']:>8.1f} "
+            f"{v['bad_1']:>6.1f} {v['bad_2']:>6.1f} {100 * v['rel_depth_error']:>8.1f}%"
+        )
+
+
 def _cmd_middlebury(args: argparse.Namespace) -> int:
+    max_disparity = _max_disparity(args.max_disparity)
+    perturbation = parse_perturbation(args.perturb)
     default = _load(args.dataset, args.factor)
     if args.factor is not None:
         datasets = [default]
     else:
         factors = sorted({*MIDDLEBURY_FACTORS, default.factor})
         datasets = [default if f == default.factor else load_motorcycle(f) for f in factors]
+    datasets = [perturb_right(d, perturbation) for d in datasets]
     tables, note = {}, None
     for data in datasets:
-        figures, note = evaluate_middlebury(data, peers=args.peers)
+        figures, note = evaluate_middlebury(data, peers=args.peers, max_disparity=max_disparity)
         tables[data.factor] = (data, figures)
     fixed = evaluate_fixed_point(default, args.dataset, _factor(args.factor), args.pipeline)
     if args.json:
@@ -368,6 +484,8 @@ def _cmd_middlebury(args: argparse.Namespace) -> int:
                     "protocol": "middlebury",
                     "factor": default.factor,
                     "unit": default.unit,
+                    "max_disparity": max_disparity,
+                    "perturbation": dataclasses.asdict(perturbation),
                     "peers": {"requested": bool(args.peers), "note": note},
                     "factors": {
                         str(f): {
@@ -375,7 +493,7 @@ def _cmd_middlebury(args: argparse.Namespace) -> int:
                             "median_disparity_px": data.median_disparity,
                             "search_range_px": search_range(data),
                             "doffs_px": data.doffs_px,
-                            "methods": json_safe(figures),
+                            **json_safe(figures),
                         }
                         for f, (data, figures) in tables.items()
                     },
@@ -386,22 +504,25 @@ def _cmd_middlebury(args: argparse.Namespace) -> int:
         return 0
     if note:
         print(f"rangefx: note: {note}", file=sys.stderr)
+    setting = f"--max-disparity {max_disparity:g}" if max_disparity else "each method's own"
+    if not perturbation.is_identity:
+        print(f"right image perturbed: {perturbation}")
     for f, (data, figures) in tables.items():
         h, w = data.image1.shape
         known = data.disparity[np.isfinite(data.disparity)]
-        print(
+        _print_table(
             f"{data.name} 1/{f} ({h}x{w} px): disparity {known.min():.1f}-{known.max():.1f} px "
-            f"(median {data.median_disparity:.2f}), Middlebury figures over all pixels"
+            f"(median {data.median_disparity:.2f}), all pixels, disparity range: {setting}",
+            figures["methods"],
         )
-        print(
-            f"{'method':<14} {'density':>8} {'MAE px':>7} {'bad0.5%':>8} {'bad1%':>6} "
-            f"{'bad2%':>6} {'rel Z err':>9}"
+        print(f"P3 overflows: {figures['overflows']['p3']}")
+        for peer, pair in figures["valid_in_both"].items():
+            n = pair["p3"]["n_scored"]
+            _print_table(f"  over the {n} scored pixels valid in both P3 and {peer}:", pair)
+        _print_table(
+            f"  gt_informed (given the ground truth's search range, {search_range(data)} px):",
+            figures["gt_informed"],
         )
-        for m, v in figures.items():
-            print(
-                f"{m:<14} {v['density']:>8.3f} {v['mae_px']:>7.3f} {v['bad_0_5']:>8.1f} "
-                f"{v['bad_1']:>6.1f} {v['bad_2']:>6.1f} {100 * v['rel_depth_error']:>8.1f}%"
-            )
     _print_fixed(fixed)
     return 0
 
@@ -422,6 +543,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default="middlebury",
         help="middlebury (default: MAE, bad-x, density over all pixels, metric depth with "
         "doffs) or report (density among known truth, relative error of f B / d)",
+    )
+    p.add_argument(
+        "--max-disparity",
+        help="largest disparity, px of the input, for G6, P3 and the peers (default: "
+        "each chooses it from the image width)",
+    )
+    p.add_argument(
+        "--perturb",
+        help="change the right image as a real rig does: gain=G,offset=O,noise=SIGMA,"
+        "vshift=PX,blur=SIGMA,seed=N (any subset; seeded)",
     )
     p.add_argument(
         "--peers",
