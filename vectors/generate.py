@@ -32,6 +32,7 @@ from rangefx.rtl_model.registry import get_pipeline
 from rangefx.rtl_model.stream import make_stream
 
 from . import formats as fmt_io
+from .regular import read_regular
 
 __all__ = [
     "FORMATS",
@@ -323,7 +324,7 @@ def load_manifest(directory: str | Path) -> dict:
     """
     p = Path(directory) / MANIFEST_NAME
     try:
-        manifest = json.loads(p.read_text())
+        manifest = json.loads(read_regular(p, directory))
     except OSError as exc:
         raise ValueError(f"cannot read {p}: {exc.strerror}") from None
     except json.JSONDecodeError as exc:
@@ -392,7 +393,7 @@ def read_tap(directory: str | Path, tap: str, manifest: Mapping | None = None) -
     entry = _find_entry(manifest, tap)
     path = Path(directory) / entry["path"]
     try:
-        words = fmt_io.read_mem(path.read_bytes())
+        words = fmt_io.read_mem(read_regular(path, directory))
     except OSError as exc:
         raise ValueError(f"cannot read {path}: {exc.strerror}") from None
     if any(w is None for w in words):
@@ -419,7 +420,10 @@ def case_from_manifest(directory: str | Path, manifest: Mapping) -> dict:
     for s in ("e1", "e2"):
         raw = read_tap(directory, f"{s}.{INPUT_TAP}", manifest)
         if raw.size != m * n:
-            raise ValueError(f"{s}.{INPUT_TAP} holds {raw.size} words, the shape {m}x{n} needs")
+            raise ValueError(
+                f"{s}.{INPUT_TAP} holds {raw.size} words, the shape {m}x{n} in the manifest "
+                f"needs {m * n}"
+            )
         images.append(raw.reshape(m, n))
     try:
         c = manifest["case"]
@@ -469,7 +473,23 @@ class CheckReport:
         return not self.problems
 
 
-_IGNORED = {MANIFEST_NAME, ".rangefx-output"}
+_MARKER = ".rangefx-output"  # rangefx.tools.report.outdir.MARKER_NAME (vectors sits below tools)
+_IGNORED = {MANIFEST_NAME, _MARKER}
+
+
+def _incomplete_marker(d: Path) -> str | None:
+    """A problem line if ``d``'s output marker says ``state: incomplete``: a run was
+    stopped while it moved its files in, so old and new files may be mixed."""
+    try:
+        text = read_regular(d / _MARKER, d).decode("utf-8", "replace")
+    except (OSError, ValueError):
+        return None
+    if "state: incomplete" not in text.splitlines():
+        return None
+    return (
+        f"{_MARKER}: state: incomplete (a run was stopped while it put its files in place; "
+        "files of two runs may be mixed: generate the vectors again)"
+    )
 
 
 def check_vectors(directory: str | Path, *, rerun: bool = True) -> CheckReport:
@@ -492,12 +512,14 @@ def check_vectors(directory: str | Path, *, rerun: bool = True) -> CheckReport:
     d = Path(directory)
     manifest = load_manifest(d)
     report = CheckReport()
+    if (incomplete := _incomplete_marker(d)) is not None:
+        report.problems.append(incomplete)
     listed = set()
     for e in manifest["files"]:
         p = d / e["path"]
         listed.add(e["path"])
         try:
-            data = p.read_bytes()
+            data = read_regular(p, d)  # a FIFO or /dev/zero: one error line, not a hang
         except OSError:
             report.problems.append(f"{e['path']}: missing")
             continue
@@ -517,7 +539,7 @@ def check_vectors(directory: str | Path, *, rerun: bool = True) -> CheckReport:
     for name, data in again.files.items():
         if name not in listed:
             report.problems.append(f"{name}: the model writes it, the directory lacks it")
-        elif (d / name).read_bytes() != data:
+        elif read_regular(d / name, d) != data:
             report.problems.append(f"{name}: differs from a fresh run of the model")
     mine = json.loads(again.manifest_bytes())
     theirs = dict(manifest)
@@ -601,7 +623,7 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
     dump = Path(dump)
     manifest = load_manifest(d)
     try:  # before the tap: a missing dump is not an unknown tap
-        data = dump.read_bytes()
+        data = read_regular(dump)  # not /dev/zero, a FIFO
     except OSError as exc:
         raise ValueError(f"cannot read dump {dump}: {exc.strerror}") from None
     if tap is None:
@@ -719,7 +741,7 @@ def tap_cycles(d: Path, manifest: Mapping, tap: str, first: int) -> np.ndarray:
     beats = {}
     for e in names:
         try:
-            raw = (d / e["path"]).read_bytes()
+            raw = read_regular(d / e["path"], d)
         except OSError as exc:
             raise ValueError(f"cannot read {d / e['path']}: {exc.strerror}") from None
         data = fmt_io.read_stream_bin_valid(raw, int(e["word"]))

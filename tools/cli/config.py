@@ -1,4 +1,5 @@
-"""``rangefx config show|propose --pipeline p1|p2``: a pipeline's word-length config.
+"""``rangefx config show|propose --pipeline NAME``: a word-length config of any registered
+pipeline.
 
 ``show`` prints (or writes) the shipped default TOML, or ``--config``'s; ``export``
 writes it as an HLS header (``--hls``) and/or a VHDL ``fixed_pkg`` package (``--vhdl``);

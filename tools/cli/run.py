@@ -1,7 +1,7 @@
 """``rangefx run``: one golden method, or one bit-accurate pipeline beside its golden, on a
 scene preset or on a user's image pair (SPEC §8, §10).
 
-``--pipeline golden`` (the default) runs ``--method``; ``--pipeline p1|p2`` runs the
+``--pipeline golden`` (the default) runs ``--method``; ``--pipeline NAME`` runs the
 registered pipeline with the shipped default config (or ``--config``), design options
 applied where the pipeline has them, and prints its table beside its golden's. An
 option that does not apply to the chosen pipeline is an error.
@@ -137,7 +137,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.method is not None:
             raise UserError("--method applies to --pipeline golden only")
         return run_pipeline(pipeline_from_args(args), case, args)
-    why = "applies to the fixed-point pipelines only (--pipeline p1|p2)"
+    why = f"applies to the fixed-point pipelines only (--pipeline {'|'.join(PIPELINES)})"
     reject_options(args, {"config": "--config", "variant": "--variant"}, why)
     reject_options(args, {"divider": "--divider", **TIMING_OPTIONS}, why)
     method = args.method or DEFAULT_METHOD
@@ -259,7 +259,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--seed", type=int, default=0, help="scene noise seed")
     p.add_argument("--json", action="store_true", help="print one JSON object with the figures")
-    g = p.add_argument_group("fixed-point pipelines (--pipeline p1|p2); --pole/--bias also golden")
+    g = p.add_argument_group(
+        f"fixed-point pipelines (--pipeline {'|'.join(PIPELINES)}); --pole/--bias also golden"
+    )
     add_design_args(g)
     add_timing_args(g)
     g.add_argument(

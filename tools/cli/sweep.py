@@ -12,7 +12,7 @@ after an interruption computes only the missing points), then ``points.csv``,
 pipeline's own error build-up: P1's row and column filters, P2's backward sweep) and
 ``summary.json`` (``complete: true``) once every point is in.
 
-``rangefx optimise [--pipeline p1|p2] --scene lab [runway motorcycle ...] --budget 0.01
+``rangefx optimise [--pipeline NAME] --scene lab [runway motorcycle ...] --budget 0.01
 [--agreement 0.99] [--margin M] [--verify SCENE] [--config PATH] [--variant V]
 [--divider D] [--pole C] [--bias B] [--size H W] [--workers N] [--out DIR] [--json]``
 finds the cheapest config of the pipeline meeting the budget on every tuning scene

@@ -1,6 +1,6 @@
 """``rangefx vectors gen|check|diff``: hardware test vectors of any pipeline (SPEC §5, §10).
 
-* ``gen``: render a scene (optionally cropped), run ``--pipeline`` (p1, p2) with every
+* ``gen``: render a scene (optionally cropped), run ``--pipeline`` (any registered one) with every
   tap and write the vector directory atomically (``docs/vectors.md``); prints the time.
 * ``check``: verify sizes and SHA-256 of every file, then re-run the model from the
   manifest and require byte-identical files (exit 1 on any problem).

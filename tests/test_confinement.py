@@ -1,0 +1,506 @@
+"""Issue 41: rangefx touches only its own files inside the output directory, one writer
+at a time, and every stop signal ends a command as Ctrl-C does (docs/guarantees.md).
+
+* marker entries that leave the output directory are ignored (the outside file stays
+  byte-identical) and reported once; symbolic links inside an output directory are
+  refused, never written through; the output directory itself may be a link;
+* a lock per output directory: a second writer is refused naming the holder, a lock left
+  by a SIGKILLed run is taken over; two sweeps at once on one directory leave the first
+  one's results complete and identical to an uninterrupted run;
+* SIGINT, SIGTERM, SIGHUP at random times: exit 128 + signal, one line, no temporaries;
+* readers open only regular files inside the vector directory.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rangefx.golden.scenes import render_scene
+from rangefx.rtl_model.registry import PIPELINES
+from rangefx.tools.cli import demo as cli_demo
+from rangefx.tools.cli import main
+from rangefx.tools.interrupts import Interrupted, handle_stop_signals
+from rangefx.tools.report.lock import lock_path
+from rangefx.tools.report.outdir import MARKER_NAME, atomic_output_dir
+from rangefx.tools.studies import sweep as sweep_mod
+
+PY = sys.executable
+RANGEFX = [str(Path(PY).parent / "rangefx")]
+SWEEP = """
+[sweep]
+name = "{name}"
+scenes = ["lab"]
+size = [24, 32]
+combine = "one_at_a_time"
+metrics = ["golden", "overflows"]
+
+[[axis]]
+signals = "row_state"
+param = "frac"
+values = {values}
+"""
+#: ``rangefx`` with every sweep point slowed by $RANGEFX_TEST_SLOW seconds, so that a
+#: second run surely starts while the first still writes (the points' results are real)
+SLOW_RANGEFX = [
+    PY,
+    "-c",
+    "import os, sys, time\n"
+    "from rangefx.tools.studies import sweep\n"
+    "point = sweep.evaluate_point\n"
+    "def slow(spec):\n"
+    "    time.sleep(float(os.environ['RANGEFX_TEST_SLOW']))\n"
+    "    return point(spec)\n"
+    "sweep.evaluate_point = slow\n"
+    "from rangefx.tools.cli.main import main\n"
+    "sys.exit(main())\n",
+]
+
+
+def _sha(p: Path) -> str:
+    return hashlib.sha256(p.read_bytes()).hexdigest()
+
+
+def _pair(tmp_path: Path) -> list[str]:
+    rng = np.random.default_rng(0)
+    left = rng.integers(0, 256, (24, 32)).astype(np.float64)
+    np.save(tmp_path / "l.npy", left)
+    np.save(tmp_path / "r.npy", np.roll(left, 1, axis=1))
+    return ["--left", str(tmp_path / "l.npy"), "--right", str(tmp_path / "r.npy"),
+            "--f-px", "40", "--baseline", "0.1"]  # fmt: skip
+
+
+def _fake_demo(args) -> int:
+    """``demo``'s output layout (a sub-folder ``guide``) without its 20 s of work."""
+    with atomic_output_dir(Path(args.out)) as tmp:
+        (tmp / "summary.json").write_text("{}")
+        (tmp / "guide").mkdir()
+        for name in ("summary.json", "obstacles.csv", "trajectory.csv"):
+            (tmp / "guide" / name).write_text("rangefx\n")
+    return 0
+
+
+def _hidden(directory: Path) -> list[str]:
+    return sorted(p.name for p in directory.iterdir() if p.name.startswith("."))
+
+
+# -- confinement ---------------------------------------------------------------------------
+@pytest.mark.parametrize("entry", ["../precious.txt", "ABS", "sub/../../precious.txt"])
+def test_marker_entries_outside_the_directory_touch_nothing(tmp_path, capsys, entry):
+    precious = tmp_path / "precious.txt"
+    precious.write_bytes(b"the user's thesis\n")
+    before = _sha(precious)
+    out = tmp_path / "o"
+    argv = ["run", *_pair(tmp_path), "--out", str(out)]
+    assert main(argv) == 0
+    with open(out / MARKER_NAME, "a", encoding="utf-8") as f:
+        f.write(f"file: {str(precious) if entry == 'ABS' else entry}\n")
+    capsys.readouterr()
+    assert main(argv) == 0
+    assert precious.is_file() and _sha(precious) == before
+    warnings = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert len(warnings) == 1 and "leaves them alone" in warnings[0], warnings
+    assert "precious" not in (out / MARKER_NAME).read_text()
+
+
+@pytest.mark.parametrize("link", ["guide", "guide/summary.json"])
+def test_a_link_inside_an_output_directory_is_refused(tmp_path, capsys, monkeypatch, link):
+    monkeypatch.setattr(cli_demo, "cmd_demo", _fake_demo)
+    out = tmp_path / "d"
+    assert main(["demo", "--out", str(out)]) == 0
+    user = tmp_path / "mine"
+    user.mkdir()
+    for name in ("summary.json", "obstacles.csv", "trajectory.csv"):
+        (user / name).write_text(f"the user's {name}\n")
+    sums = {p.name: _sha(p) for p in user.iterdir()}
+    target = out / link
+    if target.is_dir():
+        for p in target.iterdir():
+            p.unlink()
+        target.rmdir()
+        target.symlink_to(user, target_is_directory=True)
+    else:
+        target.unlink()
+        target.symlink_to(user / "summary.json")
+    capsys.readouterr()
+    assert main(["demo", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        f"rangefx: error: output directory {str(out)!r} holds {link!r}, a symbolic link; "
+        "rangefx never writes or deletes through a link inside an output directory (remove "
+        "the link or choose another --out)"
+    )
+    assert {p.name: _sha(p) for p in user.iterdir()} == sums
+    assert (out / link).is_symlink()
+    assert _hidden(tmp_path) == []
+
+
+def test_the_output_directory_itself_may_be_a_link(tmp_path, monkeypatch):
+    monkeypatch.setattr(cli_demo, "cmd_demo", _fake_demo)
+    real = tmp_path / "disk" / "results"
+    real.mkdir(parents=True)
+    link = tmp_path / "out"
+    link.symlink_to(real, target_is_directory=True)
+    for _ in range(2):  # a new output, then a merge into it
+        assert main(["demo", "--out", str(link)]) == 0
+        assert link.is_symlink() and (real / "guide" / "summary.json").is_file()
+    assert _hidden(tmp_path) == [] and _hidden(tmp_path / "disk") == []
+
+
+def test_a_linked_results_file_is_refused(tmp_path, capsys):
+    out = tmp_path / "s"
+    out.mkdir()
+    outside = tmp_path / "log.jsonl"
+    outside.write_text("")
+    (out / sweep_mod.RESULTS_NAME).symlink_to(outside)
+    definition = tmp_path / "a.toml"
+    definition.write_text(SWEEP.format(name="a", values="[6]"))
+    assert main(["sweep", str(definition), "--out", str(out)]) == 2
+    assert "'results.jsonl', a symbolic link" in capsys.readouterr().err
+    assert outside.read_text() == ""
+
+
+# -- one writer per output directory -------------------------------------------------------
+def _start_holder(directory: Path) -> subprocess.Popen:
+    code = (
+        "import sys, time\n"
+        "from rangefx.tools.report.lock import output_lock\n"
+        "with output_lock(sys.argv[1], 'holder'):\n"
+        "    print('held', flush=True)\n"
+        "    time.sleep(120)\n"
+    )
+    proc = subprocess.Popen([PY, "-c", code, str(directory)], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "held"
+    return proc
+
+
+def test_a_second_writer_is_refused_and_a_killed_holders_lock_taken_over(tmp_path, capsys):
+    out = tmp_path / "o"
+    argv = ["run", *_pair(tmp_path), "--out", str(out)]
+    holder = _start_holder(out)
+    try:
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith(f"rangefx: error: output directory {str(out)!r} is being written ")
+        assert f"PID {holder.pid} on host " in err and "`holder`" in err and "\n" not in err
+        assert not out.exists()
+    finally:
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
+    assert lock_path(out).exists()  # left by the killed holder: stale
+    assert main(argv) == 0
+    assert (out / MARKER_NAME).is_file() and not lock_path(out).exists()
+
+
+def _records(out: Path) -> dict[str, dict]:
+    records = {}
+    for line in (out / sweep_mod.RESULTS_NAME).read_text().splitlines():
+        rec = json.loads(line)
+        rec.pop("seconds")
+        assert rec["key"] not in records, "a point recorded twice"
+        records[rec["key"]] = rec
+    return records
+
+
+def _wait_for(predicate, timeout: float = 120.0) -> None:
+    t0 = time.monotonic()
+    while not predicate():
+        assert time.monotonic() - t0 < timeout
+        time.sleep(0.05)
+
+
+@pytest.mark.parametrize(
+    ("first", "second", "restart"),
+    [("a", "b", True), ("b", "a", False), ("a", "a", True), ("a", "a", False)],
+)
+def test_two_sweeps_at_once_one_is_refused_the_other_complete(tmp_path, first, second, restart):
+    defs = {
+        "a": SWEEP.format(name="a", values="[6, 7, 8, 9]"),
+        "b": SWEEP.format(name="b", values="[10, 11]"),
+    }
+    for name, text in defs.items():
+        (tmp_path / f"{name}.toml").write_text(text)
+    reference = tmp_path / "reference"
+    assert main(["sweep", str(tmp_path / f"{first}.toml"), "--out", str(reference)]) == 0
+    out = tmp_path / "s"
+    env = {**os.environ, "RANGEFX_TEST_SLOW": "0.5"}
+    one = subprocess.Popen(
+        [*SLOW_RANGEFX, "sweep", str(tmp_path / f"{first}.toml"), "--out", str(out),
+         "--workers", "1", "--json"],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        _wait_for(lambda: (out / sweep_mod.RESULTS_NAME).is_file() and lock_path(out).exists())
+        two = subprocess.run(
+            [*RANGEFX, "sweep", str(tmp_path / f"{second}.toml"), "--out", str(out),
+             *(["--restart"] if restart else [])],
+            capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+        assert one.poll() is None, "the first sweep ended before the second was refused"
+    finally:
+        out1, err1 = one.communicate(timeout=300)
+    assert two.returncode == 2, two.stderr
+    assert two.stderr.count("\n") == 1 and f"PID {one.pid} on host " in two.stderr
+    assert one.returncode == 0, err1
+    assert json.loads(out1)["complete"] is True
+    assert _records(out) == _records(reference)
+    assert json.loads((out / "sweep.json").read_text())["name"] == first
+    assert not lock_path(out).exists() and _hidden(tmp_path) == []
+
+
+def test_a_sigkilled_sweeps_lock_is_taken_over(tmp_path):
+    definition = tmp_path / "a.toml"
+    definition.write_text(SWEEP.format(name="a", values="[6, 7, 8, 9]"))
+    out = tmp_path / "s"
+    one = subprocess.Popen(
+        [*SLOW_RANGEFX, "sweep", str(definition), "--out", str(out), "--workers", "1"],
+        env={**os.environ, "RANGEFX_TEST_SLOW": "0.5"},
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    _wait_for(lambda: (out / sweep_mod.RESULTS_NAME).is_file() and lock_path(out).exists())
+    one.send_signal(signal.SIGKILL)
+    one.wait()
+    assert lock_path(out).exists()
+    assert main(["sweep", str(definition), "--out", str(out)]) == 0
+    reference = tmp_path / "reference"
+    assert main(["sweep", str(definition), "--out", str(reference)]) == 0
+    assert _records(out) == _records(reference)
+    assert not lock_path(out).exists()
+
+
+# -- stop signals --------------------------------------------------------------------------
+def test_a_render_stops_at_once_on_a_signal():
+    """The demo hung (> 60 s) when Ctrl-C came during the scene render: the main thread
+    waited on the render's futures without a timeout and missed it, then joined the
+    render threads. Here the signal comes 0.5 s into a render of several seconds."""
+    restore = handle_stop_signals()
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGTERM))
+    try:
+        timer.start()
+        t0 = time.monotonic()
+        with pytest.raises(Interrupted) as info:
+            render_scene("lab", seed=4141)  # a seed no other test renders (not cached)
+        assert info.value.signum == signal.SIGTERM
+        assert time.monotonic() - t0 < 1.5
+    finally:
+        timer.cancel()
+        restore()
+
+
+class _SwallowsASignal:
+    def __del__(self) -> None:
+        # the handler's exception is raised inside this finaliser, which Python reports
+        # as "Exception ignored" and drops: the interrupt that "rangefx demo" once lost
+        signal.raise_signal(signal.SIGTERM)
+        for _ in range(10):
+            pass
+
+
+def test_an_interrupt_a_finaliser_swallowed_still_stops_the_command(tmp_path, capsys, monkeypatch):
+    def body(args) -> int:
+        with atomic_output_dir(Path(args.out)) as tmp:
+            (tmp / "summary.json").write_text("{}")
+            obj = _SwallowsASignal()
+            del obj  # the command goes on as if nothing had happened
+        return 0
+
+    monkeypatch.setattr(cli_demo, "cmd_demo", body)
+    out = tmp_path / "d"
+    assert main(["demo", "--out", str(out)]) == 128 + signal.SIGTERM
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        "rangefx: interrupted; no output was written (an earlier output is left as it was)"
+    )
+    assert not out.exists() and _hidden(tmp_path) == []
+
+
+def _signal_cases(tmp_path: Path) -> dict[str, list[str]]:
+    definition = tmp_path / "a.toml"  # the real command (no slowing hook: it would import
+    # the sweep before the handlers are in place): 20 points at 128x128, a few seconds
+    definition.write_text(
+        SWEEP.format(name="a", values="[4, 5, 6, 7, 8, 9, 10, 11, 12, 13]")
+        .replace("[24, 32]", "[128, 128]")
+        .replace('["lab"]', '["lab", "runway"]')
+    )
+    return {
+        "demo": [*RANGEFX, "demo", "--out", "OUT"],
+        "sweep": [*RANGEFX, "sweep", str(definition), "--out", "OUT", "--workers", "2"],
+        "vectors gen": [*RANGEFX, "vectors", "gen", "--scene", "lab", "--formats",
+                        "mem,csv", "--out", "OUT"],
+        "optimise": [*RANGEFX, "optimise", "--scene", "lab", "--size", "128", "128",
+                     "--out", "OUT"],
+    }  # fmt: skip
+
+
+def _catches_sigterm(pid: int) -> bool:
+    """Whether process ``pid`` has a handler for SIGTERM (Linux: ``SigCgt``), i.e. the
+    command line has started: a signal in the first fraction of a second (Python's start
+    and the first imports) meets Python's default handling, documented as such."""
+    try:
+        text = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    caught = next(int(x.split()[1], 16) for x in text.splitlines() if x.startswith("SigCgt:"))
+    return bool(caught >> (signal.SIGTERM - 1) & 1)
+
+
+#: Deliveries per command; the issue's 50 is measured by hand (docs/guarantees.md):
+#: RANGEFX_SIGNAL_DELIVERIES=50 pytest -n 0 tests/test_confinement.py -k random_times
+DELIVERIES = int(os.environ.get("RANGEFX_SIGNAL_DELIVERIES", "0")) or None
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux /proc")
+@pytest.mark.parametrize("command", ["demo", "sweep", "vectors gen", "optimise"])
+def test_stop_signals_at_random_times(tmp_path, command):
+    """SIGINT, SIGTERM or SIGHUP at a random time of a real run: exit 128 + signal within
+    the bound, one line, no temporary sibling or lock left. 10 deliveries in all by
+    default (3, 3, 2, 2), more with $RANGEFX_SIGNAL_DELIVERIES."""
+    rng = random.Random(f"{command}-{os.getpid()}")
+    argv = _signal_cases(tmp_path)[command]
+    n = DELIVERIES or {"demo": 3, "sweep": 3}.get(command, 2)
+    bound = float(os.environ.get("RANGEFX_SIGNAL_BOUND_S", "3"))  # the issue: 2 s
+    env = dict(os.environ)
+    for k in range(n):
+        parent = tmp_path / f"run{k}"
+        parent.mkdir()
+        sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+        at = rng.uniform(0.0, 5.0)  # after rangefx's handlers are in place
+        proc = subprocess.Popen(
+            [str(parent / "out") if a == "OUT" else a for a in argv], cwd=parent, env=env,
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        _wait_for(lambda p=proc: _catches_sigterm(p.pid) or p.poll() is not None, 60.0)
+        time.sleep(at)
+        sent = time.monotonic()
+        proc.send_signal(sig)
+        try:
+            _, err = proc.communicate(timeout=60)
+        finally:
+            proc.kill()
+        took = time.monotonic() - sent
+        what = f"{command}: {sig.name} at {at:.2f} s"
+        if proc.returncode == 0:
+            continue  # finished before the signal: nothing to check
+        assert proc.returncode == 128 + sig, f"{what}: exit {proc.returncode}: {err}"
+        assert err.strip().startswith("rangefx: interrupted") and "\n" not in err.strip(), err
+        assert took < bound, f"{what}: exited {took:.2f} s after it"
+        assert _hidden(parent) == [], what
+
+
+# -- special files -------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def vector_dir(tmp_path_factory) -> Path:
+    v = tmp_path_factory.mktemp("vec") / "v"
+    crop = ["--crop", "240", "256", "100", "124"]
+    assert main(["vectors", "gen", "--scene", "lab", *crop, "--out", str(v)]) == 0
+    return v
+
+
+def _timed_main(argv: list[str]) -> tuple[int, float]:
+    """``main(argv)`` and its seconds; a hang (the fault guarded against) is ended by a
+    SIGTERM after 10 s, which ``main`` turns into exit 143."""
+    timer = threading.Timer(10.0, os.kill, (os.getpid(), signal.SIGTERM))
+    timer.start()
+    try:
+        t0 = time.monotonic()
+        rc = main(argv)
+        return rc, time.monotonic() - t0
+    finally:
+        timer.cancel()
+
+
+@pytest.mark.parametrize("kind", ["fifo", "dev_zero", "outside_copy"])
+def test_vectors_check_reads_only_regular_files_inside(tmp_path, capsys, vector_dir, kind):
+    v = tmp_path / "v"
+    shutil.copytree(vector_dir, v)
+    entry = v / "e1.row_r1.mem"
+    if kind == "outside_copy":  # the very bytes, but outside the vector directory
+        shutil.copy(entry, tmp_path / "elsewhere.mem")
+    entry.unlink()
+    if kind == "fifo":
+        os.mkfifo(entry)
+    else:
+        entry.symlink_to("/dev/zero" if kind == "dev_zero" else tmp_path / "elsewhere.mem")
+    capsys.readouterr()
+    rc, took = _timed_main(["vectors", "check", str(v)])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and err.startswith(f"rangefx: error: {entry} ") and "\n" not in err, err
+    assert {"fifo": "is a FIFO", "dev_zero": "leads out", "outside_copy": "leads out"}[kind] in err
+    assert took < 1.0
+
+
+def test_vectors_diff_refuses_a_device_as_the_dump(capsys, vector_dir):
+    rc, took = _timed_main(["vectors", "diff", str(vector_dir), "/dev/zero", "--signal",
+                            "e1.row_r1"])  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and took < 1.0
+    assert err == (
+        "rangefx: error: /dev/zero is a character device, not a regular file; rangefx does "
+        "not read it"
+    )
+
+
+# -- smaller items ---------------------------------------------------------------------------
+def test_a_255_character_out_name_is_accepted(tmp_path):
+    out = tmp_path / ("r" * 255)  # the longest name a file may have
+    argv = ["run", *_pair(tmp_path), "--out", str(out)]
+    assert main(argv) == 0 and main(argv) == 0  # new, then merged into
+    assert (out / MARKER_NAME).is_file() and _hidden(tmp_path) == []
+
+
+def test_an_unreachable_scheduler_leaves_no_sweep_directory(tmp_path, capsys, monkeypatch):
+    distributed = pytest.importorskip("distributed")
+
+    def refuse(address, timeout):  # what Client does after its timeout, without the wait
+        raise OSError(f"Timed out trying to connect to {address} after {timeout} s")
+
+    monkeypatch.setattr(distributed, "Client", refuse)
+    definition = tmp_path / "a.toml"
+    definition.write_text(SWEEP.format(name="a", values="[6]"))
+    out = tmp_path / "s"
+    argv = ["sweep", str(definition), "--out", str(out), "--scheduler", "tcp://127.0.0.1:9"]
+    assert main(argv) == 2
+    assert "cannot connect to the dask scheduler" in capsys.readouterr().err
+    assert not out.exists() and _hidden(tmp_path) == []
+
+
+def test_vectors_check_reports_an_incomplete_marker(tmp_path, capsys, vector_dir):
+    v = tmp_path / "v"
+    shutil.copytree(vector_dir, v)
+    marker = v / MARKER_NAME
+    marker.write_text(marker.read_text().replace("state: complete", "state: incomplete"))
+    assert main(["vectors", "check", "--no-rerun", str(v)]) == 1
+    out = capsys.readouterr().out
+    assert f"problem: {MARKER_NAME}: state: incomplete" in out and "FAILED (1 problems)" in out
+
+
+def test_pipeline_messages_name_every_registered_pipeline(tmp_path, capsys):
+    assert main(["run", "--scene", "lab", "--variant", "paper"]) == 2
+    names = "|".join(PIPELINES)
+    assert f"(--pipeline {names})" in capsys.readouterr().err
+
+
+def test_a_manifest_shape_the_inputs_do_not_fill_is_said_whole(tmp_path, capsys, vector_dir):
+    v = tmp_path / "v"
+    shutil.copytree(vector_dir, v)
+    manifest = json.loads((v / "manifest.json").read_text())
+    m, n = manifest["shape"]
+    manifest["shape"] = [m, n + 1]
+    (v / "manifest.json").write_text(json.dumps(manifest))
+    assert main(["vectors", "check", str(v)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith(
+        f"holds {m * n} words, the shape {m}x{n + 1} in the manifest needs {m * (n + 1)}"
+    ), err
