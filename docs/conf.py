@@ -11,19 +11,24 @@ numpy-style docstrings, the CLI reference sphinx-argparse over the parser that
 
 from __future__ import annotations
 
+import argparse
 import os
+import re
+import sys
 from pathlib import Path
 
 from docutils import nodes
 
 REPO = Path(__file__).resolve().parent.parent
+# cli.md's argparse directive imports this file as ``conf`` for :func:`cli_parser`
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 # Plots in docstrings and the CLI import matplotlib: never open a window while building.
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 project = "rangefx"
 author = "rangefx developers"
-copyright = "rangefx developers"  # noqa: A001 (Sphinx's name)
+copyright = "rangefx developers"
 
 extensions = [
     "myst_parser",
@@ -50,6 +55,40 @@ autodoc_member_order = "bysource"
 autodoc_typehints = "description"
 napoleon_google_docstring = False
 napoleon_numpy_docstring = True
+
+
+RST_SPECIAL = re.compile(r"([\\*|`_])")
+
+
+def _escape(text: str | None) -> str | None:
+    return None if text is None else RST_SPECIAL.sub(r"\\\1", text)
+
+
+def cli_parser() -> argparse.ArgumentParser:
+    """The parser of ``rangefx`` (:func:`rangefx.tools.cli.main.build_parser`) with its help
+    texts escaped for reStructuredText.
+
+    argparse help is plain text, but sphinx-argparse parses it as reStructuredText, where
+    ``min |h dE_M/dt|`` is a substitution reference and ``budget*(1-M) ... (1-agreement)*``
+    emphasis. Escaping ``\\ * | ` _`` shows every help text as ``rangefx --help`` prints
+    it; nothing else changes."""
+    from rangefx.tools.cli.main import build_parser
+
+    def escape_all(parser: argparse.ArgumentParser) -> None:
+        parser.description = _escape(parser.description)
+        parser.epilog = _escape(parser.epilog)
+        for action in parser._actions:
+            action.help = _escape(action.help) if action.help != argparse.SUPPRESS else action.help
+            for choice in getattr(action, "_choices_actions", ()):
+                choice.help = _escape(choice.help)
+            if isinstance(action.choices, dict):
+                for sub in action.choices.values():
+                    if isinstance(sub, argparse.ArgumentParser):
+                        escape_all(sub)
+
+    parser = build_parser()
+    escape_all(parser)
+    return parser
 
 
 def repository_path_link(app, env, node, contnode):
