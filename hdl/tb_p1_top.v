@@ -10,7 +10,7 @@
 // overflow flags), every AXI4-Stream output beat, and at the end the front ends'
 // overflow counters and the flags, as text lines to +OUT=<file>:
 //   T <stream|R> <tap> <cycle> <hex value>   G <ovf group> <hex flags>   I <cycle>
-//   M <hex tdata> <tuser> <tlast>   O <stream> <signal> <count>   F <flag> <value>
+//   M <cycle> <hex tdata> <tuser> <tlast>   O <stream> <signal> <count>   F <flag> <value>
 `timescale 1ns / 1ps
 `include "p1_bench.vh"
 module tb_p1_top;
@@ -63,7 +63,7 @@ module tb_p1_top;
             in1 = (cycle >= 0 && cycle < DEPTH) ? w1[cycle] : {PW{1'b0}};
             if (in0[PW-3]) $fwrite(fd, "I %0d\n", cycle);
             `P1_TAPS
-            if (m_tvalid) $fwrite(fd, "M %h %0d %0d\n", m_tdata, m_tuser, m_tlast);
+            if (m_tvalid) $fwrite(fd, "M %0d %h %0d %0d\n", cycle, m_tdata, m_tuser, m_tlast);
             @(negedge clk);
             cycle = cycle + 1;
         end

@@ -2,14 +2,17 @@
 its cycle, the overflow counters and the AXI4-Stream output.
 
 Needs nothing but the vector directory (``RANGEFX_VECTORS``): the input streams
-(``*.stream.bin``), the register codes of ``manifest.json``; the design is built with
-the parameters of ``rangefx.vectors.hdl.top_parameters`` (``rangefx hdl replay`` does
-both). The inputs are driven by cocotbext-axi's ``AxiStreamSource`` with a pause
-generator that reproduces the streams' idle cycles exactly (one line per AXI frame:
-TLAST = end of line, TUSER = start of frame); the output is received by its
-``AxiStreamSink``. Each tap is sampled in the cycles its stage's valid is high. Cycles
-are counted in the streams' own time (cycle 0 = the stream files' first word): the
-bench checks that every input beat reached the DUT in its file's cycle.
+(``*.stream.mem``, the stimulus the Verilog bench ``tb_p1_top.v`` reads too), the
+register codes of ``manifest.json``; the design is built with the parameters of
+``rangefx.vectors.hdl.top_parameters`` (``rangefx hdl replay`` does both). The inputs
+are driven by cocotbext-axi's ``AxiStreamSource`` with a pause generator that
+reproduces the streams' idle cycles exactly (one line per AXI frame: TLAST = end of
+line, TUSER = start of frame). The output beats are sampled with their cycle in every
+cycle TVALID is high (not by an ``AxiStreamSink``, which cannot hold x/z words). Each tap
+is sampled in the cycles its stage's valid is high; a value with x/z bits is recorded
+as unknown (a mismatch), never converted. Cycles are counted in the streams' own time
+(cycle 0 = the stream files' first word): the bench checks that every input beat
+reached the DUT in its file's cycle.
 
 Writes into ``RANGEFX_DUMP``: ``<tap>.mem`` (``rangefx vectors diff`` reads them),
 ``taps.npz`` (per tap ``<tap>.value`` and ``<tap>.cycle``), ``m_axis.npz`` (the output
@@ -28,26 +31,21 @@ import cocotb
 import numpy as np
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, ReadOnly, RisingEdge
-from cocotbext.axi import AxiStreamBus, AxiStreamFrame, AxiStreamSink, AxiStreamSource
+from cocotbext.axi import AxiStreamBus, AxiStreamFrame, AxiStreamSource
 
-from rangefx.vectors.formats import read_stream_bin
 from rangefx.vectors.hdl import (
     FRONTEND_TAPS,
     OVERFLOW_SIGNALS,
     RANGE_TAP_GROUPS,
     frontend_instances,
+    read_stream_mem,
     register_codes,
+    stream_entries,
     write_dump,
 )
 
 #: Idle cycles driven before the streams start (reset is released in the meantime).
 LEAD = 8
-
-
-def _stream_files(vec: Path, manifest: dict) -> list[tuple[str, dict]]:
-    """(file, entry) of each input stream, in the order of the DUT's inputs s0, s1."""
-    entries = [e for e in manifest["files"] if e["kind"] == "stream" and e["path"].endswith(".bin")]
-    return sorted(((e["path"], e) for e in entries), key=lambda pe: pe[1]["tap"])
 
 
 def _frames(beats: dict[str, np.ndarray]) -> list[AxiStreamFrame]:
@@ -84,17 +82,17 @@ async def replay(dut) -> None:
     dut.rst.value = 1
     for p in ("tvalid", "tdata", "tuser", "tlast"):
         getattr(dut, f"s1_axis_{p}").value = 0
-    streams = _stream_files(vec, manifest)
+    streams = stream_entries(manifest)
     sources = []
-    for k, (path, entry) in enumerate(streams):
-        beats = read_stream_bin((vec / path).read_bytes(), int(entry["word"]))
+    for k, entry in enumerate(streams):
+        beats = read_stream_mem(vec / entry["path"], int(entry["word"]))
         src = AxiStreamSource(AxiStreamBus.from_prefix(dut, f"s{k}_axis"), dut.clk, byte_lanes=1)
         pause = [True] * LEAD + [not bool(v) for v in beats["valid"]]
         src.set_pause_generator(itertools.chain(pause, itertools.repeat(True)))
         for frame in _frames(beats):
             await src.send(frame)
         sources.append(src)
-    total = max(int(e["count"]) for _p, e in streams)
+    total = max(int(e["count"]) for e in streams)
 
     instances = {s: getattr(dut, name) if "." not in name else _child(dut, name)
                  for s, name in frontend_instances(manifest).items()}  # fmt: skip
@@ -110,7 +108,13 @@ async def replay(dut) -> None:
     # the range stage: its tap groups, each with a valid and a vector of overflow flags
     # (bit k: the k-th tap's cast), counted per signal as the model counts them
     signal_of = {e["tap"]: e["signal"] for e in manifest["files"]}
-    overflows = dict.fromkeys(OVERFLOW_SIGNALS, 0)
+    overflows: dict[str, int | None] = dict.fromkeys(OVERFLOW_SIGNALS, 0)
+
+    def count(signal: str, n: int | None) -> None:  # None: x/z bits, kept as unknown
+        before = overflows.get(signal, 0)
+        overflows[signal] = None if before is None or n is None else before + n
+
+    out_beats: list[tuple[int, int | None, int, int]] = []
     ranges = []
     for ovf, (vport, names) in RANGE_TAP_GROUPS.items():
         flags_h = getattr(dut.u_range, ovf) if ovf else None
@@ -134,33 +138,29 @@ async def replay(dut) -> None:
                         samples.setdefault(f"{stream}.{tap}", []).append((cycle, _read(h)))
             for valid, flags_h, handles in ranges:
                 if valid.value == 1:
-                    bits = int(flags_h.value) if flags_h is not None else 0
+                    bits = _read(flags_h) if flags_h is not None else 0
                     for k, (tap, h) in enumerate(handles):
                         samples.setdefault(tap, []).append((cycle, _read(h)))
                         if flags_h is not None:
-                            overflows[signal_of[tap]] += (bits >> k) & 1
+                            count(signal_of[tap], None if bits is None else (bits >> k) & 1)
+            if dut.m_axis_tvalid.value == 1:
+                tuser, tlast = _read(dut.m_axis_tuser), _read(dut.m_axis_tlast)
+                out_beats.append((cycle, _read(dut.m_axis_tdata), -1 if tuser is None else tuser,
+                                  1 if tlast is None else tlast))  # fmt: skip
             cycle += 1
 
     await ClockCycles(dut.clk, 2)
     dut.rst.value = 0
-    # after reset: the outputs are defined from here on
-    sink = AxiStreamSink(AxiStreamBus.from_prefix(dut, "m_axis"), dut.clk, byte_lanes=1)
     cocotb.start_soon(sample())
     lat = int(manifest["latency"]["total"])
     await ClockCycles(dut.clk, LEAD + total + lat + 8)
 
-    lines = []
-    while not sink.empty():
-        frame = sink.recv_nowait()
-        lines.append((list(frame.tdata), _first(frame.tuser)))
     for inst in instances.values():
         for signal in OVERFLOW_SIGNALS:
-            overflows[signal] += int(getattr(inst, f"ovf_{signal}").value)
-    flags = {
-        k: int(getattr(dut, k).value) for k in ("line_too_long", "align_error", "frame_too_big")
-    }
+            count(signal, _read(getattr(inst, f"ovf_{signal}")))
+    flags = {k: _read(getattr(dut, k)) for k in ("line_too_long", "align_error", "frame_too_big")}
     write_dump(
-        dump, vec, manifest, samples, inputs, lines, overflows, flags, LEAD + total + lat + 8
+        dump, vec, manifest, samples, inputs, out_beats, overflows, flags, LEAD + total + lat + 8
     )
 
 
@@ -169,9 +169,3 @@ def _child(dut, name: str):
     for part in name.split("."):
         h = getattr(h, part)
     return h
-
-
-def _first(tuser) -> int:
-    if isinstance(tuser, list):
-        return int(tuser[0]) if tuser else 0
-    return int(tuser or 0)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 import json
 import shutil
 
@@ -29,7 +30,7 @@ from rangefx.tools.cli.vectors import crop_case
 from rangefx.tools.studies.cases import scene_case
 from rangefx.vectors import replay
 from rangefx.vectors.generate import build_vectors, write_vectors
-from rangefx.vectors.hdl import FRONTEND_TAPS, OVERFLOW_CODES, QUANT_CODES
+from rangefx.vectors.hdl import FRONTEND_TAPS, OVERFLOW_CODES, QUANT_CODES, stream_entries
 
 if shutil.which("iverilog") is None or shutil.which("vvp") is None:
     pytest.skip("Icarus Verilog (iverilog) is not installed", allow_module_level=True)
@@ -117,7 +118,9 @@ def test_front_end_replays_value_and_cycle_exact(config_name, design, mode, tmp_
     for tap, row in report.taps.items():
         assert (row["samples"], row["got_samples"]) == (m * n, m * n), tap
     assert report.value_mismatches == 0 and report.cycle_mismatches == 0, report.first_mismatch
-    assert report.m_axis == {"words": m * n, "mismatches": 0, "lines": m, "framing_ok": True}
+    axis = {k: report.m_axis[k] for k in ("words", "mismatches", "lines", "framing_ok")}
+    assert axis == {"words": m * n, "mismatches": 0, "lines": m, "framing_ok": True}
+    assert report.m_axis["cycle_mismatches"] == 0
     assert report.ok, report.as_dict()
 
 
@@ -205,3 +208,151 @@ def test_verilator_replays_value_and_cycle_exact(tmp_path):
 def test_mode_codes_are_the_model_enums():
     assert QUANT_CODES == {q.name: int(q) for q in Quant}
     assert OVERFLOW_CODES == {o.name: int(o) for o in Overflow}
+
+
+# -- the replay's defects (issue 35): x/z values, logs, malformed files, one stimulus,
+# output cycles
+
+
+def _rehash(vec, name: str) -> None:
+    """Make the manifest agree with an edited file (a consistent, deliberate change)."""
+    manifest = json.loads((vec / "manifest.json").read_text())
+    data = (vec / name).read_bytes()
+    entry = next(e for e in manifest["files"] if e["path"] == name)
+    entry |= {"size": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+    (vec / "manifest.json").write_text(json.dumps(manifest, indent=1))
+
+
+def test_x_values_of_a_delay_line_mutant_are_mismatches_naming_the_first(tmp_path):
+    """Motion mode with the frame store's address delay line two cycles short (FE_LAT):
+    the last pixels of frame 1 are never stored, so frame 2 reads x words from the store
+    and the range stage computes x. The replay reports them, it does not crash."""
+    config = P1Config.default()
+    vec, _vs = _vectors(tmp_path, config, "motion")
+    fe_lat = 9 + 8  # paper variant, reciprocal divider (hdl/p1_top.v FE_LAT)
+    report = _replay(vec, tmp_path, FE_LAT=fe_lat - 2)
+    assert not report.ok
+    unknown = [t for t, row in report.taps.items()
+               if row["first_mismatch"] and row["first_mismatch"]["got"] is None]  # fmt: skip
+    assert unknown, report.first_mismatch
+    assert report.value_mismatches > 0 and report.first_mismatch is not None
+    assert report.m_axis["mismatches"] > 0
+
+
+def test_the_stimulus_of_both_simulators_is_the_stream_mem_file(tmp_path):
+    """One valid pixel of E2's .stream.mem changed (the manifest re-hashed, the .bin left
+    as it was): the Icarus bench drives the changed pixel, so the taps of E2 differ."""
+    config = P1Config.default(variant="consistent")
+    vec, _vs = _vectors(tmp_path, config)
+    manifest = json.loads((vec / "manifest.json").read_text())
+    entry = next(e for e in stream_entries(manifest) if e["tap"].startswith("e2"))
+    lines = (vec / entry["path"]).read_text().splitlines()
+    word = int(entry["word"])
+    k = next(i for i, ln in enumerate(lines)
+             if not ln.startswith("//") and int(ln, 16) >> word & 1)  # fmt: skip
+    value = int(lines[k], 16) ^ (1 << (word - 1))  # the pixel's top bit
+    lines[k] = f"{value:0{len(lines[k])}x}"
+    (vec / entry["path"]).write_text("\n".join(lines) + "\n")
+    _rehash(vec, entry["path"])
+    report = _replay(vec, tmp_path)
+    assert report.taps["e2.bias_in"]["value_mismatches"] >= 1
+    assert report.taps["e1.bias_in"]["value_mismatches"] == 0
+
+
+def test_a_truncated_stream_fails_with_the_log_quoted_not_a_deleted_path(tmp_path):
+    """A stream cut short and re-hashed: the bench cannot reproduce the file's timing; the
+    error quotes the log's lines (naming the file) and points at no temporary sim.log."""
+    vec, _vs = _vectors(tmp_path, P1Config.default(variant="consistent"))
+    manifest = json.loads((vec / "manifest.json").read_text())
+    entry = next(e for e in stream_entries(manifest) if e["tap"].startswith("e1"))
+    lines = (vec / entry["path"]).read_text().splitlines()
+    (vec / entry["path"]).write_text("\n".join(lines[: len(lines) // 2]) + "\n")
+    _rehash(vec, entry["path"])
+    with pytest.raises(ValueError) as info:
+        _replay(vec, tmp_path)
+    msg = str(info.value)
+    assert "did not reproduce the timing" in msg and entry["path"] in msg
+    assert "sim.log" not in msg and "\n" not in msg
+
+
+def _corrupt_range_mem(vec) -> str:
+    lines = (vec / "range.mem").read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if not ln.startswith("//"))
+    lines[k] = "g" + lines[k][1:]
+    (vec / "range.mem").write_text("\n".join(lines) + "\n")
+    return "range.mem"
+
+
+def _missing(vec, name: str) -> str:
+    (vec / name).unlink()
+    return name
+
+
+def _truncated_stream(vec) -> str:
+    name = next(p.name for p in vec.glob("*.mem") if "stream" in p.name)
+    data = (vec / name).read_bytes()
+    (vec / name).write_bytes(data[: len(data) // 2])
+    return name
+
+
+BROKEN = {
+    "missing range.mem": lambda vec: _missing(vec, "range.mem"),
+    "non-hex word in a tap file": _corrupt_range_mem,
+    "missing recip_rom.mem": lambda vec: _missing(vec, "recip_rom.mem"),
+    "truncated stream": _truncated_stream,
+}
+
+
+@pytest.mark.parametrize("sim", ["icarus", "verilator"])
+@pytest.mark.parametrize("damage", BROKEN)
+def test_a_damaged_vector_file_is_one_error_line_naming_it(damage, sim, tmp_path, capsys):
+    vec, _vs = _vectors(tmp_path, P1Config.default())
+    name = BROKEN[damage](vec)
+    assert main(["hdl", "replay", str(vec), "--sim", sim]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rangefx: error: "), err
+    assert name in err[0]
+
+
+def _perfect_dump(vec, dump) -> None:
+    """The dump an RTL exact to the vectors would give: every tap's codes in their
+    declared cycles, the output beats of the range and valid taps."""
+    from rangefx.vectors.generate import load_manifest, read_tap, tap_cycles
+    from rangefx.vectors.hdl import read_stream_mem, write_dump
+
+    manifest = load_manifest(vec)
+    n = manifest["shape"][1]
+    samples = {}
+    for e in manifest["files"]:
+        if e["kind"] in ("stream_tap", "range") and e["path"].endswith(".mem"):
+            word = int(e["word"])
+            codes = read_tap(vec, e["tap"], manifest).astype(np.int64) & ((1 << word) - 1)
+            cycles = tap_cycles(vec, manifest, e["tap"], int(e["first_valid_cycle"]))
+            samples[e["tap"]] = list(zip(cycles.tolist(), codes.tolist(), strict=True))
+    first = stream_entries(manifest)[0]
+    inputs = np.flatnonzero(read_stream_mem(vec / first["path"], int(first["word"]))["valid"])
+    rng, valid = dict(samples["range"]), dict(samples["valid"])
+    word = next(int(e["word"]) for e in manifest["files"] if e["tap"] == "range")
+    beats = [(c, valid[c] << word | r, int(k == 0), int(k % n == n - 1))
+             for k, (c, r) in enumerate(sorted(rng.items()))]  # fmt: skip
+    dump.mkdir()
+    write_dump(dump, vec, manifest, samples, inputs.tolist(), beats,
+               manifest["overflows"], dict.fromkeys(("line_too_long", "align_error",
+               "frame_too_big"), 0), int(inputs[-1]) + 64)  # fmt: skip
+
+
+def test_the_axi_output_check_compares_cycles(tmp_path):
+    """An extra register before valid/range delays every output beat by one cycle, values
+    unchanged: the AXI4-Stream check must fail on its own (taps left exact)."""
+    vec, _vs = _vectors(tmp_path, P1Config.default(variant="consistent"))
+    dump = tmp_path / "dump"
+    _perfect_dump(vec, dump)
+    assert replay.compare(vec, dump).ok
+    out = dict(np.load(dump / "m_axis.npz"))
+    out["cycles"] = out["cycles"] + 1
+    np.savez(dump / "m_axis.npz", **out)
+    report = replay.compare(vec, dump)
+    assert report.value_mismatches == 0 and report.cycle_mismatches == 0  # the taps
+    m, n = CROP[1] - CROP[0], CROP[3] - CROP[2]
+    assert (report.m_axis["cycle_mismatches"], report.m_axis["value_mismatches"]) == (m * n, 0)
+    assert not report.ok

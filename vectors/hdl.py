@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .formats import read_stream_bin_valid, write_mem
+from .formats import read_mem, write_mem
 
 if TYPE_CHECKING:  # the simulator process imports this module: keep numba out of it
     from rangefx.rtl_model.p1.config import P1Config
@@ -36,14 +36,17 @@ __all__ = [
     "RANGE_SOURCES",
     "RANGE_TAP_GROUPS",
     "TOPLEVEL",
+    "Beat",
     "bench_header",
     "config_top_parameters",
     "frontend_instances",
     "frontend_parameters",
     "range_parameters",
     "range_registers",
+    "read_stream_mem",
     "register_codes",
     "register_port_widths",
+    "stream_entries",
     "top_parameters",
     "write_dump",
     "write_recip_rom",
@@ -231,8 +234,7 @@ def bench_header(
     (``overrides`` replace parameters, as a mutation test does)."""
     params = top_parameters(manifest, rom_file) | dict(overrides)
     regs = register_codes(manifest)
-    streams = [e for e in manifest["files"] if e["kind"] == "stream" and e["path"].endswith(".bin")]
-    depth = max(int(e["count"]) for e in streams)
+    depth = max(int(e["count"]) for e in stream_entries(manifest))
     out_w = int(params["RNG_W"]) + 1
     taps, counts = [], []
     for k, inst in enumerate(frontend_instances(manifest).values()):
@@ -269,6 +271,37 @@ def bench_header(
 
 
 Samples = Mapping[str, Sequence[tuple[int, int | None]]]
+#: One AXI4-Stream output beat: (cycle, TDATA or None for x/z bits, TUSER, TLAST).
+Beat = tuple[int, int | None, int, int]
+
+
+def stream_entries(manifest: Mapping) -> list[dict]:
+    """The input streams' ``.stream.mem`` entries, in the order of the DUT's inputs s0,
+    s1: the stimulus both simulators read (``$readmemh`` text, one word per cycle)."""
+    entries = [e for e in manifest["files"] if e["kind"] == "stream" and e["path"].endswith(".mem")]
+    return sorted(entries, key=lambda e: e["tap"])
+
+
+def read_stream_mem(path: Path, word: int) -> dict[str, np.ndarray]:
+    """A ``.stream.mem`` file's words {sof, eol, valid, data} as arrays ``valid``,
+    ``data`` (unsigned codes), ``sof``, ``eol``, one per cycle.
+
+    Raises
+    ------
+    ValueError
+        The file is unreadable or holds a word that is not hexadecimal (named).
+    """
+    try:
+        words = read_mem(Path(path).read_bytes())
+    except OSError as exc:
+        raise ValueError(f"cannot read {path}: {exc.strerror}") from None
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    if any(w is None for w in words):
+        raise ValueError(f"{path}: holds x/z words")
+    w = np.array(words, dtype=np.int64)
+    return {"valid": (w >> word) & 1, "data": w & ((1 << word) - 1),
+            "sof": (w >> (word + 2)) & 1, "eol": (w >> (word + 1)) & 1}  # fmt: skip
 
 
 def write_dump(
@@ -277,9 +310,9 @@ def write_dump(
     manifest: Mapping,
     samples: Samples,
     inputs: Sequence[int],
-    lines: Sequence[tuple[Sequence[int], int]],
-    overflows: Mapping[str, int],
-    flags: Mapping[str, int],
+    beats: Sequence[Beat],
+    overflows: Mapping[str, int | None],
+    flags: Mapping[str, int | None],
     cycles: int,
 ) -> None:
     """Write a bench's observations on the vectors ``vec`` as the dump that
@@ -290,21 +323,29 @@ def write_dump(
     a range-stage tap has no prefix;
     ``inputs``: the cycle of every beat of the first input stream, in the bench's count;
     its offset from the stream file's first beat is taken off every cycle, and every
-    beat must then be in its file's cycle (else ``AssertionError``). ``lines``: the
-    AXI4-Stream output, (words, TUSER of the first beat) per line. Files: ``<tap>.mem``,
-    ``taps.npz`` (``<tap>.value``, ``<tap>.cycle``), ``m_axis.npz``, ``status.json``.
+    beat must then be in its file's cycle (else ``AssertionError``). ``beats``: the
+    AXI4-Stream output, one :data:`Beat` per output beat. ``overflows`` and ``flags``:
+    ``None`` where the RTL gave x/z bits (stored as -1: a mismatch). Files:
+    ``<tap>.mem``, ``taps.npz`` (``<tap>.value``, ``<tap>.cycle``), ``m_axis.npz``
+    (``words`` as decimal text, -1 for x/z; ``cycles``; ``line_lengths``; ``first_tuser``),
+    ``status.json``.
     """
     m, n = manifest["shape"]
-    first = next(
-        e for e in manifest["files"] if e["kind"] == "stream" and e["path"].endswith(".bin")
-    )
+    first = stream_entries(manifest)[0]
     expected = _valid_cycles(vec, first)
     got = np.asarray(inputs, dtype=np.int64)
     offset = int(got[0] - expected[0]) if got.size else 0
     if not np.array_equal(got - offset, expected):
+        k = min(got.size, expected.size)
+        diff = np.flatnonzero(got[:k] - offset != expected[:k])
+        at = int(diff[0]) if diff.size else k
+        if diff.size:
+            what = f"beat {at} in cycle {int(got[at] - offset)}, the file's in {expected[at]}"
+        else:
+            what = f"beats from {k} on missing or extra"
         raise AssertionError(
-            f"the bench did not reproduce the stream's timing: {got.size} beats, first at "
-            f"{(got[:3] - offset).tolist()}, expected {expected[:3].tolist()}"
+            f"the bench did not reproduce the timing of {first['path']}: {got.size} beats "
+            f"against the file's {expected.size}; first difference: {what}"
         )
     words = {e["tap"]: int(e["word"]) for e in manifest["files"]}
     arrays = {}
@@ -320,21 +361,35 @@ def write_dump(
             arrays[f"{tap}.value"] = np.array([-1 if v is None else v for _c, v in rs], np.int64)
             (dump / f"{tap}.mem").write_text(_mem_text(tap, rs, words.get(tap, 64)))
     np.savez(dump / "taps.npz", **arrays)
+    lines, current = [], []
+    for beat in beats:
+        current.append(beat)
+        if beat[3]:
+            lines.append(current)
+            current = []
+    if current:
+        lines.append(current)  # a last line without TLAST
     np.savez(
         dump / "m_axis.npz",
-        words=np.array([str(w) for t, _u in lines for w in t]),  # > 64 bits: decimal text
-        line_lengths=np.array([len(t) for t, _u in lines], dtype=np.int64),
-        first_tuser=np.array([u for _t, u in lines], dtype=np.int64),
+        words=np.array([str(-1 if w is None else w) for _c, w, _u, _l in beats]),  # > 64 bits
+        cycles=np.array([c for c, _w, _u, _l in beats], dtype=np.int64) - offset,
+        line_lengths=np.array([len(line) for line in lines], dtype=np.int64),
+        first_tuser=np.array([line[0][2] for line in lines], dtype=np.int64),
     )
-    status = {"overflows": dict(overflows), **dict(flags), "cycles": int(cycles),
+
+    def known(v: int | None) -> int:
+        return -1 if v is None else int(v)
+
+    status = {"overflows": {k: known(v) for k, v in overflows.items()},
+              **{k: known(v) for k, v in flags.items()}, "cycles": int(cycles),
               "input_beats": int(got.size), "stream_offset": offset}  # fmt: skip
     (dump / "status.json").write_text(json.dumps(status, indent=1) + "\n")
 
 
 def _valid_cycles(vec: Path, entry: Mapping) -> np.ndarray:
-    """Cycles of the valid beats of a vector directory's stream file."""
-    data = read_stream_bin_valid((vec / entry["path"]).read_bytes(), int(entry["word"]))
-    return np.flatnonzero(data).astype(np.int64)
+    """Cycles of the valid beats of a vector directory's stream file (``.stream.mem``)."""
+    valid = read_stream_mem(vec / entry["path"], int(entry["word"]))["valid"]
+    return np.flatnonzero(valid).astype(np.int64)
 
 
 def _mem_text(tap: str, rows: Sequence[tuple[int, int | None]], word: int) -> str:

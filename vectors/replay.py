@@ -8,11 +8,19 @@ RTL (both front ends, the range stage) value for value and cycle for cycle
 :func:`compare` checks the dump against the vectors: per tap the samples, value
 mismatches, cycle mismatches (a sample's cycle against the manifest's: its input beat
 plus the declared latency) and the first mismatch; the AXI4-Stream output against the
-``valid`` and ``range`` taps; the overflow counters against the manifest's counts.
+``valid`` and ``range`` taps, word for word and cycle for cycle; the overflow counters
+against the manifest's counts.
+
+Before a run, every file of the directory the replay reads (the streams, the taps, the
+reciprocal ROM) is checked against the manifest's size and SHA-256 (:func:`verify_files`):
+both simulators read the same stimulus, the ``.stream.mem`` files. A failed build or
+simulation raises ``ValueError`` quoting the tail of its log (the work directory may be
+temporary). x/z bits in the RTL's outputs are mismatches, never a crash.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
@@ -35,6 +43,7 @@ from .hdl import (
     TOPLEVEL,
     bench_header,
     frontend_instances,
+    stream_entries,
     top_parameters,
     write_dump,
 )
@@ -46,6 +55,7 @@ __all__ = [
     "SimulatorMissing",
     "compare",
     "simulate",
+    "verify_files",
 ]
 
 #: Simulators the replay runs on, and the executable each needs.
@@ -55,6 +65,56 @@ _BENCH = "test_p1_top"
 
 class SimulatorMissing(RuntimeError):
     """The simulator (or cocotb) is not installed."""
+
+
+def verify_files(directory: str | Path, manifest: Mapping) -> None:
+    """Check every file the replay reads (each ``.mem`` and ``.bin`` the manifest lists:
+    streams, taps, ROMs) against the manifest's size and SHA-256.
+
+    Raises
+    ------
+    ValueError
+        A file is missing, or its size or SHA-256 differs (the first such file named).
+    """
+    vec = Path(directory)
+    for e in manifest["files"]:
+        if not e["path"].endswith((".mem", ".bin")):
+            continue
+        path = vec / e["path"]
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise ValueError(f"{path}: {exc.strerror} (listed in the manifest)") from None
+        if len(data) != int(e["size"]) or hashlib.sha256(data).hexdigest() != e["sha256"]:
+            raise ValueError(
+                f"{path}: {len(data)} bytes whose SHA-256 differs from the manifest's "
+                f"({e['size']} bytes): the file was changed after `rangefx vectors gen`"
+            )
+
+
+def _log_tail(log: Path, lines: int = 4) -> str:
+    """The last meaningful lines of a log, joined on one line (the log may be deleted
+    with its temporary directory once the message is read)."""
+    try:
+        text = log.read_text(errors="replace").strip().splitlines()
+    except OSError:
+        return f"no log ({log.name} was not written)"
+    keep = [ln.strip() for ln in text if ln.strip()]
+    errors = [ln for ln in keep if any(w in ln for w in ("rror", "FAIL", "assert", "Exception"))]
+    return " | ".join((errors or keep)[-lines:]) or f"{log.name} is empty"
+
+
+def _rom_file(vec: Path, manifest: Mapping) -> Path | None:
+    """The reciprocal divider's seed ROM of the directory, if its config has one."""
+    rom = next((e for e in manifest["files"] if e["kind"] == "rom"
+                and e["path"].endswith(".mem")), None)  # fmt: skip
+    design = manifest["config"]["parsed"]["design"]
+    if design.get("divider") != "reciprocal":
+        return None
+    if rom is None:
+        raise ValueError(f"{vec / 'manifest.json'}: the reciprocal divider needs its seed ROM "
+                         "(recip_rom.mem), which the manifest does not list")  # fmt: skip
+    return vec / rom["path"]
 
 
 def _rtl_taps(manifest: Mapping) -> list[str]:
@@ -84,8 +144,8 @@ def simulate(
         raise SimulatorMissing(f"{sim}: '{SIMULATORS[sim]}' is not installed (not on PATH)")
     vec = Path(directory).resolve()
     manifest = load_manifest(vec)
-    rom = vec / "recip_rom.mem"
-    rom_file = rom if rom.exists() else None
+    verify_files(vec, manifest)
+    rom_file = _rom_file(vec, manifest)
     work = Path(work).resolve()
     dump = work / "dump"
     if sim == "verilator":
@@ -93,7 +153,7 @@ def simulate(
     else:
         timings = _run_cocotb(vec, manifest, rom_file, work, dump, sim, overrides)
     if not (dump / "status.json").exists():
-        raise ValueError(f"the {sim} simulation wrote no dump; see {work / 'sim.log'}")
+        raise ValueError(f"the {sim} simulation wrote no dump: {_log_tail(work / 'sim.log')}")
     status = json.loads((dump / "status.json").read_text())
     return {**timings, "dump": dump, "status": status}
 
@@ -121,8 +181,9 @@ def _run_cocotb(
             always=True,
             log_file=work / "build.log",
         )
-    except RuntimeError:
-        raise ValueError(f"building the RTL with {sim} failed; see {work / 'build.log'}") from None
+    except (RuntimeError, SystemExit):  # cocotb's runner exits when a test fails
+        tail = _log_tail(work / "build.log")
+        raise ValueError(f"building the RTL with {sim} failed: {tail}") from None
     t1 = time.perf_counter()
     env = {
         "RANGEFX_VECTORS": str(vec),
@@ -138,11 +199,11 @@ def _run_cocotb(
             extra_env=env,
             log_file=work / "sim.log",
         )
-    except RuntimeError:
-        raise ValueError(f"the {sim} simulation failed; see {work / 'sim.log'}") from None
+    except (RuntimeError, SystemExit):  # cocotb's runner exits when a test fails
+        raise ValueError(f"the {sim} simulation failed: {_log_tail(work / 'sim.log')}") from None
     t2 = time.perf_counter()
     if get_results(results) != (1, 0):
-        raise ValueError(f"the {sim} simulation failed; see {work / 'sim.log'}")
+        raise ValueError(f"the {sim} simulation failed: {_log_tail(work / 'sim.log')}")
     return {"build_s": t1 - t0, "sim_s": t2 - t1}
 
 
@@ -169,11 +230,9 @@ def _run_verilator(
     with open(work / "build.log", "w") as log:
         rc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=build).returncode
     if rc != 0:
-        raise ValueError(f"building the RTL with verilator failed; see {work / 'build.log'}")
+        raise ValueError(f"building the RTL with verilator failed: {_log_tail(work / 'build.log')}")
     t1 = time.perf_counter()
-    streams = sorted((e for e in manifest["files"]
-                      if e["kind"] == "stream" and e["path"].endswith(".mem")),
-                     key=lambda e: e["tap"])  # fmt: skip
+    streams = stream_entries(manifest)
     out = work / "tb_out.txt"
     args = [f"+STREAM{k}={vec / e['path']}" for k, e in enumerate(streams)] + [f"+OUT={out}"]
     with open(work / "sim.log", "w") as log:
@@ -181,52 +240,59 @@ def _run_verilator(
                             stderr=subprocess.STDOUT, cwd=build).returncode  # fmt: skip
     t2 = time.perf_counter()
     if rc != 0 or not out.exists():
-        raise ValueError(f"the verilator simulation failed; see {work / 'sim.log'}")
+        raise ValueError(f"the verilator simulation failed: {_log_tail(work / 'sim.log')}")
     dump.mkdir(parents=True, exist_ok=True)
-    _dump_from_text(out, vec, manifest, dump)
+    try:
+        _dump_from_text(out, vec, manifest, dump)
+    except AssertionError as exc:
+        raise ValueError(f"the verilator bench: {exc}") from None
     return {"build_s": t1 - t0, "sim_s": t2 - t1}
 
 
+def _number(text: str, base: int) -> int | None:
+    """A simulator's printed number, ``None`` when it holds x/z bits."""
+    return None if any(c in "xXzZ" for c in text) else int(text, base)
+
+
 def _dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None:
-    """Parse the Verilog bench's lines (``hdl/tb_p1_top.v``) into the dump."""
+    """Parse the Verilog bench's lines (``hdl/tb_p1_top.v``) into the dump; x/z values
+    become ``None`` (mismatches), overflow flags with x/z bits a count of ``None``."""
     streams = list(frontend_instances(manifest))
     signal_of = {e["tap"]: e["signal"] for e in manifest["files"]}
     samples: dict[str, list[tuple[int, int | None]]] = {}
     inputs: list[int] = []
-    lines: list[tuple[list[int], int]] = []
-    overflows = dict.fromkeys(OVERFLOW_SIGNALS, 0)
-    flags: dict[str, int] = {}
-    current: list[int] = []
-    first_tuser = 0
+    beats: list[tuple[int, int | None, int, int]] = []
+    overflows: dict[str, int | None] = dict.fromkeys(OVERFLOW_SIGNALS, 0)
+    flags: dict[str, int | None] = {}
     cycles = 0
+
+    def add(signal: str, count: int | None) -> None:
+        before = overflows.get(signal, 0)
+        overflows[signal] = None if before is None or count is None else before + count
+
     with open(out) as f:
         for text in f:
             part = text.split()
             kind = part[0]
             if kind == "T":
-                value = None if any(c in "xXzZ" for c in part[4]) else int(part[4], 16)
                 name = part[2] if part[1] == "R" else f"{streams[int(part[1])]}.{part[2]}"
-                samples.setdefault(name, []).append((int(part[3]), value))
+                samples.setdefault(name, []).append((int(part[3]), _number(part[4], 16)))
                 cycles = max(cycles, int(part[3]) + 1)
             elif kind == "I":
                 inputs.append(int(part[1]))
             elif kind == "M":
-                if not current:
-                    first_tuser = int(part[2])
-                known = not any(c in "xXzZ" for c in part[1])
-                current.append(int(part[1], 16) if known else -1)
-                if part[3] == "1":
-                    lines.append((current, first_tuser))
-                    current = []
+                tuser, tlast = _number(part[3], 10), _number(part[4], 10)
+                user = -1 if tuser is None else tuser  # x: framing fails
+                beats.append((int(part[1]), _number(part[2], 16), user, tlast is None or tlast))
             elif kind == "G":  # a range tap group's overflow flags, bit k = its k-th tap
-                bits = int(part[2], 16)
+                bits = _number(part[2], 16)
                 for k, tap in enumerate(RANGE_TAP_GROUPS[part[1]][1]):
-                    overflows[signal_of[tap]] = overflows.get(signal_of[tap], 0) + (bits >> k & 1)
+                    add(signal_of[tap], None if bits is None else bits >> k & 1)
             elif kind == "O":
-                overflows[part[2]] += int(part[3])
+                add(part[2], _number(part[3], 10))
             elif kind == "F":
-                flags[part[1]] = int(part[2])
-    write_dump(dump, vec, manifest, samples, inputs, lines, overflows, flags, cycles)
+                flags[part[1]] = _number(part[2], 10)
+    write_dump(dump, vec, manifest, samples, inputs, beats, overflows, flags, cycles)
 
 
 @dataclass
@@ -336,19 +402,36 @@ def _signed(codes: np.ndarray, i: int, word: int, signed: bool) -> int | None:
 
 
 def _check_m_axis(vec: Path, manifest: Mapping, dump: Path) -> dict:
-    """The AXI4-Stream output words against the vectors: per pixel ``{valid, range}``
-    (``hdl/p1_top.v``), one line per image line, TUSER on the frame's first pixel."""
+    """The AXI4-Stream output against the vectors: per pixel the word ``{valid, range}``
+    (``hdl/p1_top.v``) in the cycle the ``range`` tap declares, one line per image line,
+    TUSER on the frame's first pixel. ``mismatches`` counts words that differ in value
+    or cycle (and missing or extra ones), plus one for wrong framing."""
     m, n = manifest["shape"]
     out = np.load(dump / "m_axis.npz")
     words = [int(w) for w in out["words"]]
-    entry = next(e for e in manifest["files"] if e["tap"] == "range")
+    cycles = out["cycles"] if "cycles" in out else np.full(len(words), -1, np.int64)
+    entry = next(e for e in manifest["files"] if e["tap"] == "range" and e["path"].endswith(".mem"))
     rng = fmt_io.to_unsigned(read_tap(vec, "range", manifest), int(entry["word"]))
     valid = read_tap(vec, "valid", manifest)
     expected = [(int(v) << int(entry["word"])) | int(r) for v, r in zip(valid, rng, strict=True)]
+    exp_c = tap_cycles(vec, manifest, "range", int(entry["first_valid_cycle"]))
     k = min(len(words), len(expected))
-    bad = sum(words[i] != expected[i] for i in range(k)) + abs(len(words) - len(expected))
+    bad_v = [i for i in range(k) if words[i] != expected[i]]
+    bad_c = [i for i in range(k) if int(cycles[i]) != int(exp_c[i])]
+    extra = abs(len(words) - len(expected))
     lines = out["line_lengths"].tolist()
     tuser = out["first_tuser"].tolist()
     framing = lines == [n] * m and tuser == [1] + [0] * (m - 1)
-    return {"words": len(words), "mismatches": int(bad) + (0 if framing else 1),
-            "lines": len(lines), "framing_ok": framing}  # fmt: skip
+    first = min(bad_v + bad_c, default=k if extra else None)
+    where = None
+    if first is not None:
+        got = words[first] if first < len(words) else -1
+        where = {"index": first, "row": first // n % m, "col": first % n,
+                 "cycle": int(exp_c[first]) if first < len(exp_c) else None,
+                 "got_cycle": int(cycles[first]) if first < len(words) else None,
+                 "expected": expected[first] if first < len(expected) else None,
+                 "got": got if got >= 0 else None}  # fmt: skip
+    return {"words": len(words), "mismatches": len(set(bad_v) | set(bad_c)) + extra
+            + (0 if framing else 1), "value_mismatches": len(bad_v) + extra,
+            "cycle_mismatches": len(bad_c) + extra, "lines": len(lines),
+            "framing_ok": framing, "first_mismatch": where}  # fmt: skip
