@@ -15,6 +15,7 @@ the schedule (:func:`tap_cycles`).
 
 from __future__ import annotations
 
+import functools
 import math
 from fractions import Fraction
 
@@ -27,10 +28,9 @@ from rangefx.golden.ranging import RangingConfig
 
 from .. import runtime
 from ..config import TimingConfig
-from ..fixedpoint import cast_raw
+from ..fixedpoint import FixedFormat, cast_raw, cast_row
 from ..p1.model import at_frac as _at
-from ..p1.model import cast_site as _cast
-from ..p1.model import divide_into as _divide_into
+from ..p1.model import divide_row as _divide_row
 from ..pipeline import PipelineResult
 from ..runtime import KERNEL_INT, KERNEL_PLANE, KERNEL_ROW
 from ..stream import input_cycles
@@ -88,13 +88,28 @@ def tap_names(config: P3Config) -> tuple[str, ...]:
 # --------------------------------------------------------------------------------------
 # kernels: raw int64 arithmetic only
 # --------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True, inline="always")
+def _cast_logged_row(acc, f_in, s, site, fm, st, ov, out):
+    """``cast(acc[x], s)`` for a whole row with :func:`cast_row`, logged at ``site`` as
+    :func:`cast_site` logs each element (the same min/max, ``frac_in`` and counts), once
+    per row: the per-element log stores kept the window loops from vectorising."""
+    lo, hi, flags = cast_row(acc, f_in, fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4], out)
+    st[site, 0] = min(st[site, 0], lo)
+    st[site, 1] = max(st[site, 1], hi)
+    st[site, 2] = f_in
+    st[site, 3] = s
+    ov[s] += flags
+
+
 @njit(cache=True, nogil=True)
 def _input_kernel(img, site, fm, st, ov, out):
     """The input cast of one stream into ``p3_pix``."""
     m, n = img.shape
+    row = np.empty(n, dtype=np.int64)
     for y in range(m):
         for x in range(n):
-            out[y, x] = _cast(img[y, x], 0, PIX, site, fm, st, ov)
+            row[x] = img[y, x]
+        _cast_logged_row(row, 0, PIX, site, fm, st, ov, out[y])
 
 
 @njit(cache=True, nogil=True)
@@ -111,12 +126,14 @@ def _reduce_kernel(p, f_p, site, fm, st, ov):
                 s += _BINOM[k] * p[y, min(max(2 * xc + k - 2, 0), n - 1)]
             row[y, xc] = s
     out = np.empty((mc, nc), dtype=np.int64)
+    acc = np.empty(nc, dtype=np.int64)
     for yc in range(mc):
         for xc in range(nc):
             s = np.int64(0)
             for k in range(5):
                 s += _BINOM[k] * row[min(max(2 * yc + k - 2, 0), m - 1), xc]
-            out[yc, xc] = _cast(s, f_p + 8, PYR, site, fm, st, ov)
+            acc[xc] = s
+        _cast_logged_row(acc, f_p + 8, PYR, site, fm, st, ov, out[yc])
     return out
 
 
@@ -127,6 +144,7 @@ def _expand_kernel(uc, m, n, fm, st, ov):
     mc, nc = uc.shape
     f_u = fm[U, 1]
     out = np.empty((m, n), dtype=np.int64)
+    acc = np.empty(n, dtype=np.int64)
     for y in range(m):
         y0 = y // 2
         y1 = min(y0 + 1, mc - 1)
@@ -142,39 +160,53 @@ def _expand_kernel(uc, m, n, fm, st, ov):
                 s = 2 * (uc[y0, x0] + uc[y0, x1])
             else:
                 s = 4 * uc[y0, x0]
-            out[y, x] = _cast(s, f_u + 1, U, S_EXPAND, fm, st, ov)
+            acc[x] = s
+        _cast_logged_row(acc, f_u + 1, U, S_EXPAND, fm, st, ov, out[y])
     return out
 
 
 @njit((_P, _I, _R, _I, _I, _P, _P, _R), cache=True, nogil=True)
 def _window_rows(p, f_p, win, s, site, fm, st, ov):
-    """Row pass of the window: ``Σ_k w_|k| p[x + k]``, replicated borders, cast into ``s``."""
+    """Row pass of the window: ``Σ_k w_|k| p[x + k]``, replicated borders, cast into ``s``.
+    The row is copied with its replicated borders once, so the taps need no clamp, and
+    the symmetric taps are paired (``w_k (p[x-k] + p[x+k])``: the same integer sum)."""
     m, n = p.shape
     r = win.shape[0] - 1
     f_in = fm[WIN, 1] + f_p
     out = np.empty((m, n), dtype=np.int64)
+    pad = np.empty(n + 2 * r, dtype=np.int64)
+    acc = np.empty(n, dtype=np.int64)
     for y in range(m):
+        for k in range(n + 2 * r):
+            pad[k] = p[y, min(max(k - r, 0), n - 1)]
         for x in range(n):
-            acc = np.int64(0)
-            for k in range(-r, r + 1):
-                acc += win[abs(k)] * p[y, min(max(x + k, 0), n - 1)]
-            out[y, x] = _cast(acc, f_in, s, site, fm, st, ov)
+            a = win[0] * pad[x + r]
+            for k in range(1, r + 1):
+                a += win[k] * (pad[x + r - k] + pad[x + r + k])
+            acc[x] = a
+        _cast_logged_row(acc, f_in, s, site, fm, st, ov, out[y])
     return out
 
 
 @njit((_P, _R, _I, _I, _I, _P, _P, _R), cache=True, nogil=True)
 def _window_cols(p, win, s_in, s, site, fm, st, ov):
-    """Column pass of the window on the row sums of signal ``s_in``, cast into ``s``."""
+    """Column pass of the window on the row sums of signal ``s_in``, cast into ``s``;
+    accumulated a whole row at a time (the clamped line index once per tap and row)."""
     m, n = p.shape
     r = win.shape[0] - 1
     f_in = fm[WIN, 1] + fm[s_in, 1]
     out = np.empty((m, n), dtype=np.int64)
+    acc = np.empty(n, dtype=np.int64)
     for y in range(m):
+        mid = p[y]
         for x in range(n):
-            acc = np.int64(0)
-            for k in range(-r, r + 1):
-                acc += win[abs(k)] * p[min(max(y + k, 0), m - 1), x]
-            out[y, x] = _cast(acc, f_in, s, site, fm, st, ov)
+            acc[x] = win[0] * mid[x]
+        for k in range(1, r + 1):
+            above, below = p[max(y - k, 0)], p[min(y + k, m - 1)]
+            w = win[k]
+            for x in range(n):
+                acc[x] += w * (above[x] + below[x])
+        _cast_logged_row(acc, f_in, s, site, fm, st, ov, out[y])
     return out
 
 
@@ -196,11 +228,18 @@ def _level_kernel(
     mask = (np.int64(1) << f_u) - 1
     # the position x - u rounded to keys_bits fraction bits (half an index step added)
     half = np.int64(1) << (f_u - keys_bits - 1) if f_u > keys_bits else np.int64(0)
+    # every cast below runs a row at a time (_cast_logged_row): the same values, logs
+    # and counts as one cast_site per pixel, without a log store in each pixel's loop
+    row = np.empty(n, dtype=np.int64)
+    row2 = np.empty(n, dtype=np.int64)
+    num = np.empty(n, dtype=np.int64)
+    den = np.empty(n, dtype=np.int64)
+    flags = np.empty(n, dtype=np.bool_)
     ax = np.empty((m, n), dtype=np.int64)
     for y in range(m):
         for x in range(n):
-            d = a[y, min(x + 1, n - 1)] - a[y, max(x - 1, 0)]
-            ax[y, x] = _cast(d, f_l + 1, GRAD, base + L_AX, fm, st, ov)
+            row[x] = a[y, min(x + 1, n - 1)] - a[y, max(x - 1, 0)]
+        _cast_logged_row(row, f_l + 1, GRAD, base + L_AX, fm, st, ov, ax[y])
     if want_taps:
         taps[0] = ax
         taps[1] = u
@@ -209,6 +248,7 @@ def _level_kernel(
     e = np.empty((m, n), dtype=np.int64)
     for k in range(warps):
         # the warp: W(x) = E2(x - u) from the row buffer, Keys weights from the ROM
+        wx = np.empty((m, n), dtype=np.int64)
         for y in range(m):
             for x in range(n):
                 src = (np.int64(x) << f_u) - u[y, x] + half
@@ -218,17 +258,17 @@ def _level_kernel(
                 acc = np.int64(0)
                 for j in range(4):
                     acc += rom[idx, j] * b[y, min(max(i0 - 1 + j, 0), n - 1)]
-                w[y, x] = _cast(acc, f_keys + f_l, WARP, base + L_WARP, fm, st, ov)
-        wx = np.empty((m, n), dtype=np.int64)
-        for y in range(m):
+                row[x] = acc
+            _cast_logged_row(row, f_keys + f_l, WARP, base + L_WARP, fm, st, ov, w[y])
+            wy = w[y]
             for x in range(n):
-                d = w[y, min(x + 1, n - 1)] - w[y, max(x - 1, 0)]
-                wx[y, x] = _cast(d, f_warp + 1, GRAD, base + L_WX, fm, st, ov)
-        for y in range(m):
+                row[x] = wy[min(x + 1, n - 1)] - wy[max(x - 1, 0)]
+            _cast_logged_row(row, f_warp + 1, GRAD, base + L_WX, fm, st, ov, wx[y])
             for x in range(n):
-                g[y, x] = _cast(ax[y, x] + wx[y, x], f_grad + 1, G, base + L_G, fm, st, ov)
-                e[y, x] = _cast(_at(a[y, x], f_l, fe) - _at(w[y, x], f_warp, fe), fe, E,
-                                base + L_E, fm, st, ov)  # fmt: skip
+                row[x] = ax[y, x] + wx[y, x]
+                row2[x] = _at(a[y, x], f_l, fe) - _at(wy[x], f_warp, fe)
+            _cast_logged_row(row, f_grad + 1, G, base + L_G, fm, st, ov, g[y])
+            _cast_logged_row(row2, fe, E, base + L_E, fm, st, ov, e[y])
         rgg = _window_rows(g * g, 2 * f_g, win, RGG, base + L_RGG, fm, st, ov)
         rge = _window_rows(g * e, f_g + f_e, win, RGE, base + L_RGE, fm, st, ov)
         ree = _window_rows(e * e, 2 * f_e, win, REE, base + L_REE, fm, st, ov)
@@ -239,15 +279,16 @@ def _level_kernel(
         for y in range(m):
             for x in range(n):
                 # the normal equation of eq 10; no gradient in the window: the divider is
-                # fed 0 / 1 (operands selected, one divider: one inlined copy to compile)
+                # fed 0 / 1 (operands selected)
                 grad = sgg[y, x] > 0
-                q, _ = _divide_into(-sge[y, x] if grad else np.int64(0), f_sge,
-                                    sgg[y, x] if grad else np.int64(1), f_sgg, DU, kind, lut,
-                                    r_bits, fm, dst, ov)  # fmt: skip
-                du[y, x] = q
-                v = _at(u[y, x], f_u, fu2) + _at(q, f_du, fu2)
-                un = _cast(v, fu2, U, base + L_U, fm, st, ov)
-                u[y, x] = min(max(un, np.int64(0)), umax)
+                num[x] = -sge[y, x] if grad else np.int64(0)
+                den[x] = sgg[y, x] if grad else np.int64(1)
+            _divide_row(num, f_sge, den, f_sgg, DU, kind, lut, r_bits, fm, dst, ov, du[y], flags)
+            for x in range(n):
+                row[x] = _at(u[y, x], f_u, fu2) + _at(du[y, x], f_du, fu2)
+            _cast_logged_row(row, fu2, U, base + L_U, fm, st, ov, row2)
+            for x in range(n):
+                u[y, x] = min(max(row2[x], np.int64(0)), umax)
         if want_taps:
             t0 = 2 + 12 * k
             for j, arr in enumerate((w, wx, g, e, rgg, rge, ree, sgg, sge, see, du, u)):
@@ -267,25 +308,41 @@ def _final_kernel(
     f_tr2, f_fb = fm[TR2, 1], fm[FB, 1]
     f_res = max(f_see + f_sgg, 2 * f_sge)
     right = np.int64(n - 1) << f_u
+    # a row at a time (casts and divider logged once per row, as in _level_kernel)
+    work = np.empty((7, n), dtype=np.int64)
+    pre, res, thr, rthr, num, den, rq = (
+        work[0],
+        work[1],
+        work[2],
+        work[3],
+        work[4],
+        work[5],
+        work[6],
+    )
+    flags = np.empty(n, dtype=np.bool_)
     for y in range(m):
         for x in range(n):
             gg, ge, ee, uu = sgg[y, x], sge[y, x], see[y, x], u[y, x]
-            pre = _at(ee * gg, f_see + f_sgg, f_res) - _at(ge * ge, 2 * f_sge, f_res)
-            res = _cast(pre, f_res, RES, S_RES, fm, st, ov)
-            rthr = _cast(tr2 * gg, f_tr2 + f_sgg, RES, S_RTHR, fm, st, ov)
+            pre[x] = _at(ee * gg, f_see + f_sgg, f_res) - _at(ge * ge, 2 * f_sge, f_res)
+            thr[x] = tr2 * gg
+            # gated off, the divider is fed 0 / 1 (operands selected)
+            gate = uu > 0 and uu >= umin
+            num[x] = fb if gate else np.int64(0)
+            den[x] = uu if gate else np.int64(1)
+        _cast_logged_row(pre, f_res, RES, S_RES, fm, st, ov, res)
+        _cast_logged_row(thr, f_tr2 + f_sgg, RES, S_RTHR, fm, st, ov, rthr)
+        _divide_row(num, f_fb, den, f_u, RANGE, kind, lut, r_bits, fm, dst, ov, rq, flags)
+        for x in range(n):
+            gg, uu = sgg[y, x], u[y, x]
             src = (np.int64(x) << f_u) - uu
             gate = uu > 0 and uu >= umin
-            # gated off, the divider is fed 0 / 1 (operands selected: one inlined divider)
-            rq, flag = _divide_into(fb if gate else np.int64(0), f_fb,
-                                    uu if gate else np.int64(1), f_u, RANGE, kind, lut, r_bits,
-                                    fm, dst, ov)  # fmt: skip
-            ok = (gg >= tg2 and res <= rthr and src >= 0 and src <= right and gate
-                  and uu <= umax and not flag and rq > 0 and rq <= rmax)  # fmt: skip
+            ok = (gg >= tg2 and res[x] <= rthr[x] and src >= 0 and src <= right and gate
+                  and uu <= umax and not flags[x] and rq[x] > 0 and rq[x] <= rmax)  # fmt: skip
             out_valid[y, x] = ok
-            out_range[y, x] = rq if ok else rmax
+            out_range[y, x] = rq[x] if ok else rmax
             if want_taps:
-                taps[t0, y, x] = res
-                taps[t0 + 1, y, x] = rthr
+                taps[t0, y, x] = res[x]
+                taps[t0 + 1, y, x] = rthr[x]
                 taps[t0 + 2, y, x] = np.int64(ok)
                 taps[t0 + 3, y, x] = out_range[y, x]
 
@@ -326,8 +383,14 @@ def keys_rom_casts(config: P3Config) -> tuple[np.ndarray, int, tuple[float, floa
     weight, at the ROM's build, not per read) rather than as a saturated host register,
     because the word-length studies size it like every signal and judge a config by its
     overflow count, which must therefore see a ROM that cannot hold its weights."""
-    fmt = config.formats["p3_keys"]
-    bits = config.keys_bits
+    rom, overflows, weights = _keys_rom_build(config.formats["p3_keys"], config.keys_bits)
+    return rom.copy(), overflows, weights
+
+
+@functools.lru_cache(maxsize=16)
+def _keys_rom_build(fmt: FixedFormat, bits: int) -> tuple[np.ndarray, int, tuple[float, float]]:
+    """:func:`keys_rom_casts` once per (format, ``keys_bits``): 1024 Python casts cost
+    ~12 ms a run otherwise (cProfile, 512 x 512 ``lab``, shared machine)."""
     frac_in = 3 * bits + 1
     rom = np.empty((1 << bits, 4), dtype=np.int64)
     overflows, lo, hi = 0, 0, 0
