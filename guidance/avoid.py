@@ -131,6 +131,9 @@ WHEN_BLOCKED: tuple[str, ...] = ("manoeuvre", "best-effort")
 #: The safe manoeuvres, in the order they are tried (the least departure first).
 MANOEUVRES: tuple[str, ...] = ("hover", "climb", "turn-away")
 
+#: SLSQP iterations allowed to one safe-manoeuvre candidate (one seed).
+MANOEUVRE_MAXITER: int = 80
+
 #: How a closed-loop flight ends: at the touch-down, holding at a hover point short of
 #: the obstacles, after a go-around (climb over or turn away, then hold), or not at all
 #: (the model left its domain: reported, never raised).
@@ -663,6 +666,7 @@ def plan_trajectory(
     t0: float = 0.0,
     t_go_max: float | None = None,
     relax: bool = True,
+    side_seeds: bool = True,
 ) -> AvoidPlan:
     """Solve the programme of the module docstring once, from ``(r0, v0)`` at ``t0``.
 
@@ -677,6 +681,7 @@ def plan_trajectory(
     ``relax=False`` (the caller has a safe manoeuvre to fall back on) the relaxed
     programme is not solved and the lowest-cost result of the seeds is returned,
     ``feasible=False``. ``meets_floor`` says whether the plan met what was asked.
+    ``side_seeds=False`` skips the bent seeds.
     """
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
@@ -716,7 +721,10 @@ def plan_trajectory(
     x_rep = np.concatenate([[t_rep], c_rep.ravel()])
     seeds.append(x_rep)
     amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
-    seeds += [np.concatenate([[t_rep], c.ravel()]) for c in _side_seeds(prob, t_rep, c_rep, amp)]
+    if side_seeds:
+        seeds += [
+            np.concatenate([[t_rep], c.ravel()]) for c in _side_seeds(prob, t_rep, c_rep, amp)
+        ]
     best, best_res, iters = None, None, 0
     unmet: tuple[np.ndarray, object] | None = None  # the first seed's result, not acceptable
     for k, x0 in enumerate(seeds):
@@ -834,6 +842,11 @@ def plan_safe_manoeuvre(
     10 %). ``None`` when no candidate has such a plan."""
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
+    # A hold point is a short, open target: a plan that keeps the clearance converges
+    # from the report's seed in tens of iterations; a candidate that does not is
+    # dropped after one seed and MANOEUVRE_MAXITER iterations, not three seeds of
+    # ``maxiter`` each (the candidates are tried in turn).
+    solve_cfg = replace(cfg, maxiter=min(cfg.maxiter, MANOEUVRE_MAXITER))
     r = np.asarray(r, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     tried = 0
@@ -845,8 +858,9 @@ def plan_safe_manoeuvre(
         goal = BoundaryConditions(r0=r, v0=v, rf=point, vf=vf)
         tried += 1
         plan = plan_trajectory(
-            r, v, goal, field, boxes, params=params, config=cfg, t0=t0, relax=False
-        )
+            r, v, goal, field, boxes, params=params, config=solve_cfg, t0=t0, relax=False,
+            side_seeds=False,
+        )  # fmt: skip
         if plan.meets_floor:
             return SafeManoeuvre(kind, goal, plan, t0, tried)
     return None

@@ -210,6 +210,7 @@ def stress_programme(
     config: SimulationConfig | None = None,
     avoid: AvoidConfig | None = None,
     progress=None,
+    indices: list[int] | None = None,
 ) -> StressResult:
     """Fly ``count`` stress layouts of ``case`` (:func:`stress_layouts`) with the avoiding
     law, and the report's law beside it, and score both against the true vehicles.
@@ -219,12 +220,14 @@ def stress_programme(
     the true vehicles and to the extents, ``clearance_kept`` (true distance ≥ the
     clearance), flight time and its ratio to the report law's, peak load factor, |θ|,
     |φ|, the start's and touch-down's distances to the extents, and the report law's
-    true distance and collision."""
+    true distance and collision. ``indices`` flies only those of the ``count`` layouts
+    (the layouts are drawn per index, so a programme can be split over processes)."""
     nominal = fly(case, "report", clearance_ft=clearance_ft, config=config, avoid=avoid)
     nom = nominal.result
     rows: list[dict] = []
     runs: dict = {}
-    for lay in stress_layouts(case, nom.t, nom.positions, count, seed=seed):
+    layouts = stress_layouts(case, nom.t, nom.positions, count, seed=seed)
+    for lay in layouts if indices is None else [layouts[i] for i in indices]:
         moved = case.shifted(lay.shift_ft)
         rep = fly(moved, "report", clearance_ft=clearance_ft, config=config, avoid=avoid)
         run = fly(moved, "avoid", clearance_ft=clearance_ft, config=config, avoid=avoid)
