@@ -13,6 +13,7 @@ models is rejected when the config is built, with a message naming the signal.
 from __future__ import annotations
 
 import difflib
+import json
 import math
 import os
 import tempfile
@@ -28,11 +29,14 @@ from .fixedpoint import FixedFormat, Overflow, Quant
 
 __all__ = [
     "INT64_BITS",
+    "MAX_NESTING",
     "SATURATING",
     "TimingConfig",
     "WordLengthConfig",
     "exact_bits",
     "integer_bits_needed",
+    "loads_json",
+    "loads_toml",
     "near_hint",
     "parse_format",
     "propose_config",
@@ -48,6 +52,46 @@ SATURATING = (Overflow.SAT, Overflow.SAT_ZERO, Overflow.SAT_SYM)
 #: An exact intermediate: a sum of products of operand formats, at a common LSB, plus
 #: the extra fraction bits of a halving.
 Terms = tuple[tuple[FixedFormat, ...], ...]
+
+
+#: Levels of nested tables/arrays a user's TOML or JSON file (config, sweep definition,
+#: manifest) may have; rangefx's own files use at most 5.
+MAX_NESTING = 32
+
+
+def _check_nesting(data: object) -> object:
+    """``data`` if no container in it lies deeper than :data:`MAX_NESTING` (walked
+    without recursion: a deep file must not exhaust the stack here either)."""
+    stack = [(data, 1)]
+    while stack:
+        item, depth = stack.pop()
+        children = (
+            item.values() if isinstance(item, dict) else item if isinstance(item, list) else ()
+        )
+        if children and depth > MAX_NESTING:
+            raise ValueError(f"nested more than {MAX_NESTING} levels deep")
+        stack.extend((c, depth + 1) for c in children)
+    return data
+
+
+def loads_toml(text: str) -> dict:
+    """``tomllib.loads`` for a user's file: ``tomllib.TOMLDecodeError`` as it is, a file
+    nested deeper than :data:`MAX_NESTING` a ``ValueError`` (not a ``RecursionError``)."""
+    try:
+        data = tomllib.loads(text)
+    except RecursionError:
+        raise ValueError(f"nested more than {MAX_NESTING} levels deep") from None
+    return _check_nesting(data)
+
+
+def loads_json(text: str | bytes) -> Any:
+    """``json.loads`` for a user's file: ``json.JSONDecodeError`` as it is, a file nested
+    deeper than :data:`MAX_NESTING` a ``ValueError`` (not a ``RecursionError``)."""
+    try:
+        data = json.loads(text)
+    except RecursionError:
+        raise ValueError(f"nested more than {MAX_NESTING} levels deep") from None
+    return _check_nesting(data)
 
 
 def signed_bits(fmt: FixedFormat) -> int:
@@ -140,6 +184,10 @@ class WordLengthConfig:
     SIGNAL_TABLE: ClassVar[tuple[tuple[str, str], ...]] = ()
     HOST_REGISTERS: ClassVar[tuple[str, ...]] = ()
     QUOTIENTS: ClassVar[tuple[str, ...]] = ()
+    #: Design fields the host writes into a register: field -> the signal holding it. A
+    #: value outside that format is refused when the config is built (it would only
+    #: saturate at run time).
+    DESIGN_REGISTERS: ClassVar[Mapping[str, str]] = MappingProxyType({})
     DOC: ClassVar[str] = ""
 
     formats: Mapping[str, FixedFormat]
@@ -179,8 +227,16 @@ class WordLengthConfig:
             if not isinstance(fmt, FixedFormat):
                 raise ValueError(f"signal {name!r}: expected a FixedFormat, not {fmt!r}")
         object.__setattr__(self, "formats", MappingProxyType(formats))
+        for name, fmt in formats.items():  # every pipeline alike, before its own checks
+            if abs(fmt.frac) >= INT64_BITS:
+                raise ValueError(
+                    f"signal {name!r}: {fmt} has {fmt.frac} fraction bits; the model's int64 "
+                    f"arithmetic scales by 2**frac, so they must lie in "
+                    f"-{INT64_BITS - 1}..{INT64_BITS - 1}"
+                )
         self.check_saturating(*self.QUOTIENTS)
         self.validate_design()
+        self.check_design_registers()
         for name, terms, extra in self.exact_intermediates():
             bits = exact_bits(terms, extra)
             if bits > INT64_BITS:
@@ -188,6 +244,17 @@ class WordLengthConfig:
                     f"signal {name!r}: its exact pre-quantisation value needs {bits} bits, more "
                     f"than the model's int64 arithmetic holds ({INT64_BITS}); narrow its "
                     "operands' formats"
+                )
+            shift = (
+                max(sum(f.frac for f in ops) for ops in terms) + extra - self.formats[name].frac
+                if name in self.formats
+                else 0
+            )
+            if abs(shift) >= INT64_BITS:  # the cast shifts by this: beyond int64, undefined
+                raise ValueError(
+                    f"signal {name!r}: casting its exact value to {self.formats[name]} shifts "
+                    f"by {shift} bits, more than the model's int64 arithmetic holds "
+                    f"({INT64_BITS - 1}); bring its fraction bits closer to its operands'"
                 )
         for name, need, what in self.divider_intermediates():
             if need > INT64_BITS:
@@ -231,6 +298,17 @@ class WordLengthConfig:
                 f"recip_bits ({self.recip_bits}) must exceed recip_lut_bits "
                 f"({self.recip_lut_bits}) by at least 2"
             )
+
+    def check_design_registers(self) -> None:
+        """Every design field of :attr:`DESIGN_REGISTERS` lies in its register's range."""
+        for key, signal in self.DESIGN_REGISTERS.items():
+            v, fmt = getattr(self, key), self.formats[signal]
+            lo, hi = fmt.to_float(fmt.raw_min), fmt.to_float(fmt.raw_max)
+            if not lo <= v <= hi:
+                raise ValueError(
+                    f"{key} = {v!r} does not fit its register {signal!r} ({fmt}: {lo:g}..{hi:g}); "
+                    f"choose a value in that range or widen {signal!r}"
+                )
 
     def check_saturating(self, *names: str) -> None:
         """Divider quotients saturate: their overflow mode must be SAT, SAT_ZERO or SAT_SYM."""
@@ -306,11 +384,13 @@ class WordLengthConfig:
     @classmethod
     def from_toml(cls, text: str, name: str = "custom") -> Self:
         try:
-            data = tomllib.loads(text)
+            data = loads_toml(text)
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(
                 f"{cls.PIPELINE.upper()} word-length config is not valid TOML: {exc}"
             ) from None
+        except ValueError as exc:
+            raise ValueError(f"{cls.PIPELINE.upper()} word-length config is {exc}") from None
         return cls.from_mapping(data, name=name)
 
     @classmethod

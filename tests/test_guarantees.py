@@ -411,3 +411,202 @@ def test_grey_levels_outside_the_input_format_are_said(tmp_path, capsys, pipelin
     assert main([*argv, "--allow-saturated-input"]) == 0
     err = capsys.readouterr().err
     assert err.startswith("rangefx: warning: 4 input pixels outside") and err.count("\n") == 1
+
+
+# == issue 40: one line for every malformed input, bounded resources ========================
+# (this section is issue 40's; issue 41's tests live in their own section)
+from rangefx.rtl_model.config import MAX_NESTING  # noqa: E402
+from rangefx.rtl_model.registry import PIPELINES  # noqa: E402
+
+
+def _deep_toml(levels: int) -> str:
+    return "x = " + "[" * levels + "]" * levels + "\n"
+
+
+@pytest.mark.parametrize("levels", [MAX_NESTING + 1, 5000])
+def test_issue40_deeply_nested_files_are_one_line(tmp_path, capsys, levels):
+    """A config, a sweep definition and a manifest nested past MAX_NESTING (or past
+    Python's recursion limit) are one line naming the file, not a RecursionError."""
+    (tmp_path / "deep.toml").write_text(_deep_toml(levels))
+    assert main(["config", "show", "--config", str(tmp_path / "deep.toml")]) == 2
+    assert f"nested more than {MAX_NESTING} levels" in _one_line_error(capsys)
+    (tmp_path / "sweep.toml").write_text('[sweep]\nname = "d"\n' + _deep_toml(levels))
+    assert main(["sweep", str(tmp_path / "sweep.toml"), "--out", str(tmp_path / "s")]) == 2
+    assert f"nested more than {MAX_NESTING} levels" in _one_line_error(capsys)
+    vec = tmp_path / "vec"
+    assert main(["vectors", "gen", "--scene", "lab", *CROP, "--out", str(vec)]) == 0
+    capsys.readouterr()
+    (vec / "manifest.json").write_text("[" * levels * 20 + "]" * levels * 20)
+    assert main(["vectors", "check", str(vec)]) == 2
+    assert f"nested more than {MAX_NESTING} levels" in _one_line_error(capsys)
+
+
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+@pytest.mark.parametrize("frac", [1000, -1000, 63, -63, 2**63])
+def test_issue40_fraction_bits_beyond_int64_are_refused_at_load(tmp_path, capsys, pipeline, frac):
+    """The int64 check runs at config load for every pipeline and every signal: a
+    ``s9.1000`` in a P2 config is one line from ``config show``, before any run."""
+    pipe = PIPELINES[pipeline]
+    default = pipe.default_config()
+    for signal in (default.signals()[0], default.signals()[-1]):
+        fmt = default.formats[signal]
+        text = default.to_toml().replace(
+            f'{signal} = {{ format = "{fmt}"',
+            f'{signal} = {{ format = "{"s" if fmt.signed else "u"}{fmt.word}.{frac}"',
+        )
+        (tmp_path / "c.toml").write_text(text)
+        argv = ["config", "show", "--pipeline", pipeline, "--config", str(tmp_path / "c.toml")]
+        assert main(argv) == 2
+        assert f"signal {signal!r}" in _one_line_error(capsys)
+
+
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_issue40_accepted_fraction_bits_run_without_a_traceback(tmp_path, capsys, pipeline):
+    """Every |frac| the load accepts (up to 62) runs, or is refused as one line."""
+    pipe = PIPELINES[pipeline]
+    default = pipe.default_config()
+    signal = default.signals()[1]
+    fmt = default.formats[signal]
+    for frac in (62, -62, 40, -40):
+        text = default.to_toml().replace(
+            f'{signal} = {{ format = "{fmt}"',
+            f'{signal} = {{ format = "{"s" if fmt.signed else "u"}{fmt.word}.{frac}"',
+        )
+        (tmp_path / "c.toml").write_text(text)
+        scene = [] if "stereo" in pipe.modes else ["--scene", "runway"]
+        pair = _pair(tmp_path) if "stereo" in pipe.modes else []
+        argv = ["run", "--pipeline", pipeline, "--config", str(tmp_path / "c.toml"), *pair]
+        code = main([*argv, *scene])
+        captured = capsys.readouterr()
+        assert code in (0, 2), (frac, captured.err)
+        if code == 2:
+            assert captured.err.startswith("rangefx: error: ") and captured.err.count("\n") == 1
+
+
+def test_issue40_register_value_outside_its_format_is_refused(tmp_path, capsys):
+    """``bias = 1e300`` does not fit ``bias_reg``: refused at load (it would saturate)."""
+    text = PIPELINES["p1"].default_config().to_toml().replace("bias = 16.0", "bias = 1e300")
+    (tmp_path / "c.toml").write_text(text)
+    assert main(["config", "show", "--config", str(tmp_path / "c.toml")]) == 2
+    assert "'bias_reg'" in _one_line_error(capsys)
+    assert main(["run", "--pipeline", "p1", *_pair(tmp_path), "--bias", "1e300"]) == 2
+    assert "bias = 1e+300 does not fit its register 'bias_reg'" in _one_line_error(capsys)
+
+
+@pytest.mark.parametrize(
+    "axis",
+    ["values = [9223372036854775807]", "range = [0, 9223372036854775807]",
+     "range = [-9223372036854775808, 0]", "range = [0, 100000000]"],
+)  # fmt: skip
+def test_issue40_int64_range_sweep_axes_are_one_line(tmp_path, capsys, axis):
+    p = tmp_path / "big.toml"
+    p.write_text(SWEEP.format(name="big", values="[6]").replace("values = [6]", axis))
+    assert main(["sweep", str(p), "--out", str(tmp_path / "s")]) == 2
+    assert "outside -128..128" in _one_line_error(capsys)
+    assert not (tmp_path / "s").exists()
+
+
+def test_issue40_a_sweep_of_10_to_the_8_points_is_refused_at_once(tmp_path, capsys):
+    """A grid of 100^4 points: the count and an estimated time, refused before a point
+    is listed (well under a second here, after the import)."""
+    import time
+
+    axes = "".join(
+        f'[[axis]]\nsignals = "{s}"\nparam = "frac"\nrange = [-50, 49]\n'
+        for s in ("row_state", "col_s1", "row_r1", "row_r2")
+    )
+    p = tmp_path / "grid.toml"
+    p.write_text('[sweep]\nname = "grid"\nscenes = ["lab"]\ncombine = "grid"\n' + axes)
+    t0 = time.perf_counter()
+    assert main(["sweep", str(p), "--out", str(tmp_path / "s")]) == 2
+    assert time.perf_counter() - t0 < 2.0
+    err = _one_line_error(capsys)
+    assert "100000000 points (about" in err and "--max-points 100000" in err
+    assert not (tmp_path / "s").exists()
+
+
+@pytest.mark.parametrize("tail", [b"\x00\xff\xfe binary\n\x01\x02", b"[" * 5000 + b"\n"])
+def test_issue40_a_corrupt_results_file_names_its_line(tmp_path, capsys, tail):
+    d = _write_sweep(tmp_path)
+    out = tmp_path / "sw"
+    assert main(["sweep", str(d), "--out", str(out), "--json"]) == 0
+    capsys.readouterr()
+    good = (out / "results.jsonl").read_bytes()
+    n = good.count(b"\n")
+    (out / "results.jsonl").write_bytes(good + tail)
+    assert main(["sweep", str(d), "--out", str(out)]) == 2
+    err = _one_line_error(capsys)
+    assert f"line {n + 1} is not a sweep result record" in err and "--restart" in err
+    assert main(["sweep", str(d), "--out", str(out), "--restart", "--json"]) == 0
+
+
+def test_issue40_results_file_that_is_a_directory_is_left_alone(tmp_path, capsys):
+    d = _write_sweep(tmp_path)
+    out = tmp_path / "sw"
+    (out / "results.jsonl").mkdir(parents=True)
+    (out / "results.jsonl" / "mine.txt").write_text("precious\n")
+    for extra in ([], ["--restart"]):
+        assert main(["sweep", str(d), "--out", str(out), *extra]) == 2
+        assert "results.jsonl is not a file" in _one_line_error(capsys)
+    assert (out / "results.jsonl" / "mine.txt").read_text() == "precious\n"
+
+
+def test_issue40_contradictory_and_empty_options(tmp_path, capsys):
+    assert main(["run", "--scene", "lab", *_pair(tmp_path)]) == 2
+    assert "--scene lab and --left/--right" in _one_line_error(capsys)
+    for formats in ("", " , "):
+        argv = ["vectors", "gen", *CROP, "--formats", formats, "--out", str(tmp_path / "v")]
+        assert main(argv) == 2
+        assert "names no format" in _one_line_error(capsys)
+    assert not (tmp_path / "v").exists()
+    for argv in (["vectors", "gen", *CROP], ["run"], ["config", "show"], ["demo"]):
+        with pytest.raises(SystemExit) as exc:
+            main([*argv, "--out", ""])
+        assert exc.value.code == 2
+        assert "argument --out: an empty path" in capsys.readouterr().err
+
+
+@pytest.fixture
+def eight_gib(monkeypatch):
+    """This machine has 8 GiB available, whatever it has (the refusals are exact)."""
+    from rangefx.tools import errors
+
+    monkeypatch.setattr(errors, "available_memory_bytes", lambda: 8 * 2**30)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [["bench", "--size", "100000"], ["optimise", "--size", "100000", "100000"],
+     ["degrees", "--size", "100000", "100000"]],
+)  # fmt: skip
+def test_issue40_sizes_beyond_memory_are_refused_before_work(capsys, eight_gib, argv):
+    assert main(argv) == 2
+    err = _one_line_error(capsys)
+    assert f"--size {' '.join(argv[2:])}" in err and "more than the 8.00 GiB available" in err
+
+
+def test_issue40_a_huge_image_is_refused_before_it_is_decoded(tmp_path, capsys, eight_gib):
+    from numpy.lib.format import open_memmap
+
+    for side in ("l", "r"):  # 12000 x 12000 grey levels, a sparse file: nothing decoded
+        open_memmap(tmp_path / f"{side}.npy", mode="w+", dtype=np.uint8, shape=(12000, 12000))
+    argv = ["run", "--pipeline", "p1", "--left", str(tmp_path / "l.npy"),
+            "--right", str(tmp_path / "r.npy"), "--f-px", "40", "--baseline", "0.1"]  # fmt: skip
+    assert main(argv) == 2
+    assert "(144000000 pixels) would need about" in _one_line_error(capsys)
+
+
+def test_issue40_manifest_blanking_and_sparse_dump_are_refused(tmp_path, capsys, eight_gib):
+    vec = tmp_path / "vec"
+    assert main(["vectors", "gen", "--scene", "lab", *CROP, "--out", str(vec)]) == 0
+    capsys.readouterr()
+    dump = tmp_path / "e1.col_s2.mem"
+    with open(dump, "wb") as f:
+        f.truncate(100 * 2**30)  # 100 GiB of holes
+    assert main(["vectors", "diff", str(vec), str(dump)]) == 2
+    assert "(100.00 GiB) would need about 8000.00 GiB" in _one_line_error(capsys)
+    man = json.loads((vec / "manifest.json").read_text())
+    man["timing"]["hblank"] = 8 * 10**12
+    (vec / "manifest.json").write_text(json.dumps(man))
+    assert main(["vectors", "check", str(vec)]) == 2
+    assert "hblank 8000000000000" in _one_line_error(capsys)

@@ -8,8 +8,9 @@ Every named signal of the datapath (``docs/p1_datapath.md``) has one format in a
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import ClassVar
 
 from ..config import Terms, WordLengthConfig, signed_bits
@@ -120,6 +121,9 @@ class P1Config(WordLengthConfig):
     PIPELINE: ClassVar[str] = "p1"
     SIGNAL_TABLE: ClassVar[tuple[tuple[str, str], ...]] = _SIGNAL_TABLE
     HOST_REGISTERS: ClassVar[tuple[str, ...]] = HOST_REGISTERS
+    DESIGN_REGISTERS: ClassVar[Mapping[str, str]] = MappingProxyType(
+        {"bias": "bias_reg", "pole": "pole_coef"}
+    )
     QUOTIENTS: ClassVar[tuple[str, ...]] = ("div_quot", "range")
     DOC: ClassVar[str] = "docs/p1_datapath.md"
 

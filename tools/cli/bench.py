@@ -8,6 +8,7 @@ import json
 from ..errors import UserError
 from ..report import json_safe
 from ..studies.bench import bench_figures
+from ..studies.runner import require_run_memory
 from .options import add_pipelines_arg
 
 __all__ = ["add_parser", "cmd_bench"]
@@ -16,6 +17,7 @@ __all__ = ["add_parser", "cmd_bench"]
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.repeats < 1 or args.size < 16:
         raise UserError("bench needs --repeats >= 1 and --size >= 16")
+    require_run_memory(f"bench --size {args.size}", args.size * args.size)
     figures = bench_figures(repeats=args.repeats, size=args.size, names=args.pipeline)
     if args.json:
         print(json.dumps(json_safe(figures)))

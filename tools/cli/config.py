@@ -24,7 +24,13 @@ from ..report import atomic_write_text, json_safe
 from ..report.outdir import check_output_file
 from ..studies.cases import REAL_PAIRS, real_pair_case, scene_case
 from ..studies.runner import load_config, propose_from_cases
-from .options import add_design_args, add_pipeline_arg, design_from_args, pipeline_from_args
+from .options import (
+    add_design_args,
+    add_pipeline_arg,
+    design_from_args,
+    out_path,
+    pipeline_from_args,
+)
 
 __all__ = ["DEFAULT_SCENES", "add_parser", "cmd_config"]
 
@@ -134,7 +140,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--real", nargs="*", choices=REAL_PAIRS, help="real pairs to log too")
     p.add_argument("--guard-bits", type=int, default=1, help="extra integer bits (propose)")
-    p.add_argument("--out", help="write the TOML here")
+    p.add_argument("--out", type=out_path, help="write the TOML here")
     p.add_argument("--hls", help="export: C++ header, one ap_[u]fixed typedef per signal")
     p.add_argument("--vhdl", help="export: VHDL-2008 package of fixed_pkg subtypes")
     p.add_argument("--json", action="store_true", help="print one JSON object")

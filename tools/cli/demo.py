@@ -32,7 +32,7 @@ from ..report import atomic_output_dir, atomic_write_text, json_safe
 from ..studies.cases import case_from_scene
 from ..studies.runner import golden_case, load_config, pipeline_figures, run_case
 from . import guide
-from .options import add_pipelines_arg, design_from_args
+from .options import add_pipelines_arg, design_from_args, out_path
 from .run import estimator_from_args
 
 __all__ = ["DEMO_METHODS", "add_parser", "cmd_demo", "demo_pipelines", "package_version"]
@@ -262,7 +262,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="the main job on the lab scene: golden, P1, P2, guidance")
-    p.add_argument("--out", default="rangefx-out", help="output directory (default ./rangefx-out)")
+    p.add_argument(
+        "--out",
+        type=out_path,
+        default="rangefx-out",
+        help="output directory (default ./rangefx-out)",
+    )
     p.add_argument("--pole", type=float, help="filter pole c per pixel (default 0.5)")
     p.add_argument("--bias", type=float, help="input bias B, eq 19 (default 16)")
     p.add_argument("--seed", type=int, default=0, help="scene noise seed")

@@ -41,6 +41,7 @@ from rangefx.rtl_model.registry import PIPELINES
 
 from ..errors import UserError
 from ..report import atomic_output_dir, atomic_write_text, json_safe
+from .options import out_path
 
 __all__ = ["add_parser", "cmd_guide", "guide_into", "stress_into", "stress_table"]
 
@@ -421,7 +422,10 @@ def add_parser(sub) -> None:
         "guide", help="fly the ch. 6 guidance: the avoiding law (default) or the report's"
     )
     p.add_argument(
-        "--out", default="rangefx-out/guide", help="output directory (default ./rangefx-out/guide)"
+        "--out",
+        type=out_path,
+        default="rangefx-out/guide",
+        help="output directory (default ./rangefx-out/guide)",
     )
     p.add_argument(
         "--obstacles",

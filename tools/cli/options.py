@@ -33,6 +33,7 @@ __all__ = [
     "apply_case_options",
     "design_from_args",
     "int_at_least",
+    "out_path",
     "pipeline_from_args",
     "reject_options",
     "timing_from_args",
@@ -73,6 +74,14 @@ def int_at_least(minimum: int, what: str = "value") -> Callable[[str], int]:
         return v
 
     return parse
+
+
+def out_path(text: str) -> str:
+    """An argparse ``type`` for ``--out``: an empty (or blank) path names no place to write
+    (``Path("")`` would be the working directory), a one-line parser error."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path names no file or directory")
+    return text
 
 
 def add_pipeline_arg(p: argparse.ArgumentParser, *, default: str | None = "p1") -> None:

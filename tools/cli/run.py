@@ -33,6 +33,7 @@ from ..studies.runner import (
     golden_case,
     load_config,
     pipeline_figures,
+    require_run_memory,
     run_case,
 )
 from .options import (
@@ -41,6 +42,7 @@ from .options import (
     add_timing_args,
     apply_case_options,
     design_from_args,
+    out_path,
     pipeline_from_args,
     reject_options,
     timing_from_args,
@@ -99,6 +101,24 @@ def load_image(path: str) -> np.ndarray:
         raise UserError(str(exc)) from None
 
 
+def image_pixels(path: str) -> int | None:
+    """Pixels of an image file from its header alone (``.npy`` memory-mapped, others
+    through Pillow's lazy open), so that a huge image is refused before it is decoded;
+    ``None`` when the header does not say (then :func:`load_image` reports the file)."""
+    try:
+        if Path(path).suffix == ".npy":
+            shape = np.load(path, mmap_mode="r", allow_pickle=False).shape
+        else:
+            from PIL import Image
+
+            with warnings.catch_warnings(), Image.open(path) as im:
+                warnings.simplefilter("ignore")  # Pillow's decompression-bomb warning
+                shape = im.size
+        return int(np.prod(shape[:2], dtype=object))
+    except Exception:  # any header the readers cannot parse: load_image says why
+        return None
+
+
 def estimator_from_args(args: argparse.Namespace) -> EstimatorConfig:
     """The golden estimator with ``--pole``/``--bias`` where given."""
     changes = {k: getattr(args, k) for k in ("pole", "bias") if getattr(args, k, None) is not None}
@@ -109,9 +129,17 @@ def estimator_from_args(args: argparse.Namespace) -> EstimatorConfig:
 
 
 def _case(args: argparse.Namespace) -> Case:
+    if args.scene is not None and (args.left or args.right):  # which one would be run?
+        raise UserError(
+            f"--scene {args.scene} and --left/--right name two inputs; give one of them"
+        )
     if args.left or args.right:
         if not (args.left and args.right):
             raise UserError("--left and --right must be given together")
+        for path in (args.left, args.right):  # before decoding: a 12000x12000 pair is refused
+            pixels = image_pixels(path)
+            if pixels is not None:
+                require_run_memory(f"run on {path} ({pixels} pixels)", pixels)
         e1, e2 = load_image(args.left), load_image(args.right)
         if e1.shape != e2.shape:
             raise UserError(
@@ -126,7 +154,7 @@ def _case(args: argparse.Namespace) -> Case:
             raise UserError(str(exc)) from None
         return Case(e1, e2, camera, motion, label=f"{args.left} + {args.right}")
     try:
-        return case_from_scene(render_scene(args.scene, seed=args.seed))
+        return case_from_scene(render_scene(args.scene or "lab", seed=args.seed))
     except ValueError as exc:
         raise UserError(str(exc)) from None
 
@@ -241,7 +269,10 @@ def run_pipeline(pipeline: Pipeline, case: Case, args: argparse.Namespace) -> in
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="one golden method, or a fixed-point pipeline beside golden")
-    p.add_argument("--scene", default="lab", help=f"scene preset: {', '.join(SCENE_NAMES)}")
+    p.add_argument(
+        "--scene",
+        help=f"scene preset: {', '.join(SCENE_NAMES)} (default lab, unless --left/--right)",
+    )
     p.add_argument("--method", choices=METHODS, help=f"golden method (default {DEFAULT_METHOD})")
     p.add_argument("--left", help="E1 image (.npy or image file)")
     p.add_argument("--right", help="E2 image, second camera to the right")
@@ -250,7 +281,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--threshold-e", type=float, help="T_E, grey levels")
     p.add_argument("--threshold-g", type=float, help="T_g, grey levels per pixel (golden, p1)")
     p.add_argument("--range-max", type=float, help="maximum scene depth")
-    p.add_argument("--out", help="write range.npy, valid.npy, range.png, summary.json here")
+    p.add_argument(
+        "--out", type=out_path, help="write range.npy, valid.npy, range.png, summary.json here"
+    )
     p.add_argument(
         "--pipeline",
         choices=("golden", *PIPELINES),

@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import Any
 
 from rangefx.golden.scenes import SCENE_NAMES
-from rangefx.rtl_model.config import WordLengthConfig
+from rangefx.rtl_model.config import WordLengthConfig, loads_json
 from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
 
@@ -58,12 +58,13 @@ from ..report import atomic_output_dir, atomic_write_text, json_safe
 from ..report.outdir import refuse_links
 from ..studies.cases import HELD_OUT_SCENES, REAL_PAIRS, held_out_case, real_pair_case
 from ..studies.runner import load_config
-from ..studies.sweep import RESULTS_NAME
+from ..studies.sweep import MAX_POINTS, RESULTS_NAME
 from .options import (
     add_design_args,
     add_pipeline_arg,
     design_from_args,
     int_at_least,
+    out_path,
     pipeline_from_args,
 )
 
@@ -123,11 +124,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             "choose a new directory"
         )
     m, n = defn.size or (512, 512)  # the presets' default size
+    _check_point_count(defn, m * n, args.max_points, 1 if args.scheduler else args.workers)
     require_memory(
         f"sweep {defn.name!r}: size [{m}, {n}] with --workers {args.workers}",
         m * n * SWEEP_BYTES_PER_PIXEL * (1 if args.scheduler else args.workers),
     )
-    identity, keys = _sweep_identity(defn, args.definition)
+    identity, keys = _sweep_identity(defn, args.definition, args.max_points)
     fresh = not out.exists()
     try:
         refuse_links(out, (RESULTS_NAME, SWEEP_STATE_NAME))
@@ -140,8 +142,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                     (out / name).unlink()
         _write_state(out, {**identity, "outputs": []})
         outcome = run_sweep(
-            defn, out, workers=args.workers, scheduler=args.scheduler, progress=not args.json
-        )
+            defn, out, workers=args.workers, scheduler=args.scheduler, progress=not args.json,
+            max_points=args.max_points,
+        )  # fmt: skip
     except BaseException:
         if fresh:
             _remove_if_no_results(out)
@@ -172,17 +175,39 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 #: Peak bytes per pixel of one point in flight (scene, golden and fixed-point taps with the
 #: sqnr metrics; about 1.2 KiB measured on lab, doubled for headroom).
 SWEEP_BYTES_PER_PIXEL = 2048
+#: Seconds of one point per pixel: P1 with the golden metrics on lab at 256x256, median
+#: of 6 points 0.057 s (AMD EPYC, 2 cores; ``rangefx sweep`` of row_state.frac 6..11).
+SWEEP_SECONDS_PER_PIXEL = 0.9e-6
+
+
+def _check_point_count(defn, pixels: int, max_points: int, workers: int) -> None:
+    """Refuse, before a point is listed or a scene rendered, a sweep of more than
+    ``max_points`` points, with its count and estimated time."""
+    from ..studies.sweep import point_count
+
+    count = point_count(defn)
+    if count > max_points:
+        hours = count * pixels * SWEEP_SECONDS_PER_PIXEL / workers / 3600
+        raise UserError(
+            f"sweep {defn.name!r}: {count} points (about {hours:.3g} hours at "
+            f"{pixels * SWEEP_SECONDS_PER_PIXEL:.2g} s a point with {workers} workers), more "
+            f"than --max-points {max_points}; narrow the axes or raise --max-points"
+        )
+
+
 #: The sweep directory's own record: which definition it holds and which files rangefx
 #: derived from the results (so a resumed or restarted run removes only those).
 SWEEP_STATE_NAME = "sweep.json"
 
 
-def _sweep_identity(defn, source: str) -> tuple[dict[str, Any], set[str]]:
+def _sweep_identity(
+    defn, source: str, max_points: int = MAX_POINTS
+) -> tuple[dict[str, Any], set[str]]:
     """What sweep.json records of a definition (its hash: of its name and the keys of
     all its points, i.e. of everything that decides the results) and those point keys."""
     from ..studies.sweep import expand
 
-    keys = {p.key for p in expand(defn)}
+    keys = {p.key for p in expand(defn, max_points)}
     digest = hashlib.sha256(json.dumps([defn.name, sorted(keys)]).encode()).hexdigest()
     return {"name": defn.name, "definition_sha256": digest, "definition": str(source)}, keys
 
@@ -249,7 +274,7 @@ def _claim_sweep_dir(
     state: dict[str, Any] = {}
     if path.is_file():
         try:
-            state = json.loads(path.read_text(encoding="utf-8"))
+            state = loads_json(path.read_bytes())
             if not isinstance(state, dict):
                 raise ValueError
         except (ValueError, UnicodeDecodeError):
@@ -257,6 +282,11 @@ def _claim_sweep_dir(
     results = out / RESULTS_NAME
     if not results.exists() and not state:
         return {}
+    if results.exists() and not results.is_file():  # not ours: --restart must not delete it
+        raise UserError(
+            f"{results} is not a file (rangefx writes its sweep results there); move it "
+            "away or choose another --out"
+        )
     if restart:
         for name in [RESULTS_NAME, *state.get("outputs", [])]:
             if name == RESULTS_NAME or _own_plain_file(out, name):
@@ -357,6 +387,11 @@ def cmd_optimise(args: argparse.Namespace) -> int:
             f"--verify {args.verify}: it is a tuning scene; verify on one the optimiser did "
             f"not see ({', '.join(s for s in VERIFY_SCENES if s not in scenes)})"
         )
+    m, n = args.size or (512, 512)  # the presets' default size
+    require_memory(
+        f"optimise --size {m} {n} with --workers {args.workers}",
+        m * n * SWEEP_BYTES_PER_PIXEL * args.workers,
+    )
     default = _default_for(pipe, start)
     cases = [_case(pipe, name, args.size, "--scene") for name in scenes]
     vcase = _case(pipe, args.verify, args.size, "--verify") if args.verify else None
@@ -495,7 +530,9 @@ def _write_optimise_out(
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sweep", help="word-length sweep of any pipeline (resumable, local or dask)")
     p.add_argument("definition", nargs="?", help="sweep definition TOML")
-    p.add_argument("--out", help="output directory (re-run the same command to resume)")
+    p.add_argument(
+        "--out", type=out_path, help="output directory (re-run the same command to resume)"
+    )
     p.add_argument("--scheduler", help="address of a dask.distributed scheduler")
     p.add_argument("--workers", type=_positive_int, default=2, help="local threads (default 2)")
     p.add_argument("--example", action="store_true", help="print the example definition's path")
@@ -506,6 +543,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--restart", action="store_true",
         help="delete the results of an earlier sweep in --out (another definition) and start over",
+    )  # fmt: skip
+    p.add_argument(
+        "--max-points", type=_positive_int, default=MAX_POINTS,
+        help=f"refuse a sweep of more points (default {MAX_POINTS})",
     )  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.set_defaults(func=cmd_sweep)
@@ -551,7 +592,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "of the whole P1: a narrowing that does not lower it is not kept)")  # fmt: skip
     p.add_argument("--synth-target", choices=("xc7", "xcup", "ecp5", "ice40"), default="xcup",
                    help="Yosys target of --cost synth (default xcup)")  # fmt: skip
-    p.add_argument("--out", help="write optimised.toml, build-up plots and summary.json here")
+    p.add_argument(
+        "--out", type=out_path, help="write optimised.toml, build-up plots and summary.json here"
+    )
     p.add_argument("--json", action="store_true",
                    help="print the figures as one JSON object (top-level accuracy: worst case "
                    "over the tuning scenes; per scene under 'scenes')")  # fmt: skip

@@ -36,7 +36,8 @@ from rangefx.golden.tracking import (
 from .. import report
 from ..errors import UserError
 from ..report import atomic_output_dir, atomic_write_text, json_safe
-from .options import int_at_least
+from ..studies.runner import require_run_memory
+from .options import int_at_least, out_path
 
 __all__ = ["add_parser", "cmd_degrees", "cmd_track"]
 
@@ -251,6 +252,8 @@ def _degree_results(scene, variant: str, orders: dict[int, int], seed: int) -> d
 def cmd_degrees(args: argparse.Namespace) -> int:
     try:
         size = None if args.size is None else (args.size[0], args.size[1])
+        if size is not None:
+            require_run_memory(f"degrees --size {size[0]} {size[1]}", size[0] * size[1])
         scene = render_scene(args.scene, seed=args.seed, size=size)
     except ValueError as exc:
         raise UserError(str(exc)) from None
@@ -310,7 +313,7 @@ def cmd_degrees(args: argparse.Namespace) -> int:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register ``track`` and ``degrees`` on the ``rangefx`` subparsers."""
     p = sub.add_parser("track", help="G1: range by irradiance tracking on the ch. 2 scene")
-    p.add_argument("--out", default="rangefx-track", help="output directory")
+    p.add_argument("--out", type=out_path, default="rangefx-track", help="output directory")
     p.add_argument("--xp", type=float, default=40.0, help="pixel x_p from the centre (right)")
     p.add_argument("--zp", type=float, default=30.0, help="pixel z_p from the centre (up)")
     p.add_argument("--duration", type=float, default=5.0, help="simulated time, s")
@@ -345,7 +348,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="render size",
     )
     p.add_argument("--seed", type=int, default=0, help="scene noise seed")
-    p.add_argument("--out", help="also write table.md and summary.json here")
+    p.add_argument("--out", type=out_path, help="also write table.md and summary.json here")
     p.add_argument("--json", action="store_true", help="print one JSON object with the figures")
     p.set_defaults(func=cmd_degrees)
 

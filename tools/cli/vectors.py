@@ -17,6 +17,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from rangefx.golden.geometry import PinholeCamera
+from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.pipeline import Case
 from rangefx.vectors.generate import (
     DUMP_BYTES_PER_FILE_BYTE,
@@ -25,6 +26,7 @@ from rangefx.vectors.generate import (
     check_vectors,
     diff_dump,
     dump_memory_bytes,
+    load_manifest,
     stream_memory_bytes,
     write_vectors,
 )
@@ -38,6 +40,7 @@ from .options import (
     add_pipeline_arg,
     add_timing_args,
     design_from_args,
+    out_path,
     pipeline_from_args,
     timing_from_args,
 )
@@ -70,6 +73,8 @@ def crop_case(case: Case, crop: list[int] | None) -> Case:
 
 def _formats(text: str) -> list[str]:
     items = [s.strip() for s in text.split(",") if s.strip()]
+    if not items:  # not the default: the user asked for something and named nothing
+        raise UserError(f"--formats {text!r} names no format; choose from {', '.join(FORMATS)}")
     bad = [s for s in items if s not in FORMATS]
     if bad:
         raise UserError(f"--formats: unknown {', '.join(bad)}; choose from {', '.join(FORMATS)}")
@@ -140,7 +145,26 @@ def cmd_gen(args: argparse.Namespace) -> int:
     return 0
 
 
+def _require_rerun_memory(directory: str) -> None:
+    """Refuse a re-run whose manifest's blanking would not fit in memory (``hblank``
+    8e12 in an edited manifest), before the model allocates its streams."""
+    try:
+        manifest = load_manifest(directory)
+        timing = TimingConfig(**manifest["timing"])
+        m, n = manifest["shape"]
+        need = stream_memory_bytes((int(m), int(n)), timing, manifest["mode"])
+    except (ValueError, TypeError, KeyError, OverflowError):
+        return  # check_vectors reports a malformed manifest as one line
+    require_memory(
+        f"{directory}: re-running the manifest's case (hblank {timing.hblank}, vblank "
+        f"{timing.vblank} on {m}x{n} pixels; --no-rerun checks the files only)",
+        need,
+    )
+
+
 def cmd_check(args: argparse.Namespace) -> int:
+    if not args.no_rerun:
+        _require_rerun_memory(args.dir)
     try:
         report = check_vectors(args.dir, rerun=not args.no_rerun)
     except ValueError as exc:
@@ -178,7 +202,7 @@ def add_parser(sub) -> None:
     g = vs.add_parser("gen", help="write the vector directory of a scene case")
     g.add_argument("--scene", default="lab", help="scene preset (lab: stereo, runway: motion)")
     g.add_argument("--seed", type=int, default=0, help="scene noise seed")
-    g.add_argument("--out", required=True, help="output vector directory")
+    g.add_argument("--out", type=out_path, required=True, help="output vector directory")
     g.add_argument(
         "--crop", type=int, nargs=4, metavar=("R0", "R1", "C0", "C1"),
         help="rows R0:R1 and columns C0:C1 of the rendered scene",

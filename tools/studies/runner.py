@@ -21,9 +21,11 @@ from rangefx.rtl_model.pipeline import Case, GoldenReference, Pipeline, Pipeline
 from rangefx.rtl_model.registry import get_pipeline
 
 from .. import report
-from ..errors import UserError
+from ..errors import UserError, require_memory
 
 __all__ = [
+    "RUN_BASE_BYTES",
+    "RUN_BYTES_PER_PIXEL",
     "check_input_levels",
     "compare_ranges",
     "golden_case",
@@ -31,6 +33,7 @@ __all__ = [
     "pipeline_figures",
     "propose_from_cases",
     "range_source",
+    "require_run_memory",
     "run_case",
 ]
 
@@ -70,6 +73,21 @@ def check_input_levels(
             )
         print(f"rangefx: warning: {what}, saturated (--allow-saturated-input)", file=sys.stderr)
     return total
+
+
+#: Peak resident memory of ``rangefx run`` (golden beside a pipeline): a base (the
+#: interpreter, numpy, numba and the compiled kernels; 230-380 MB measured at 512x512)
+#: plus bytes per pixel (measured 2048x2048 minus 512x512: golden 190, P1 309, P2 146,
+#: P3 272; AMD EPYC, ``/usr/bin/time -f %M rangefx run --pipeline P``). The estimate
+#: takes the largest with a third of headroom.
+RUN_BASE_BYTES = 400 * 2**20
+RUN_BYTES_PER_PIXEL = 400
+
+
+def require_run_memory(what: str, pixels: int, runs: int = 1) -> None:
+    """Refuse, before rendering or running, ``runs`` concurrent runs of ``pixels`` pixels
+    that would need more memory than this machine has (one line naming ``what``)."""
+    require_memory(what, RUN_BASE_BYTES + runs * pixels * RUN_BYTES_PER_PIXEL)
 
 
 def load_config(pipeline: Pipeline, path: str | None = None, **design: Any) -> WordLengthConfig:

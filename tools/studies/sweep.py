@@ -73,7 +73,7 @@ from typing import Any
 from tqdm import tqdm
 
 from rangefx.golden.scenes import SCENE_NAMES
-from rangefx.rtl_model.config import WordLengthConfig, near_hint
+from rangefx.rtl_model.config import WordLengthConfig, loads_json, loads_toml, near_hint
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.pipeline import Case, GoldenReference, Pipeline
 from rangefx.rtl_model.registry import get_pipeline
@@ -88,6 +88,8 @@ from .runner import compare_ranges
 from .taps import signal_of_taps, tap_errors
 
 __all__ = [
+    "MAX_AXIS_VALUE",
+    "MAX_POINTS",
     "METRIC_GROUPS",
     "PARETO_METRICS",
     "Axis",
@@ -102,6 +104,7 @@ __all__ = [
     "load_sweep",
     "pareto_front",
     "parse_sweep",
+    "point_count",
     "point_key",
     "run_sweep",
     "scene_case",
@@ -127,7 +130,11 @@ PARAMS: tuple[str, ...] = (
 )
 COMBINES = ("grid", "one_at_a_time")
 PARETO_METRICS = ("median_rel_range_diff", "p95_rel_range_diff", "truth_median_rel_error")
-_MAX_POINTS = 100_000
+#: Points a sweep may have unless ``--max-points`` raises it (``rangefx sweep``).
+MAX_POINTS = 100_000
+#: Largest magnitude of an integer axis value: no format of the int64 models has a
+#: word, fraction or integer part (or a change of one) beyond it.
+MAX_AXIS_VALUE = 128
 
 
 def _err(where: str, msg: str) -> UserError:
@@ -172,6 +179,11 @@ class Axis:
                     )
             elif isinstance(v, bool) or not isinstance(v, int):
                 raise ValueError(f"axis {self.label!r}: value {v!r} is not an integer")
+            elif abs(v) > MAX_AXIS_VALUE:
+                raise ValueError(
+                    f"axis {self.label!r}: value {v} lies outside -{MAX_AXIS_VALUE}.."
+                    f"{MAX_AXIS_VALUE}; no format of the int64 models has it"
+                )
         if len(set(self.values)) != len(self.values):
             raise ValueError(f"axis {self.label!r}: repeated values")
 
@@ -310,6 +322,12 @@ def _parse_axis(raw: Any, k: int, source: str, pipe: Pipeline, base: WordLengthC
             or rng[0] > rng[1]
         ):
             raise _err(where, f"range must be [lo, hi] integers, lo <= hi, step >= 1: {raw!r}")
+        if max(abs(rng[0]), abs(rng[1])) > MAX_AXIS_VALUE:  # before materialising it
+            raise _err(
+                where,
+                f"range [{rng[0]}, {rng[1]}] reaches outside -{MAX_AXIS_VALUE}..{MAX_AXIS_VALUE}; "
+                "no format of the int64 models has such a value",
+            )
         values = tuple(range(rng[0], rng[1] + 1, step))
     param = str(raw["param"])
     try:
@@ -324,9 +342,11 @@ def _parse_axis(raw: Any, k: int, source: str, pipe: Pipeline, base: WordLengthC
 def parse_sweep(text: str, where: str = "sweep definition", root: Path | None = None) -> SweepDef:
     """Parse sweep TOML ``text``; errors are :class:`UserError` naming ``where``."""
     try:
-        data = tomllib.loads(text)
+        data = loads_toml(text)
     except tomllib.TOMLDecodeError as exc:
         raise _err(where, f"not valid TOML: {exc}") from None
+    except ValueError as exc:  # nested too deep
+        raise _err(where, str(exc)) from None
     unknown = set(data) - {"sweep", "axis"}
     if unknown:
         raise _err(where, f"unknown tables {sorted(unknown)} (expected [sweep] and [[axis]])")
@@ -464,14 +484,25 @@ def _combos(defn: SweepDef) -> list[tuple[tuple[str, Any], ...]]:
     return combos
 
 
-def expand(defn: SweepDef) -> list[Point]:
-    """All points of ``defn`` in a stable order (duplicates keep their first labels)."""
-    combos = _combos(defn)
-    if len(combos) * len(defn.scenes) > _MAX_POINTS:
+def point_count(defn: SweepDef) -> int:
+    """Points of ``defn`` (scenes times axis combinations), counted without listing them."""
+    if defn.combine == "grid":
+        combos = math.prod(len(a.values) for a in defn.axes)
+    else:
+        combos = 1 + sum(len(a.values) for a in defn.axes)
+    return combos * len(defn.scenes)
+
+
+def expand(defn: SweepDef, max_points: int = MAX_POINTS) -> list[Point]:
+    """All points of ``defn`` in a stable order (duplicates keep their first labels);
+    more than ``max_points`` is a :class:`UserError` before any is listed."""
+    count = point_count(defn)
+    if count > max_points:
         raise UserError(
-            f"sweep {defn.name!r}: {len(combos) * len(defn.scenes)} points, more than "
-            f"{_MAX_POINTS}; narrow the axes"
+            f"sweep {defn.name!r}: {count} points, more than --max-points {max_points}; "
+            "narrow the axes or raise --max-points"
         )
+    combos = _combos(defn)
     by_label = {a.label: a for a in defn.axes}
     points: list[Point] = []
     for labels in combos:
@@ -565,6 +596,11 @@ def load_results(path: Path) -> dict[str, dict[str, Any]]:
     off the file so that appending continues on a clean line."""
     if not path.exists():
         return {}
+    if not path.is_file():  # rangefx writes a file there; whatever this is, it is not ours
+        raise UserError(
+            f"{path} is not a file (rangefx writes its sweep results there); move it away "
+            "or choose another --out"
+        )
     data = path.read_bytes()
     end = data.rfind(b"\n") + 1
     if end != len(data):
@@ -575,10 +611,14 @@ def load_results(path: Path) -> dict[str, dict[str, Any]]:
         if not line.strip():
             continue
         try:
-            rec = json.loads(line)
+            rec = loads_json(line)
             out[rec["key"]] = rec
-        except (json.JSONDecodeError, KeyError, TypeError):
-            raise UserError(f"{path}: line {n} is not a sweep result record") from None
+        except (ValueError, KeyError, TypeError, IndexError):  # JSON, UTF-8, nesting, shape
+            raise UserError(
+                f"{path}: line {n} is not a sweep result record ({line[:20]!r}...); delete "
+                f"line {n} and those after it to resume from the {len(out)} records before "
+                "it, or add --restart to delete the results and start over"
+            ) from None
     return out
 
 
@@ -682,6 +722,7 @@ def run_sweep(
     on_point: Callable[[dict[str, Any]], None] | None = None,
     progress: bool = True,
     connect_timeout: float = 20.0,
+    max_points: int = MAX_POINTS,
 ) -> SweepOutcome:
     """Run every point of ``defn`` not yet in ``out_dir/results.jsonl``.
 
@@ -717,7 +758,7 @@ def _run_sweep_locked(
     path = out / RESULTS_NAME
     refuse_links(out, (RESULTS_NAME,))
     records = load_results(path)
-    points = expand(defn)
+    points = expand(defn, max_points)
     seen: set[str] = set()
     todo = []
     for p in points:
