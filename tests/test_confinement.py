@@ -372,6 +372,8 @@ def test_stop_signals_at_random_times(tmp_path, command):
     n = DELIVERIES or {"demo": 3, "sweep": 3}.get(command, 2)
     bound = float(os.environ.get("RANGEFX_SIGNAL_BOUND_S", "3"))  # the issue: 2 s
     env = dict(os.environ)
+    times: list[float] = []
+    wrong: list[str] = []
     for k in range(n):
         parent = tmp_path / f"run{k}"
         parent.mkdir()
@@ -393,10 +395,20 @@ def test_stop_signals_at_random_times(tmp_path, command):
         what = f"{command}: {sig.name} at {at:.2f} s"
         if proc.returncode == 0:
             continue  # finished before the signal: nothing to check
-        assert proc.returncode == 128 + sig, f"{what}: exit {proc.returncode}: {err}"
-        assert err.strip().startswith("rangefx: interrupted") and "\n" not in err.strip(), err
-        assert took < bound, f"{what}: exited {took:.2f} s after it"
-        assert _hidden(parent) == [], what
+        times.append(took)
+        if proc.returncode != 128 + sig:
+            wrong.append(f"{what}: exit {proc.returncode}: {err}")
+        elif not err.strip().startswith("rangefx: interrupted") or "\n" in err.strip():
+            wrong.append(f"{what}: printed {err!r}")
+        elif took >= bound:
+            wrong.append(f"{what}: exited {took:.2f} s after it")
+        elif _hidden(parent):
+            wrong.append(f"{what}: left {_hidden(parent)}")
+    if times:  # shown with -s: the figures of docs/guarantees.md
+        print(f"\n{command}: {len(times)} of {n} signals met a running command; exit "
+              f"{np.median(times):.2f} s after it (median), {max(times):.2f} s (max), "
+              f"{len(wrong)} wrong")  # fmt: skip
+    assert not wrong, wrong
 
 
 # -- special files -------------------------------------------------------------------------

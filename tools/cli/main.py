@@ -19,7 +19,7 @@ from types import ModuleType
 from ..errors import UserError
 from ..interrupts import (
     Interrupted,
-    exit_soon,
+    exit_now,
     handle_stop_signals,
     pending_signal,
     raise_if_interrupted,
@@ -118,12 +118,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _report_interrupt(args: argparse.Namespace | None, exc: BaseException, as_program: bool) -> int:
-    """Print the one line, and as the program (not called from Python with ``argv``)
-    make sure no worker thread still busy holds the exit (:func:`exit_soon`)."""
+    """Print the one line; as the program (not called from Python with ``argv``) end the
+    process now (:func:`~rangefx.tools.interrupts.exit_now`): the cleanup is done."""
     signum = exc.signum if isinstance(exc, Interrupted) else (pending_signal() or signal.SIGINT)
     print(f"\nrangefx: {_interrupted_message(args, exc)}", file=sys.stderr)
     if as_program:
-        exit_soon(128 + signum)
+        exit_now(128 + signum)
     return 128 + signum
 
 

@@ -609,7 +609,7 @@ class SweepOutcome:
 
 #: After an interrupt, how long the points already running may take to finish and be
 #: recorded; the command exits within about 2 s (docs/guarantees.md).
-INTERRUPT_GRACE_S = 1.0
+INTERRUPT_GRACE_S = 0.5
 
 
 def _run_local(
