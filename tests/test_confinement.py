@@ -326,6 +326,25 @@ def test_an_interrupt_a_finaliser_swallowed_still_stops_the_command(tmp_path, ca
     assert not out.exists() and _hidden(tmp_path) == []
 
 
+def test_a_signal_during_the_final_renames_waits_for_them(tmp_path, capsys, monkeypatch):
+    import rangefx.tools.report.outdir as outdir
+
+    commit = outdir._commit
+
+    def commit_meeting_a_signal(tmp: Path, path: Path) -> None:
+        signal.raise_signal(signal.SIGHUP)  # the handler runs here, in the main thread
+        commit(tmp, path)
+
+    monkeypatch.setattr(outdir, "_commit", commit_meeting_a_signal)
+    monkeypatch.setattr(cli_demo, "cmd_demo", _fake_demo)
+    out = tmp_path / "d"
+    assert main(["demo", "--out", str(out)]) == 128 + signal.SIGHUP
+    err = capsys.readouterr().err.strip()
+    assert err == f"rangefx: interrupted after the output was put in place in {out}"
+    assert "state: complete" in (out / MARKER_NAME).read_text()
+    assert (out / "guide" / "trajectory.csv").is_file() and _hidden(tmp_path) == []
+
+
 def _signal_cases(tmp_path: Path) -> dict[str, list[str]]:
     definition = tmp_path / "a.toml"  # the real command (no slowing hook: it would import
     # the sweep before the handlers are in place): 20 points at 128x128, a few seconds

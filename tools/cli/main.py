@@ -3,7 +3,9 @@ subcommand.
 
 Every command that reports figures takes ``--json`` and then prints one JSON object on
 stdout. User mistakes print one ``rangefx: error: ...`` line and exit with status 2; no
-output directory is left looking complete after a failure.
+output directory is left looking complete after a failure. SIGINT, SIGTERM and SIGHUP
+print one line and exit with 128 + the signal (:mod:`rangefx.tools.interrupts`); an
+output directory has one writer at a time (:mod:`rangefx.tools.report.lock`).
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: Commands whose ``--out`` is an output directory (``atomic_output_dir``): checked for
-#: writability before the work starts.
+#: writability and locked (with ``sweep``'s) before the work starts.
 DIR_OUTPUT_COMMANDS = {"demo", "run", "guide", "track", "degrees", "optimise", "vectors gen"}
 #: Exit status after Ctrl-C, as a shell reports SIGINT (128 + 2); SIGTERM and SIGHUP
 #: exit with 128 + their number likewise (:mod:`rangefx.tools.interrupts`).
@@ -121,7 +123,8 @@ def _report_interrupt(args: argparse.Namespace | None, exc: BaseException, as_pr
     """Print the one line; as the program (not called from Python with ``argv``) end the
     process now (:func:`~rangefx.tools.interrupts.exit_now`): the cleanup is done."""
     signum = exc.signum if isinstance(exc, Interrupted) else (pending_signal() or signal.SIGINT)
-    print(f"\nrangefx: {_interrupted_message(args, exc)}", file=sys.stderr)
+    with contextlib.suppress(OSError):  # SIGHUP: the terminal may be gone
+        print(f"\nrangefx: {_interrupted_message(args, exc)}", file=sys.stderr)
     if as_program:
         exit_now(128 + signum)
     return 128 + signum
