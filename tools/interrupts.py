@@ -17,6 +17,7 @@ writes its summary) and the command line at its end raise it again.
 
 from __future__ import annotations
 
+import _thread
 import contextlib
 import os
 import signal
@@ -92,25 +93,42 @@ def deferred_signals() -> Iterator[None]:
             raise Interrupted(signum)
 
 
+_installs = [0]  # counts handle_stop_signals() calls and restores
+
+
+def _redeliver(signum: int, install: int) -> None:
+    if _installs[0] == install:
+        _thread.interrupt_main(signum)
+
+
 def handle_stop_signals() -> Callable[[], None]:
     """Install the handler for :data:`STOP_SIGNALS` (main thread only; elsewhere a no-op)
     and forget any earlier signal; returns a function that restores the earlier handlers."""
     _pending.clear()
     _deferred.clear()
+    _installs[0] += 1
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
     earlier = {s: signal.signal(s, _on_signal) for s in STOP_SIGNALS}
     earlier_hook = sys.unraisablehook
 
     def quiet(unraisable: sys.UnraisableHookArgs) -> None:
-        # a finaliser swallowed the interrupt: it is recorded and acted on, so Python's
-        # "Exception ignored in ..." lines would only break the one-line message
-        if not isinstance(unraisable.exc_value, Interrupted):
+        # a finaliser swallowed the interrupt: deliver it again, to be raised at the main
+        # thread's next instruction (Python's "Exception ignored in ..." lines would only
+        # break the one-line message)
+        if isinstance(unraisable.exc_value, Interrupted):  # from another thread, a moment
+            # later: raised here, inside the finaliser, it would be swallowed again
+            signum = unraisable.exc_value.signum
+            redeliver = threading.Timer(0.05, _redeliver, (signum, _installs[0]))
+            redeliver.daemon = True
+            redeliver.start()
+        else:
             earlier_hook(unraisable)
 
     sys.unraisablehook = quiet
 
     def restore() -> None:
+        _installs[0] += 1  # a redelivery still on its way is for a command that is over
         for s, h in earlier.items():
             signal.signal(s, h)
         sys.unraisablehook = earlier_hook

@@ -115,6 +115,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt as exc:
         return _report_interrupt(args, exc, argv is None)
+    except Exception:
+        # an interrupt inside an extension's import comes out as an ImportError (seen in
+        # 1 of 50 SIGHUPs to "rangefx demo"): any failure after a stop signal is the stop
+        if pending_signal() is None:
+            raise
+        return _report_interrupt(args, Interrupted(pending_signal()), argv is None)
     finally:
         restore()
 

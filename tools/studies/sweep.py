@@ -80,6 +80,7 @@ from rangefx.rtl_model.registry import get_pipeline
 
 from .. import report
 from ..errors import UserError
+from ..interrupts import raise_if_interrupted
 from ..report.lock import output_lock
 from ..report.outdir import refuse_links
 from .buildup import PROFILE_AXES, buildup_for
@@ -626,6 +627,7 @@ def _run_local(
             done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
             for fut in done:
                 sink(fut.result())
+            raise_if_interrupted()  # one swallowed on its way (numba, a finaliser)
     except BaseException:
         # interrupted: drop what has not started; what is running gets a short grace to
         # finish and be recorded (without the callback), then is abandoned (its point is
