@@ -326,6 +326,25 @@ def test_an_interrupt_a_finaliser_swallowed_still_stops_the_command(tmp_path, ca
     assert not out.exists() and _hidden(tmp_path) == []
 
 
+def test_a_signal_during_the_final_renames_waits_for_them(tmp_path, capsys, monkeypatch):
+    import rangefx.tools.report.outdir as outdir
+
+    commit = outdir._commit
+
+    def commit_meeting_a_signal(tmp: Path, path: Path) -> None:
+        signal.raise_signal(signal.SIGHUP)  # the handler runs here, in the main thread
+        commit(tmp, path)
+
+    monkeypatch.setattr(outdir, "_commit", commit_meeting_a_signal)
+    monkeypatch.setattr(cli_demo, "cmd_demo", _fake_demo)
+    out = tmp_path / "d"
+    assert main(["demo", "--out", str(out)]) == 128 + signal.SIGHUP
+    err = capsys.readouterr().err.strip()
+    assert err == f"rangefx: interrupted after the output was put in place in {out}"
+    assert "state: complete" in (out / MARKER_NAME).read_text()
+    assert (out / "guide" / "trajectory.csv").is_file() and _hidden(tmp_path) == []
+
+
 def _signal_cases(tmp_path: Path) -> dict[str, list[str]]:
     definition = tmp_path / "a.toml"  # the real command (no slowing hook: it would import
     # the sweep before the handlers are in place): 20 points at 128x128, a few seconds
@@ -372,6 +391,8 @@ def test_stop_signals_at_random_times(tmp_path, command):
     n = DELIVERIES or {"demo": 3, "sweep": 3}.get(command, 2)
     bound = float(os.environ.get("RANGEFX_SIGNAL_BOUND_S", "3"))  # the issue: 2 s
     env = dict(os.environ)
+    times: list[float] = []
+    wrong: list[str] = []
     for k in range(n):
         parent = tmp_path / f"run{k}"
         parent.mkdir()
@@ -393,10 +414,20 @@ def test_stop_signals_at_random_times(tmp_path, command):
         what = f"{command}: {sig.name} at {at:.2f} s"
         if proc.returncode == 0:
             continue  # finished before the signal: nothing to check
-        assert proc.returncode == 128 + sig, f"{what}: exit {proc.returncode}: {err}"
-        assert err.strip().startswith("rangefx: interrupted") and "\n" not in err.strip(), err
-        assert took < bound, f"{what}: exited {took:.2f} s after it"
-        assert _hidden(parent) == [], what
+        times.append(took)
+        if proc.returncode != 128 + sig:
+            wrong.append(f"{what}: exit {proc.returncode}: {err}")
+        elif not err.strip().startswith("rangefx: interrupted") or "\n" in err.strip():
+            wrong.append(f"{what}: printed {err!r}")
+        elif took >= bound:
+            wrong.append(f"{what}: exited {took:.2f} s after it")
+        elif _hidden(parent):
+            wrong.append(f"{what}: left {_hidden(parent)}")
+    if times:  # shown with -s: the figures of docs/guarantees.md
+        print(f"\n{command}: {len(times)} of {n} signals met a running command; exit "
+              f"{np.median(times):.2f} s after it (median), {max(times):.2f} s (max), "
+              f"{len(wrong)} wrong")  # fmt: skip
+    assert not wrong, wrong
 
 
 # -- special files -------------------------------------------------------------------------

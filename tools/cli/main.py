@@ -3,7 +3,9 @@ subcommand.
 
 Every command that reports figures takes ``--json`` and then prints one JSON object on
 stdout. User mistakes print one ``rangefx: error: ...`` line and exit with status 2; no
-output directory is left looking complete after a failure.
+output directory is left looking complete after a failure. SIGINT, SIGTERM and SIGHUP
+print one line and exit with 128 + the signal (:mod:`rangefx.tools.interrupts`); an
+output directory has one writer at a time (:mod:`rangefx.tools.report.lock`).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from types import ModuleType
 from ..errors import UserError
 from ..interrupts import (
     Interrupted,
-    exit_soon,
+    exit_now,
     handle_stop_signals,
     pending_signal,
     raise_if_interrupted,
@@ -53,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: Commands whose ``--out`` is an output directory (``atomic_output_dir``): checked for
-#: writability before the work starts.
+#: writability and locked (with ``sweep``'s) before the work starts.
 DIR_OUTPUT_COMMANDS = {"demo", "run", "guide", "track", "degrees", "optimise", "vectors gen"}
 #: Exit status after Ctrl-C, as a shell reports SIGINT (128 + 2); SIGTERM and SIGHUP
 #: exit with 128 + their number likewise (:mod:`rangefx.tools.interrupts`).
@@ -113,17 +115,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt as exc:
         return _report_interrupt(args, exc, argv is None)
+    except Exception:
+        # an interrupt inside an extension's import comes out as an ImportError (seen in
+        # 1 of 50 SIGHUPs to "rangefx demo"): any failure after a stop signal is the stop
+        if pending_signal() is None:
+            raise
+        return _report_interrupt(args, Interrupted(pending_signal()), argv is None)
     finally:
         restore()
 
 
 def _report_interrupt(args: argparse.Namespace | None, exc: BaseException, as_program: bool) -> int:
-    """Print the one line, and as the program (not called from Python with ``argv``)
-    make sure no worker thread still busy holds the exit (:func:`exit_soon`)."""
+    """Print the one line; as the program (not called from Python with ``argv``) end the
+    process now (:func:`~rangefx.tools.interrupts.exit_now`): the cleanup is done."""
     signum = exc.signum if isinstance(exc, Interrupted) else (pending_signal() or signal.SIGINT)
-    print(f"\nrangefx: {_interrupted_message(args, exc)}", file=sys.stderr)
+    with contextlib.suppress(OSError):  # SIGHUP: the terminal may be gone
+        print(f"\nrangefx: {_interrupted_message(args, exc)}", file=sys.stderr)
     if as_program:
-        exit_soon(128 + signum)
+        exit_now(128 + signum)
     return 128 + signum
 
 

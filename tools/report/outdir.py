@@ -364,9 +364,14 @@ def atomic_output_dir(path: str | os.PathLike[str]) -> Iterator[Path]:
       are moved in, the earlier run's own files that this run did not write are removed,
       and every other file (one the user added) is kept. A file of the user's with the
       name of a new output file is never overwritten: :class:`UserError` naming it;
-    * anything else (a file, a symbolic link, a non-empty directory without the marker):
+    * anything else (a file, a link to no directory, a non-empty directory without the
+      marker, a symbolic link inside it on the way to a file rangefx wrote or writes):
       :class:`~rangefx.tools.errors.UserError` naming ``path``; user data is never
       deleted. This is checked before the body runs as well, so no work is wasted.
+
+    ``path`` may itself be a symbolic link to a directory: the directory it points to is
+    written. The body runs under :func:`~rangefx.tools.report.lock.output_lock` (one writer
+    per output directory), and a stop signal during the final renames waits for them.
 
     If the body raises (including ``KeyboardInterrupt``), the temporary directory is
     deleted, ``path`` is left untouched and the exception propagates. An ``OSError``

@@ -67,6 +67,7 @@ from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import get_pipeline
 
 from ..errors import UserError
+from ..interrupts import raise_if_interrupted
 from .runner import compare_ranges
 from .sweep import check_signals
 
@@ -294,6 +295,7 @@ def optimise(
 
     def run(cfgs: list[WordLengthConfig]) -> list[list[dict | None]]:
         nonlocal n_evals
+        raise_if_interrupted()  # a stop signal swallowed on its way stops at the next batch
         n_evals += len(cfgs)
         if len(cfgs) == 1 or workers == 1:
             figs = [

@@ -80,6 +80,7 @@ from rangefx.rtl_model.registry import get_pipeline
 
 from .. import report
 from ..errors import UserError
+from ..interrupts import raise_if_interrupted
 from ..report.lock import output_lock
 from ..report.outdir import refuse_links
 from .buildup import PROFILE_AXES, buildup_for
@@ -649,7 +650,7 @@ class SweepOutcome:
 
 #: After an interrupt, how long the points already running may take to finish and be
 #: recorded; the command exits within about 2 s (docs/guarantees.md).
-INTERRUPT_GRACE_S = 1.0
+INTERRUPT_GRACE_S = 0.5
 
 
 def _run_local(
@@ -666,6 +667,7 @@ def _run_local(
             done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
             for fut in done:
                 sink(fut.result())
+            raise_if_interrupted()  # one swallowed on its way (numba, a finaliser)
     except BaseException:
         # interrupted: drop what has not started; what is running gets a short grace to
         # finish and be recorded (without the callback), then is abandoned (its point is
