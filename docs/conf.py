@@ -50,7 +50,9 @@ html_static_path = ["_static"]
 myst_heading_anchors = 4
 myst_enable_extensions = ["dollarmath"]
 
-autodoc_default_options = {"members": True, "show-inheritance": False}
+# Document each object once, where it is defined: a package's ``__all__`` re-exports names
+# of its modules, which would otherwise be described twice (ambiguous cross-references).
+autodoc_default_options = {"members": True, "show-inheritance": False, "ignore-module-all": True}
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"
 napoleon_google_docstring = False
@@ -89,6 +91,31 @@ def cli_parser() -> argparse.ArgumentParser:
     parser = build_parser()
     escape_all(parser)
     return parser
+
+
+CODE_SPAN = re.compile(r"(``.*?``|`[^`]*`)")
+
+
+def escape_bars(app, what, name, obj, options, lines: list[str]) -> None:
+    """Show ``|x - y|`` in docstrings as the absolute value it means.
+
+    The docstrings write absolute values with bars (``|fixed - golden|``), which
+    reStructuredText reads as a substitution reference; rangefx's docstrings use no
+    substitutions, line blocks or grid tables. Bars inside code spans and ``::`` literal
+    blocks are left alone (they render verbatim)."""
+    literal_indent = None
+    for i, line in enumerate(lines):
+        indent = len(line) - len(line.lstrip())
+        if literal_indent is not None:
+            if not line.strip() or indent > literal_indent:
+                continue
+            literal_indent = None
+        if line.rstrip().endswith("::"):
+            literal_indent = indent
+        if "|" in line:
+            parts = CODE_SPAN.split(line)
+            parts[::2] = [part.replace("|", "\\|") for part in parts[::2]]
+            lines[i] = "".join(parts)
 
 
 def repository_path_link(app, env, node, contnode):
@@ -155,26 +182,29 @@ def public_modules(package: str) -> list[str]:
 
 
 def write_api_pages(app) -> None:
-    """Write one Markdown page per package of :data:`API_PACKAGES` into
+    """Write one reStructuredText page per package of :data:`API_PACKAGES` into
     ``api/generated/`` (not committed), so that a module added, moved or removed is
-    documented without editing a page by hand."""
+    documented without editing a page by hand. reStructuredText, not Markdown: autodoc
+    emits reStructuredText, which a MyST page would read as Markdown."""
     API_DIR.mkdir(parents=True, exist_ok=True)
     wanted = set()
     for order, (package, summary) in enumerate(API_PACKAGES.items()):
-        name = f"{order:02d}_{package.replace('.', '_')}.md"
+        name = f"{order:02d}_{package.replace('.', '_')}.rst"
         wanted.add(name)
-        parts = [f"# {package}\n\n{summary}\n"]
+        # no ``.. contents::``: furo shows the page's contents beside it
+        parts = [f"{package}\n{'=' * len(package)}\n\n{summary}\n"]
         for module in public_modules(package):
-            parts.append(f"\n## {module}\n\n```{{automodule}} {module}\n```\n")
+            parts.append(f"\n{module}\n{'-' * len(module)}\n\n.. automodule:: {module}\n")
         text = "".join(parts)
         page = API_DIR / name
         if not page.exists() or page.read_text() != text:
             page.write_text(text)
-    for stale in API_DIR.glob("*.md"):
+    for stale in API_DIR.glob("*"):
         if stale.name not in wanted:
             stale.unlink()
 
 
 def setup(app):
     app.connect("builder-inited", write_api_pages)
+    app.connect("autodoc-process-docstring", escape_bars)
     app.connect("missing-reference", repository_path_link)
