@@ -741,7 +741,9 @@ def run_sweep(
             raise UserError(f"sweep {defn.name!r}: {exc}") from None
     out = Path(out_dir)
     with output_lock(out):  # one writer per sweep directory (re-entered under the CLI's)
-        return _run_sweep_locked(defn, out, workers, scheduler, on_point, progress, connect_timeout)
+        return _run_sweep_locked(
+            defn, out, workers, scheduler, on_point, progress, connect_timeout, max_points
+        )
 
 
 def _run_sweep_locked(
@@ -752,6 +754,7 @@ def _run_sweep_locked(
     on_point: Callable[[dict[str, Any]], None] | None,
     progress: bool,
     connect_timeout: float,
+    max_points: int,
 ) -> SweepOutcome:
     try:
         out.mkdir(parents=True, exist_ok=True)
