@@ -345,6 +345,41 @@ def test_a_signal_during_the_final_renames_waits_for_them(tmp_path, capsys, monk
     assert (out / "guide" / "trajectory.csv").is_file() and _hidden(tmp_path) == []
 
 
+STUCK = """
+import os, shutil, sys, time
+from rangefx.tools.interrupts import cleanup_if_stuck, handle_stop_signals
+handle_stop_signals(watchdog=True)
+os.mkdir(sys.argv[1])
+with cleanup_if_stuck(lambda: shutil.rmtree(sys.argv[1])):
+    print("ready", flush=True)
+    while True:  # a main thread that never gets out (one that waits on a stuck worker)
+        try:
+            time.sleep(10)
+        except BaseException:
+            pass
+"""
+
+
+def test_a_stuck_command_is_ended_by_the_watchdog(tmp_path):
+    tmp = tmp_path / ".out.tmp-1-0123abcd"
+    proc = subprocess.Popen(
+        [PY, "-c", STUCK, str(tmp)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert proc.stdout.readline().strip() == "ready"
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGHUP)
+    try:
+        _, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == 128 + signal.SIGHUP
+    assert 1.4 < time.monotonic() - sent < 2.5  # WATCHDOG_S = 1.5
+    assert err.strip() == (
+        "rangefx: interrupted; no output was written (an earlier output is left as it was)"
+    )
+    assert not tmp.exists()
+
+
 def _signal_cases(tmp_path: Path) -> dict[str, list[str]]:
     definition = tmp_path / "a.toml"  # the real command (no slowing hook: it would import
     # the sweep before the handlers are in place): 20 points at 128x128, a few seconds

@@ -23,17 +23,21 @@ import os
 import signal
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterator
 from types import FrameType
 
 __all__ = [
     "STOP_SIGNALS",
+    "WATCHDOG_S",
     "Interrupted",
+    "cleanup_if_stuck",
     "deferred_signals",
     "exit_now",
     "handle_stop_signals",
     "pending_signal",
     "raise_if_interrupted",
+    "set_stop_line",
 ]
 
 #: The signals handled as Ctrl-C is (those that exist on this platform).
@@ -67,9 +71,56 @@ def raise_if_interrupted() -> None:
         raise Interrupted(_pending[0])
 
 
+#: Seconds after a stop signal at which the watchdog ends a command that is still running
+#: (the issue's bound is 2 s; cleanup normally takes well under 0.1 s).
+WATCHDOG_S = 1.5
+_watchdog: list[bool] = [False]  # armed by handle_stop_signals(watchdog=True)
+_stop_line: list[str] = ["interrupted; no output was written (an earlier output is left as it was)"]
+_cleanups: dict[int, Callable[[], None]] = {}
+
+
+def set_stop_line(text: str) -> None:
+    """The line (after ``rangefx: ``) the watchdog prints for this command."""
+    _stop_line[0] = text
+
+
+@contextlib.contextmanager
+def cleanup_if_stuck(cleanup: Callable[[], None]) -> Iterator[None]:
+    """Register ``cleanup`` (removing a temporary directory) for the watchdog to run if
+    the command is stuck after a stop signal, for the ``with`` body."""
+    key = id(cleanup)
+    _cleanups[key] = cleanup
+    try:
+        yield
+    finally:
+        _cleanups.pop(key, None)
+
+
+def _end_if_stuck(signum: int, install: int) -> None:
+    """The watchdog: a command that has not ended :data:`WATCHDOG_S` after a stop signal
+    waits on something that will not come (a worker thread stuck behind a lock the
+    interrupted main thread held; one ``demo`` of 108 hung so, > 60 s). Its temporary
+    directories are removed, the line is printed, and the process ends with 128 + the
+    signal; its lock dies with it (``flock``)."""
+    time.sleep(WATCHDOG_S)
+    if _installs[0] != install:
+        return  # the command ended (or, in-process, returned) meanwhile
+    for cleanup in list(_cleanups.values()):
+        with contextlib.suppress(Exception):
+            cleanup()
+    with contextlib.suppress(Exception):
+        print(f"\nrangefx: {_stop_line[0]}", file=sys.stderr)
+    exit_now(128 + signum)
+
+
 def _on_signal(signum: int, frame: FrameType | None) -> None:
     if not _pending:
         _pending.append(signum)
+        if _watchdog[0]:
+            threading.Thread(
+                target=_end_if_stuck, args=(signum, _installs[0]), name="rangefx-watchdog",
+                daemon=True,
+            ).start()  # fmt: skip
     if _deferring:
         _deferred.append(signum)
         return
@@ -101,12 +152,15 @@ def _redeliver(signum: int, install: int) -> None:
         _thread.interrupt_main(signum)
 
 
-def handle_stop_signals() -> Callable[[], None]:
+def handle_stop_signals(watchdog: bool = False) -> Callable[[], None]:
     """Install the handler for :data:`STOP_SIGNALS` (main thread only; elsewhere a no-op)
-    and forget any earlier signal; returns a function that restores the earlier handlers."""
+    and forget any earlier signal; returns a function that restores the earlier handlers.
+    ``watchdog``: as the program, end the process :data:`WATCHDOG_S` after a stop signal
+    if it has not ended by then (:func:`_end_if_stuck`)."""
     _pending.clear()
     _deferred.clear()
     _installs[0] += 1
+    _watchdog[0] = watchdog
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
     earlier = {s: signal.signal(s, _on_signal) for s in STOP_SIGNALS}

@@ -25,6 +25,7 @@ from ..interrupts import (
     handle_stop_signals,
     pending_signal,
     raise_if_interrupted,
+    set_stop_line,
 )
 
 __all__ = ["DIR_OUTPUT_COMMANDS", "EXIT_INTERRUPTED", "build_parser", "main"]
@@ -94,11 +95,12 @@ def _interrupted_message(args: argparse.Namespace | None, exc: BaseException) ->
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    restore = handle_stop_signals()
+    restore = handle_stop_signals(watchdog=argv is None)
     args = None
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
+        set_stop_line(_interrupted_message(args, KeyboardInterrupt()))
         # the ~175,000 objects of the imports (numba's most of them) are permanent: kept
         # out of the collector, whose passes over them took ~5 % of a model run
         # (measured: P1 paper, one thread, 49.1 -> 46.5-47.3 ns/pixel median;

@@ -19,7 +19,12 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from ..errors import UserError
-from ..interrupts import Interrupted, deferred_signals, raise_if_interrupted
+from ..interrupts import (
+    Interrupted,
+    cleanup_if_stuck,
+    deferred_signals,
+    raise_if_interrupted,
+)
 from .lock import hidden_stem, output_lock
 
 __all__ = [
@@ -407,6 +412,12 @@ def _fill_and_commit(path: Path) -> Iterator[Path]:
     except OSError as exc:
         raise UserError(f"cannot write output directory {str(path)!r}: {_reason(exc)}") from None
     tmp = _sibling_name(path, "tmp")
+    with cleanup_if_stuck(lambda: shutil.rmtree(tmp, ignore_errors=True)):
+        yield from _fill(tmp, path)
+    _fsync_dir(path.parent)
+
+
+def _fill(tmp: Path, path: Path) -> Iterator[Path]:
     try:
         tmp.mkdir()  # inside the try: a signal right after it still removes it
         yield tmp
@@ -426,7 +437,6 @@ def _fill_and_commit(path: Path) -> Iterator[Path]:
         with deferred_signals():
             shutil.rmtree(tmp, ignore_errors=True)
         raise
-    _fsync_dir(path.parent)
 
 
 def check_output_file(
