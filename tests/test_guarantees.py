@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rangefx.rtl_model.config import MAX_NESTING
+from rangefx.rtl_model.registry import PIPELINES
 from rangefx.tools.cli import demo as cli_demo
 from rangefx.tools.cli import main
 from rangefx.tools.cli import vectors as cli_vectors
@@ -396,7 +398,7 @@ def test_no_pixel_valid_in_both_prints_no_nan(tmp_path, capsys):
 
 
 # -- saturated input -----------------------------------------------------------------------
-@pytest.mark.parametrize("pipeline", ["p1", "p2"])
+@pytest.mark.parametrize("pipeline", sorted(PIPELINES))  # every registered pipeline (issue 40)
 def test_grey_levels_outside_the_input_format_are_said(tmp_path, capsys, pipeline):
     rng = np.random.default_rng(0)
     left = rng.integers(0, 256, (24, 32))
@@ -415,8 +417,6 @@ def test_grey_levels_outside_the_input_format_are_said(tmp_path, capsys, pipelin
 
 # == issue 40: one line for every malformed input, bounded resources ========================
 # (this section is issue 40's; issue 41's tests live in their own section)
-from rangefx.rtl_model.config import MAX_NESTING  # noqa: E402
-from rangefx.rtl_model.registry import PIPELINES  # noqa: E402
 
 
 def _deep_toml(levels: int) -> str:

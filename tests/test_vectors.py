@@ -639,7 +639,9 @@ def test_issue40_check_reproduces_the_inputs_from_the_manifests_case(
     """An edited scene, crop or seed passes the re-run (it reads the stored inputs) but
     not the provenance check, which renders the case the manifest names."""
     assert main(["vectors", "check", str(vec)]) == 0
-    assert "inputs reproduced from the manifest's case: OK" in capsys.readouterr().out
+    assert "inputs reproduced from the manifest's case, model re-run identical: OK" in (
+        capsys.readouterr().out
+    )
     d = _malformed(tmp_path, vec, lambda m: m["case"].__setitem__(field, value))
     assert main(["vectors", "check", str(d)]) == 1
     out = capsys.readouterr().out

@@ -222,7 +222,7 @@ def cmd_check(args: argparse.Namespace) -> int:
             print(f"note: {p}")
         rerun = "model re-run identical" if report.rerun else "model not re-run"
         if report.provenance:
-            rerun += ", inputs reproduced from the manifest's case"
+            rerun = "inputs reproduced from the manifest's case, " + rerun
         verdict = "OK" if report.ok else f"FAILED ({len(report.problems)} problems)"
         print(f"{args.dir}: {report.files} files, {report.bytes} bytes, {rerun}: {verdict}")
     return 0 if report.ok else 1
