@@ -147,7 +147,132 @@ def test_every_row_is_one_line_with_its_exit_code():
     )
 
 
+# == issue 40: the verdict, malformed input, bounds, provenance ============================
+# (its own table between its own markers, so that other issues' rows merge apart)
+BEGIN_40, END_40 = "<!-- table issue 40: begin (generated) -->", "<!-- table issue 40: end -->"
+P2_SWEEP = SWEEP.replace('scenes = ["lab"]', 'scenes = ["lab"]\npipeline = "p2"')
+
+
+def _setup_40(d: Path) -> None:
+    from numpy.lib.format import open_memmap
+
+    _setup(d)
+    exp = [int(w, 16) for w in (d / "vec" / "e1.col_s2.mem").read_text().splitlines()[1:]]
+    wide = [(v - (1 << 21) if v >> 20 else v) & 0xFFFFFFFF for v in exp]  # 32-bit sign ext.
+    k = next(i for i, v in enumerate(exp) if v >> 20)
+    signext = [*wide[:k], exp[k] | 0x0FE00000, *wide[k + 1 :]]
+    (d / "signext").mkdir()
+    (d / "signext" / "e1.col_s2.mem").write_text("".join(f"{w:08x}\n" for w in signext))
+    half = len(exp) // 2  # $writememh runs, the second half first
+    runs = [
+        f"@{half:x}",
+        *(f"{w:06x}" for w in exp[half:]),
+        "@0",
+        *(f"{w:06x}" for w in exp[:half]),
+    ]
+    (d / "addr").mkdir()
+    (d / "addr" / "e1.col_s2.mem").write_text("\n".join(runs) + "\n")
+    with open(d / "e1.row_r1.mem", "wb") as f:
+        f.truncate(100 * 2**30)  # a sparse 100 GiB dump
+    (d / "deep.toml").write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
+    assert main(["config", "show", "--pipeline", "p2", "--out", str(d / "p2.toml")]) == 0
+    text = (d / "p2.toml").read_text()
+    (d / "p2frac.toml").write_text(text.replace('format = "s9.0"', 'format = "s9.1000"', 1))
+    text = (d / "p1.toml").read_text()
+    (d / "bias.toml").write_text(text.replace("bias = 16.0", "bias = 1e300"))
+    (d / "int64.toml").write_text(
+        SWEEP.format(name="i", size="[24, 32]", value=6).replace(
+            "values = [6]", "range = [0, 9223372036854775807]"
+        )
+    )
+    axes = "".join(f'[[axis]]\nsignals = "{s}"\nparam = "frac"\nrange = [-50, 49]\n'
+                   for s in ("row_state", "col_s1", "row_r1", "row_r2"))  # fmt: skip
+    (d / "grid.toml").write_text(
+        '[sweep]\nname = "grid"\nscenes = ["lab"]\ncombine = "grid"\n' + axes
+    )
+    shutil.copytree(d / "sw", d / "tail")
+    with open(d / "tail" / "results.jsonl", "ab") as f:
+        f.write(b"\x00\xff\xfe binary\n")
+    (d / "swdir" / "results.jsonl").mkdir(parents=True)
+    for side in ("l", "r"):  # 12000 x 12000 grey levels (a sparse file)
+        open_memmap(d / f"{side}12k.npy", mode="w+", dtype=np.uint8, shape=(12000, 12000))
+    for name, change in (
+        ("hblank", lambda m: m["timing"].__setitem__("hblank", 8 * 10**12)),
+        ("moon", lambda m: m["case"].__setitem__("scene", "moon")),
+        ("seed", lambda m: m["case"].__setitem__("seed", 1)),
+    ):
+        shutil.copytree(d / "vec", d / name)
+        man = json.loads((d / name / "manifest.json").read_text())
+        change(man)
+        (d / name / "manifest.json").write_text(json.dumps(man))
+
+
+#: (bad input, argv, exit code expected).
+CASES_40: tuple[tuple[str, list[str], int], ...] = (
+    ("32-bit dump word `v \\| 0x0FE00000` of a negative s21.11 `v` (not a sign extension)",
+     ["vectors", "diff", "{d}/vec", "{d}/signext/e1.col_s2.mem"], 1),
+    ("`$writememh` dump with `@address` runs (second half first)",
+     ["vectors", "diff", "{d}/vec", "{d}/addr/e1.col_s2.mem"], 0),
+    ("sparse 100 GiB dump", ["vectors", "diff", "{d}/vec", "{d}/e1.row_r1.mem"], 2),
+    ("config nested 5000 levels deep", ["config", "show", "--config", "{d}/deep.toml"], 2),
+    ("`s9.1000` in a P2 config",
+     ["config", "show", "--pipeline", "p2", "--config", "{d}/p2frac.toml"], 2),
+    ("`bias = 1e300` in a P1 config", ["config", "show", "--config", "{d}/bias.toml"], 2),
+    ("sweep axis `range = [0, 2**63 - 1]`", ["sweep", "{d}/int64.toml", "--out", "{d}/s3"], 2),
+    ("sweep grid of 10^8 points", ["sweep", "{d}/grid.toml", "--out", "{d}/s4"], 2),
+    ("resumed sweep whose results.jsonl has a binary tail",
+     ["sweep", "{d}/a.toml", "--out", "{d}/tail"], 2),
+    ("resumed sweep whose results.jsonl is a directory",
+     ["sweep", "{d}/a.toml", "--out", "{d}/swdir"], 2),
+    ("`--scene` with image files",
+     ["run", "--scene", "lab", "--left", "{d}/left.npy", "--right", "{d}/right.npy", *PAIR], 2),
+    ("empty `--formats`", ["vectors", "gen", "--formats", "", "--out", "{d}/v3"], 2),
+    ("`--size 100000`", ["bench", "--size", "100000"], 2),
+    ("a 12000x12000 image pair",
+     ["run", "--pipeline", "p1", "--left", "{d}/l12k.npy", "--right", "{d}/r12k.npy", *PAIR], 2),
+    ("manifest with `hblank` 8e12", ["vectors", "check", "{d}/hblank"], 2),
+    ("manifest whose scene was edited to `moon`", ["vectors", "check", "{d}/moon"], 1),
+    ("manifest whose seed was edited", ["vectors", "check", "{d}/seed"], 1),
+)  # fmt: skip
+
+
+def run_cases_40(run: Callable[[list[str]], int] = main) -> list[tuple[str, str, str, int]]:
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            _setup_40(d)
+        for what, argv, _ in CASES_40:
+            args = [a.replace("{d}", str(d)) for a in argv]
+            out, err = io.StringIO(), io.StringIO()
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                code = run(args)
+            printed = err.getvalue() or " ".join(out.getvalue().splitlines())
+            command = "rangefx " + " ".join(a.replace(str(d), "DIR") for a in args)
+            rows.append((what, f"`{command}`", _normalise(printed, d), code))
+    return rows
+
+
+def _replace_table_40(text: str, table: str) -> str:
+    head, rest = text.split(BEGIN_40, 1)
+    _, tail = rest.split(END_40, 1)
+    return f"{head}{BEGIN_40}\n{table}{END_40}{tail}"
+
+
+def test_issue40_rows_print_one_line_with_their_exit_code():
+    rows = run_cases_40()
+    for (what, _, message, code), (_, _, want) in zip(rows, CASES_40, strict=True):
+        assert "<br>" not in message and "Traceback" not in message, (what, message)
+        assert code == want, (what, code, message)
+        assert code != 2 or message.startswith("rangefx: error: "), (what, message)
+    text = DOC.read_text(encoding="utf-8")
+    assert text == _replace_table_40(text, table_markdown(rows)), (
+        "docs/guarantees.md is stale: run python tests/test_docs_guarantees.py"
+    )
+
+
 if __name__ == "__main__":
     page = DOC.read_text(encoding="utf-8")
-    DOC.write_text(_replace_table(page, table_markdown(run_cases())), encoding="utf-8")
+    page = _replace_table(page, table_markdown(run_cases()))
+    DOC.write_text(_replace_table_40(page, table_markdown(run_cases_40())), encoding="utf-8")
     sys.exit(0)

@@ -95,7 +95,7 @@ def _write(d: Path, name: str, payload: str | bytes) -> Path:
     return p
 
 
-@pytest.mark.parametrize("pipeline", ["p1", "p2"])
+@pytest.mark.parametrize("pipeline", list(PIPELINES))  # every registered pipeline (issue 40)
 @FUZZ
 @given(data=st.data())
 def test_config_toml_reader_raises_only_user_errors(tmp_path, data, pipeline):
@@ -122,12 +122,19 @@ def test_sweep_definition_reader_raises_only_user_errors(data):
 
 
 @functools.cache
-def _vector_dir() -> Path:
+def _vector_dir(pipeline: str = "p1") -> Path:
     d = Path(tempfile.mkdtemp(prefix="rangefx-fuzz-")) / "vec"
     with contextlib.redirect_stdout(io.StringIO()):
         argv = ["vectors", "gen", "--scene", "lab", "--crop", "240", "244", "100", "106"]
-        assert main([*argv, "--out", str(d)]) == 0
+        assert main([*argv, "--pipeline", pipeline, "--out", str(d)]) == 0
     return d
+
+
+def _a_tap_dump(d: Path) -> Path:
+    """A tap's .mem file of the vectors in ``d`` (the dump a user would diff)."""
+    files = json.loads((d / "manifest.json").read_text())["files"]
+    taps = [e["path"] for e in files if e["kind"] != "stream" and e["path"].endswith(".mem")]
+    return d / taps[0]
 
 
 @functools.cache
@@ -146,6 +153,7 @@ def _set_path(obj, path: list, value):
     return [*obj[:k], _set_path(obj[k], path[1:], value), *obj[k + 1 :]]
 
 
+@pytest.mark.parametrize("pipeline", list(PIPELINES))  # every registered pipeline (issue 40)
 @FUZZ
 @given(
     where=st.lists(st.integers(0, 1000), min_size=1, max_size=4),
@@ -153,8 +161,8 @@ def _set_path(obj, path: list, value):
     drop=st.booleans(),
     raw=st.one_of(st.none(), st.binary(max_size=64), st.text(max_size=64)),
 )
-def test_manifest_reader_raises_only_value_errors(tmp_path, where, value, drop, raw):
-    src = _vector_dir()
+def test_manifest_reader_raises_only_value_errors(tmp_path, pipeline, where, value, drop, raw):
+    src = _vector_dir(pipeline)
     d = tmp_path / "v"
     if d.exists():
         shutil.rmtree(d)
@@ -171,6 +179,6 @@ def test_manifest_reader_raises_only_value_errors(tmp_path, where, value, drop, 
         m = load_manifest(d)
         with contextlib.suppress(ValueError):
             case_from_manifest(d, m)
-        diff_dump(d, src / "e1.col_s2.mem")
+        diff_dump(d, _a_tap_dump(src))
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         assert main(["vectors", "check", str(d), "--no-rerun"]) in (0, 1, 2)

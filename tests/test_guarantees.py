@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rangefx.rtl_model.config import MAX_NESTING
+from rangefx.rtl_model.registry import PIPELINES
 from rangefx.tools.cli import demo as cli_demo
 from rangefx.tools.cli import main
 from rangefx.tools.cli import vectors as cli_vectors
@@ -396,7 +398,7 @@ def test_no_pixel_valid_in_both_prints_no_nan(tmp_path, capsys):
 
 
 # -- saturated input -----------------------------------------------------------------------
-@pytest.mark.parametrize("pipeline", ["p1", "p2"])
+@pytest.mark.parametrize("pipeline", sorted(PIPELINES))  # every registered pipeline (issue 40)
 def test_grey_levels_outside_the_input_format_are_said(tmp_path, capsys, pipeline):
     rng = np.random.default_rng(0)
     left = rng.integers(0, 256, (24, 32))
@@ -415,8 +417,6 @@ def test_grey_levels_outside_the_input_format_are_said(tmp_path, capsys, pipelin
 
 # == issue 40: one line for every malformed input, bounded resources ========================
 # (this section is issue 40's; issue 41's tests live in their own section)
-from rangefx.rtl_model.config import MAX_NESTING  # noqa: E402
-from rangefx.rtl_model.registry import PIPELINES  # noqa: E402
 
 
 def _deep_toml(levels: int) -> str:
@@ -610,3 +610,97 @@ def test_issue40_manifest_blanking_and_sparse_dump_are_refused(tmp_path, capsys,
     (vec / "manifest.json").write_text(json.dumps(man))
     assert main(["vectors", "check", str(vec)]) == 2
     assert "hblank 8000000000000" in _one_line_error(capsys)
+
+
+# -- issue 40: disk full and a lost scheduler mid-sweep -------------------------------------
+def _records(out: Path) -> dict[str, dict]:
+    """results.jsonl by key, without the wall-clock field."""
+    recs = [json.loads(ln) for ln in (out / "results.jsonl").read_text().splitlines()]
+    return {r["key"]: {k: v for k, v in r.items() if k != "seconds"} for r in recs}
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory) -> dict[str, dict]:
+    d = tmp_path_factory.mktemp("full")
+    defn = _write_sweep(d, "enospc", "[6, 7, 8]")
+    with contextlib.redirect_stdout(None):
+        assert main(["sweep", str(defn), "--out", str(d / "sw"), "--json"]) == 0
+    return _records(d / "sw")
+
+
+@pytest.mark.parametrize("after", [0, 1, 3])
+def test_issue40_disk_full_mid_sweep_is_one_line_and_resumes_exactly(
+    tmp_path, capsys, monkeypatch, uninterrupted, after
+):
+    """ENOSPC on the (after+1)-th record, half of it written: one line naming the file and
+    the saved points, exit 2, only whole records kept, no summary; the re-run finishes
+    with results identical to an uninterrupted sweep."""
+    defn = _write_sweep(tmp_path, "enospc", "[6, 7, 8]")
+    out = tmp_path / "sw"
+    real_write, calls = os.write, []
+
+    def full_disk(fd, data):
+        if os.readlink(f"/proc/self/fd/{fd}").endswith("results.jsonl"):
+            calls.append(fd)
+            if len(calls) > after:
+                real_write(fd, bytes(data[: len(data) // 2]))  # a torn line, then full
+                raise OSError(28, "No space left on device")
+        return real_write(fd, data)
+
+    monkeypatch.setattr(os, "write", full_disk)
+    assert main(["sweep", str(defn), "--out", str(out), "--json"]) == 2
+    err = _one_line_error(capsys)
+    assert "results.jsonl: No space left on device" in err and f"the {after} points" in err
+    assert "re-run the same command to resume" in err
+    text = (out / "results.jsonl").read_text()
+    assert text.count("\n") == after and (not text or text.endswith("}\n"))
+    assert not (out / "summary.json").exists()
+    monkeypatch.setattr(os, "write", real_write)
+    assert main(["sweep", str(defn), "--out", str(out), "--json"]) == 0
+    assert _records(out) == uninterrupted
+    assert json.loads((out / "summary.json").read_text())["complete"] is True
+
+
+def test_issue40_disk_full_writing_the_outputs(tmp_path, capsys, monkeypatch, uninterrupted):
+    from rangefx.tools.report import wlplots
+
+    defn = _write_sweep(tmp_path, "enospc", "[6, 7, 8]")
+    out = tmp_path / "sw"
+
+    def full(path, text):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(wlplots, "atomic_write_text", full)
+    assert main(["sweep", str(defn), "--out", str(out), "--json"]) == 2
+    err = _one_line_error(capsys)
+    assert "No space left on device" in err and "results are saved" in err
+    assert not (out / "summary.json").exists() and not (out / "points.csv").exists()
+    monkeypatch.undo()
+    assert main(["sweep", str(defn), "--out", str(out), "--json"]) == 0
+    assert _records(out) == uninterrupted
+
+
+def test_issue40_a_lost_scheduler_is_one_line_and_resumes_exactly(
+    tmp_path, capsys, monkeypatch, uninterrupted
+):
+    """The client's futures cancelled mid-sweep (the scheduler killed): one line with the
+    saved points and how to resume; the re-run (here local) gives the same results."""
+    from distributed.client import FutureCancelledError
+
+    defn = _write_sweep(tmp_path, "enospc", "[6, 7, 8]")
+    out = tmp_path / "sw"
+
+    def dies_after_two(specs, scheduler, sink, timeout):
+        for spec in specs[:2]:
+            sink(sweep_mod.evaluate_point(spec))
+        raise FutureCancelledError("rangefx-x", "scheduler-connection-lost")
+
+    monkeypatch.setattr(sweep_mod, "_run_dask", dies_after_two)
+    argv = ["sweep", str(defn), "--out", str(out), "--json"]
+    assert main([*argv, "--scheduler", "tcp://127.0.0.1:1"]) == 2
+    err = _one_line_error(capsys)
+    assert "lost the dask scheduler tcp://127.0.0.1:1 (FutureCancelledError)" in err
+    assert "the 2 points finished" in err and "to resume" in err
+    monkeypatch.undo()
+    assert main(argv) == 0
+    assert _records(out) == uninterrupted

@@ -623,3 +623,26 @@ def test_diff_of_a_missing_dump_names_the_file(tmp_path, vec, capsys):
     assert main(["vectors", "diff", str(vec), str(tmp_path / "nope.mem")]) == 2
     err = capsys.readouterr().err
     assert "cannot read dump" in err and "nope.mem" in err and "no tap" not in err
+
+
+# -- issue 40: provenance checked -----------------------------------------------------------
+@pytest.mark.parametrize(
+    ("field", "value", "says"),
+    [("scene", "moon", "unknown scene name 'moon'"),
+     ("crop", [0, 10**9, 0, 10**9], "cannot be reproduced: --crop 0 1000000000"),
+     ("seed", 1, "does not reproduce the stored vectors"),
+     ("crop", [241, 257, 100, 124], "first e1.pix_in.")],
+)  # fmt: skip
+def test_issue40_check_reproduces_the_inputs_from_the_manifests_case(
+    tmp_path, vec, capsys, field, value, says
+):
+    """An edited scene, crop or seed passes the re-run (it reads the stored inputs) but
+    not the provenance check, which renders the case the manifest names."""
+    assert main(["vectors", "check", str(vec)]) == 0
+    assert "inputs reproduced from the manifest's case, model re-run identical: OK" in (
+        capsys.readouterr().out
+    )
+    d = _malformed(tmp_path, vec, lambda m: m["case"].__setitem__(field, value))
+    assert main(["vectors", "check", str(d)]) == 1
+    out = capsys.readouterr().out
+    assert "problem: manifest case (" in out and says in out, out

@@ -238,6 +238,14 @@ def read_stream_bin_valid(data: bytes, word: int) -> np.ndarray:
 _TOKEN = re.compile(rb"[^\s,;]+")
 _HEX_WORD = re.compile(rb"[0-9a-fA-F]+")
 _XZ_WORD = re.compile(rb"[0-9a-fA-FxXzZ?]+")
+_PLAIN_HEX = re.compile(rb"[0-9a-fA-F\s,;]*")
+
+
+def _strip_comments(data: bytes | str) -> bytes:
+    """``$readmemh`` text without its ``//`` and ``/* */`` comments."""
+    raw = data.encode() if isinstance(data, str) else data
+    raw = re.sub(rb"/\*.*?\*/", b" ", raw, flags=re.S)
+    return re.sub(rb"//[^\n]*", b"", raw)
 
 
 def read_mem_words(data: bytes | str) -> dict[int, tuple[int | None, int]]:
@@ -257,12 +265,13 @@ def read_mem_words(data: bytes | str) -> dict[int, tuple[int | None, int]]:
     ValueError
         A token that is neither a hexadecimal word nor an ``@`` followed by one.
     """
-    raw = data.encode() if isinstance(data, str) else data
-    raw = re.sub(rb"/\*.*?\*/", b" ", raw, flags=re.S)
-    raw = re.sub(rb"//[^\n]*", b"", raw)
+    raw = _strip_comments(data)
+    tokens = _TOKEN.findall(raw)
+    if _PLAIN_HEX.fullmatch(raw):  # the common case: hex words only, no x/z, no @, no _
+        return {k: (int(t, 16), 4 * len(t)) for k, t in enumerate(tokens)}
     out: dict[int, tuple[int | None, int]] = {}
     address = 0
-    for tok in _TOKEN.findall(raw):
+    for tok in tokens:
         t = tok.replace(b"_", b"")
         if t.startswith(b"@"):
             if not _HEX_WORD.fullmatch(t[1:]):
@@ -289,9 +298,9 @@ def read_mem(data: bytes | str) -> list[int | None]:
     ValueError
         A token that is not hexadecimal, or ``@address`` directives leaving a gap.
     """
-    raw = data.encode() if isinstance(data, str) else data
-    if b"@" not in raw:  # the vector files' own case: no addresses, a plain list
-        return [w for w, _ in read_mem_words(raw).values()]
+    raw = _strip_comments(data)
+    if _PLAIN_HEX.fullmatch(raw):  # the vector files' own case: a plain list, fast
+        return [int(t, 16) for t in _TOKEN.findall(raw)]
     words = read_mem_words(raw)
     if words and max(words) != len(words) - 1:
         gap = next(k for k in range(len(words) + 1) if k not in words)

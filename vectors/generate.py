@@ -25,7 +25,7 @@ import numpy as np
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.riccati import RiccatiConfig
-from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
+from rangefx.rtl_model.config import TimingConfig, WordLengthConfig, loads_json
 from rangefx.rtl_model.fixedpoint import FixedFormat
 from rangefx.rtl_model.pipeline import Case, Pipeline, PipelineResult
 from rangefx.rtl_model.registry import get_pipeline
@@ -324,11 +324,15 @@ def load_manifest(directory: str | Path) -> dict:
     """
     p = Path(directory) / MANIFEST_NAME
     try:
-        manifest = json.loads(read_regular(p, directory))
+        data = read_regular(p, directory)  # a ValueError of its own names a special file
     except OSError as exc:
         raise ValueError(f"cannot read {p}: {exc.strerror}") from None
+    try:
+        manifest = loads_json(data)
     except json.JSONDecodeError as exc:
         raise ValueError(f"{p} is not valid JSON: {exc}") from None
+    except (ValueError, UnicodeDecodeError) as exc:  # nesting; bytes json cannot decode
+        raise ValueError(f"{p} is not a {SCHEMA} manifest: {exc}") from None
     if not isinstance(manifest, dict) or manifest.get("schema") != SCHEMA:
         raise ValueError(f"{p} is not a {SCHEMA} manifest")
     _check_manifest(manifest, p)
@@ -467,6 +471,9 @@ class CheckReport:
     problems: list[str] = field(default_factory=list)
     rerun: bool = False
     notes: list[str] = field(default_factory=list)
+    #: The manifest's case (scene, seed, crop) was rendered and reproduced the vectors
+    #: (set by ``rangefx vectors check``, which can render scenes).
+    provenance: bool = False
 
     @property
     def ok(self) -> bool:

@@ -151,7 +151,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise
     raise_if_interrupted()  # an interrupt a finaliser swallowed: no summary "complete"
     before = _file_stamps(out)
-    summary = write_outputs(defn, outcome, out)
+    try:
+        summary = write_outputs(defn, outcome, out)
+    except OSError as exc:  # each is written whole or not at all; summary.json comes last
+        raise UserError(
+            f"cannot write the sweep's outputs in {str(out)!r}: {exc.strerror}; its "
+            f"{len(outcome.records)} results are saved: free space, then re-run the same "
+            "command to write them"
+        ) from None
     # rangefx's derived files: those write_outputs created or replaced (each is written
     # to a temporary file and renamed, so it has a new inode); the user's are unchanged
     written = sorted(

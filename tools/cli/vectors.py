@@ -23,6 +23,7 @@ from rangefx.vectors.generate import (
     DUMP_BYTES_PER_FILE_BYTE,
     FORMATS,
     build_vectors,
+    case_from_manifest,
     check_vectors,
     diff_dump,
     dump_memory_bytes,
@@ -45,7 +46,7 @@ from .options import (
     timing_from_args,
 )
 
-__all__ = ["add_parser", "cmd_check", "cmd_diff", "cmd_gen", "crop_case"]
+__all__ = ["add_parser", "cmd_check", "cmd_diff", "cmd_gen", "crop_case", "provenance_problems"]
 
 
 def crop_case(case: Case, crop: list[int] | None) -> Case:
@@ -162,11 +163,54 @@ def _require_rerun_memory(directory: str) -> None:
     )
 
 
+def provenance_problems(directory: str | Path) -> list[str]:
+    """Does the manifest's case (scene, seed, crop; with its config, timing and formats)
+    reproduce the stored vectors? :func:`check_vectors` re-runs the model on the stored
+    inputs; this renders the scene the manifest names, crops it as it says and requires
+    the same files, so an edited ``scene``, ``seed`` or ``crop`` is caught too."""
+    manifest = load_manifest(directory)
+    desc = manifest.get("case", {})
+    if desc.get("source") != "scene":
+        return [f"manifest case: source {desc.get('source')!r} is not a scene preset; "
+                "the inputs' provenance cannot be checked"]  # fmt: skip
+    scene, seed, crop = desc.get("scene"), desc.get("seed"), desc.get("crop")
+    what = f"scene {scene!r}, seed {seed!r}, crop {crop!r}"
+    try:
+        if not isinstance(seed, int) or isinstance(seed, bool):
+            raise UserError(f"seed {seed!r} is not an integer")
+        if crop is not None and (
+            not isinstance(crop, list) or len(crop) != 4
+            or not all(isinstance(v, int) and not isinstance(v, bool) for v in crop)
+        ):  # fmt: skip
+            raise UserError(f"crop {crop!r} is not four integers")
+        case = crop_case(scene_case(str(scene), seed=seed), crop)
+        rebuilt = case_from_manifest(directory, manifest)
+        if case.mode != rebuilt["case"].mode:
+            raise UserError(f"scene {scene!r} is {case.mode}, the vectors {rebuilt['case'].mode}")
+        again = build_vectors(**{**rebuilt, "case": case})
+    except (UserError, ValueError) as exc:
+        return [f"manifest case ({what}) cannot be reproduced: {exc}"]
+    d = Path(directory)
+    bad = [name for name, data in again.files.items()
+           if not (d / name).is_file() or (d / name).read_bytes() != data]  # fmt: skip
+    if bad:
+        return [f"manifest case ({what}) does not reproduce the stored vectors: "
+                f"{len(bad)} files differ, first {min(bad, key=_inputs_first)}"]  # fmt: skip
+    return []
+
+
+def _inputs_first(name: str) -> tuple[bool, str]:
+    return (".pix_in." not in name, name)
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     if not args.no_rerun:
         _require_rerun_memory(args.dir)
     try:
         report = check_vectors(args.dir, rerun=not args.no_rerun)
+        if report.ok and report.rerun:
+            report.problems += provenance_problems(args.dir)
+            report.provenance = not report.problems
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if args.json:
@@ -177,6 +221,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         for p in report.notes:
             print(f"note: {p}")
         rerun = "model re-run identical" if report.rerun else "model not re-run"
+        if report.provenance:
+            rerun = "inputs reproduced from the manifest's case, " + rerun
         verdict = "OK" if report.ok else f"FAILED ({len(report.problems)} problems)"
         print(f"{args.dir}: {report.files} files, {report.bytes} bytes, {rerun}: {verdict}")
     return 0 if report.ok else 1

@@ -55,6 +55,7 @@ reads no config field).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import itertools
 import json
@@ -624,18 +625,31 @@ def load_results(path: Path) -> dict[str, dict[str, Any]]:
 
 
 class _Appender:
-    """Appends one JSON line per record and flushes it to disk at once."""
+    """Appends one JSON line per record and syncs it to disk at once. A line is written
+    whole or not at all: when a write fails (disk full) the file is cut back to where
+    the line began, so that ``results.jsonl`` holds finished records only and a resume
+    continues exactly; nothing is buffered, so closing cannot fail later."""
 
     def __init__(self, path: Path) -> None:
-        self._f = open(path, "a", encoding="utf-8")
+        self.path = path
+        self._fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
 
     def write(self, rec: Mapping[str, Any]) -> None:
-        self._f.write(json.dumps(rec, sort_keys=True) + "\n")
-        self._f.flush()
-        os.fsync(self._f.fileno())
+        data = (json.dumps(rec, sort_keys=True) + "\n").encode()
+        start = os.fstat(self._fd).st_size
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(self._fd, view) :]
+            os.fsync(self._fd)
+        except OSError:
+            with contextlib.suppress(OSError):
+                os.ftruncate(self._fd, start)
+            raise
 
     def close(self) -> None:
-        self._f.close()
+        with contextlib.suppress(OSError):
+            os.close(self._fd)
 
 
 @dataclass(frozen=True)
@@ -715,6 +729,26 @@ def _run_dask(
         client.close()
 
 
+class _ResultsNotWritten(Exception):
+    """A record could not be appended to ``results.jsonl`` (the OS error's text)."""
+
+
+def _lost_scheduler_errors() -> tuple[type[BaseException], ...]:
+    """What a dask client raises when its scheduler goes away mid-sweep (its futures are
+    cancelled: ``FutureCancelledError``, a ``CancelledError``; or the comm closes)."""
+    import asyncio
+
+    errors: list[type[BaseException]] = [asyncio.CancelledError]
+    try:
+        from distributed.client import FutureCancelledError  # dask >= 2024.8
+        from distributed.comm import CommClosedError
+
+        errors += [FutureCancelledError, CommClosedError]
+    except ImportError:
+        pass
+    return tuple(errors)
+
+
 def run_sweep(
     defn: SweepDef,
     out_dir: str | Path,
@@ -784,7 +818,10 @@ def _run_sweep_locked(
         with lock:
             if rec["key"] in records:
                 return
-            appender.write(rec)
+            try:
+                appender.write(rec)
+            except OSError as exc:
+                raise _ResultsNotWritten(exc.strerror or str(exc)) from None
             records[rec["key"]] = rec
             computed.append(rec["key"])
             bar.update(1)
@@ -795,11 +832,26 @@ def _run_sweep_locked(
             on_point(rec)
 
     t0 = time.perf_counter()
+    resume = (
+        "re-run the same command to resume" if scheduler is None
+        else "re-run the same command (with a live --scheduler, or without one) to resume"
+    )  # fmt: skip
     try:
         if scheduler:
             _run_dask(specs, scheduler, sink, connect_timeout)
         else:
             _run_local(specs, workers, sink, record)
+    except _ResultsNotWritten as exc:  # results.jsonl cannot grow (disk full, quota, I/O)
+        raise UserError(
+            f"cannot write {path}: {exc}; the {len(records)} points finished "
+            f"({len(computed)} this run) are saved: free space, then {resume}"
+        ) from None
+    except _lost_scheduler_errors() as exc:
+        raise UserError(
+            f"lost the dask scheduler {scheduler} ({type(exc).__name__}); the "
+            f"{len(records)} points finished ({len(computed)} this run) are saved in {path}: "
+            f"{resume}"
+        ) from None
     finally:
         bar.close()
         appender.close()
