@@ -116,6 +116,11 @@ def test_sweep_synth_metrics_make_lut_plus_ff_the_pareto_cost():
     p2 = head + 'pipeline = "p2"\n' + axis.replace("row_r2", "p2_a")
     with pytest.raises(UserError, match="only P1 has it"):
         parse_sweep(p2)
+    # the place-and-route Fmax is a metric of P1's sweeps too, and of no other pipeline's
+    timing = head.replace('"synth"', '"timing"')
+    assert "timing" in parse_sweep(timing + axis).metrics
+    with pytest.raises(UserError, match="timing metrics need RTL"):
+        parse_sweep(timing + 'pipeline = "p2"\n' + axis.replace("row_r2", "p2_a"))
 
 
 @pytest.mark.skipif(shutil.which("yosys") is None, reason="yosys is not installed")

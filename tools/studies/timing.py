@@ -63,6 +63,7 @@ __all__ = [
     "nextpnr_command",
     "parse_nextpnr_report",
     "time_p1",
+    "timing_record",
     "timing_wrapper",
     "yosys_command",
 ]
@@ -484,3 +485,17 @@ def _store(path: Path, data: Mapping) -> None:
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(data))
     tmp.replace(path)
+
+
+def timing_record(
+    config: P1Config, shape: tuple[int, int], mode: str, speed: int = 6, seeds: int = 1
+) -> dict[str, float]:
+    """A sweep point's timing figures (``rangefx sweep`` metric ``timing``; the whole P1 on
+    the default device, :func:`time_p1`): ``fmax_mhz`` (the clock's median over ``seeds``)
+    and the critical path's ``critical_logic_ns`` and ``critical_routing_ns``."""
+    r = time_p1(config, speed=speed, seeds=seeds, shape=shape, mode=mode)
+    clock = next(iter(r.fmax_mhz))
+    path = r.critical_path.get(clock)
+    return {"fmax_mhz": r.fmax_mhz[clock],
+            "critical_logic_ns": path.logic_ns if path else float("nan"),
+            "critical_routing_ns": path.routing_ns if path else float("nan")}  # fmt: skip
