@@ -140,8 +140,10 @@ def _text(r: dict) -> str:
     counted = {k: v["rtl"] for k, v in r["overflows"].items() if v["rtl"]}
     lines.append(f"overflow counts: {'equal to' if not bad else 'DIFFER from'} the manifest's "
                  f"{counted or '(none)'}" + (f"; differing: {bad}" if bad else ""))  # fmt: skip
-    lines.append(f"AXI4-Stream output: {r['m_axis']['words']} words, "
-                 f"{r['m_axis']['mismatches']} mismatches")  # fmt: skip
+    a = r["m_axis"]
+    lines.append(f"AXI4-Stream output: {a['words']} words, {a['mismatches']} mismatches "
+                 f"({a['value_mismatches']} in value, {a['cycle_mismatches']} in cycle"
+                 f"{'' if a['framing_ok'] else ', framing wrong'})")  # fmt: skip
     raised = [k for k, v in r["flags"].items() if v]
     if raised:
         lines.append(f"flags raised: {', '.join(raised)}")
