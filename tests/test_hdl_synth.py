@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from pathlib import Path
 
 import pytest
 
@@ -18,6 +19,8 @@ from rangefx.tools.cli import main
 from rangefx.tools.studies.cases import scene_case
 from rangefx.tools.studies.optimiser import Budget, optimise
 from rangefx.tools.studies.synth import area_from_cells, proxy_area, proxy_ratios
+
+HDL_CONFIGS = Path(__file__).resolve().parent.parent / "tools" / "studies" / "sweeps"
 
 
 def test_cell_counts_map_to_lut_ff_carry_dsp_bram():
@@ -63,10 +66,11 @@ def test_yosys_area_of_the_frontend_stage_is_cached_and_follows_the_formats(
     assert stage["instances"] == 2 and not stage["cached"]
     assert stage["dsp"] >= 2  # at least C (b - p) and C (r1 - q) on DSP48E2
     assert stage["ff"] > 0 and stage["lut"] > 0
+    assert first["headline"] == "stages"  # the whole top was not asked for
     assert all(first[k] == 2 * stage[k] for k in ("lut", "ff", "carry", "dsp", "bram"))
     assert main(argv) == 0
     again = json.loads(capsys.readouterr().out)
-    assert again["stages"]["frontend"]["cached"] and again["total"] == first["total"]
+    assert again["stages"]["frontend"]["cached"] and again["stages_sum"] == first["stages_sum"]
     # 12 fewer fraction bits of row_r1 and row_r2 (row_r2 s8.-2: a negative parameter
     # value, which chparam reads as a signed literal): fewer flip-flops
     cfg = P1Config.default()
@@ -112,3 +116,27 @@ def test_sweep_synth_metrics_make_lut_plus_ff_the_pareto_cost():
     p2 = head + 'pipeline = "p2"\n' + axis.replace("row_r2", "p2_a")
     with pytest.raises(UserError, match="only P1 has it"):
         parse_sweep(p2)
+    # the place-and-route Fmax is a metric of P1's sweeps too, and of no other pipeline's
+    timing = head.replace('"synth"', '"timing"')
+    assert "timing" in parse_sweep(timing + axis).metrics
+    with pytest.raises(UserError, match="timing metrics need RTL"):
+        parse_sweep(timing + 'pipeline = "p2"\n' + axis.replace("row_r2", "p2_a"))
+
+
+@pytest.mark.skipif(shutil.which("yosys") is None, reason="yosys is not installed")
+def test_the_headline_is_the_whole_top_without_its_probes(monkeypatch, tmp_path, capsys):
+    """The whole p1_top flat (lab-optimised formats, 16-pixel lines, ECP5): the overflow
+    counters are not in the headline but in the probes' cost."""
+    monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
+    cfg = HDL_CONFIGS / "p1_lab_optimised_1pct.toml"
+    argv = ["hdl", "synth", "--config", str(cfg), "--target", "ecp5", "--stage", "top",
+            "--width", "16", "--height", "8", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["headline"] == "p1_top" and not r["cached"] and not r["probes"]["cached"]
+    assert r["ff"] > 0 and r["dsp"] > 0 and r["lut"] > 0
+    # the overflow counters of the casts that can overflow (Yosys removes a counter that
+    # stays 0), at least one 32-bit counter per stream
+    assert r["probes"]["ff"] >= 2 * 32
+    assert r["stages"] == {}  # --stage top: no breakdown
+    assert r["proxy_ratio"]["ff"] == round(r["proxy"]["register_bits"] / r["ff"], 3)

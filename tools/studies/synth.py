@@ -1,21 +1,24 @@
-"""Synthesis area of the P1 RTL with Yosys (issue 15; ``rangefx hdl synth``, ``--cost synth``).
+"""Synthesis area of the P1 RTL with Yosys (issues 15, 35; ``rangefx hdl synth``,
+``--cost synth``).
 
-The stages of ``hdl/`` are synthesised one by one with the formats of a word-length
-config as Verilog parameters (:mod:`rangefx.vectors.hdl`): ``frontend``
-(``p1_frontend.v``, one stream: input cast, bias, row and column filter, the
+The headline is the whole ``hdl/p1_top.v`` synthesised flat (:func:`synth_top`) with the
+formats of a word-length config as Verilog parameters
+(:func:`rangefx.vectors.hdl.config_top_parameters`): the design without its probes. The
+taps and the 32-bit overflow counters of ``p1_frontend``/``p1_range`` are ports that
+``p1_top`` leaves unconnected, so flattening removes the counters and every tap register
+the datapath does not read. The probes' cost is reported apart: the same top synthesised
+again with every output port of every module kept (Yosys ``keep`` on ``*/o:*`` before
+flattening), minus the headline. The stages are the breakdown (:func:`synth_stage`):
+``frontend`` (``p1_frontend.v``, one stream: input cast, bias, row and column filter, the
 x-derivative of the config's variant with its divider or second column filter) and
-``range`` (``p1_range.v``, the range stage with its divider and thresholds). The whole P1
-is the sum of the stages as instantiated: two ``frontend`` in stereo, one in motion, one
-``range`` (the motion frame store, a plain memory of ``p1_top.v``, is not synthesised:
-the proxy's BRAM count of it is exact, see ``docs/hdl_area.md``). Each run is
-``synth_xilinx -family xc7|xcup``, ``synth_ecp5`` or ``synth_ice40 -dsp`` with
-``-flatten``, then ``stat -json``; the cell counts are mapped to LUT, FF, carry, DSP and
-BRAM (:data:`TARGETS`).
+``range`` (``p1_range.v``, the range stage with its divider and thresholds), each
+synthesised alone with its probes as outputs. Each run is ``synth_xilinx -family
+xc7|xcup``, ``synth_ecp5`` or ``synth_ice40 -dsp`` with ``-flatten``, then ``stat
+-json``; the cell counts are mapped to LUT, FF, carry, DSP and BRAM (:data:`TARGETS`).
 
-Results are cached per stage: the key is the SHA-256 of the stage, the target, the
-stage's parameters (only the formats that stage reads), the Verilog sources and the Yosys
-version, under ``$RANGEFX_CACHE/synth`` (default ``~/.cache/rangefx/synth``). A config
-that changes only range-stage signals re-synthesises only the range stage.
+Results are cached per design: the key is the SHA-256 of the stage (or ``top`` with or
+without probes), the target, its parameters, the Verilog sources and the Yosys version,
+under ``$RANGEFX_CACHE/synth`` (default ``~/.cache/rangefx/synth``).
 """
 
 from __future__ import annotations
@@ -36,7 +39,10 @@ from rangefx.rtl_model.registry import get_pipeline
 from rangefx.vectors.hdl import (
     FRONTEND_SOURCES,
     HDL_DIR,
+    HDL_SOURCES,
     RANGE_SOURCES,
+    TOPLEVEL,
+    config_top_parameters,
     frontend_parameters,
     range_parameters,
     write_recip_rom,
@@ -57,6 +63,7 @@ __all__ = [
     "synth_p1",
     "synth_record",
     "synth_stage",
+    "synth_top",
     "yosys_version",
 ]
 
@@ -64,6 +71,11 @@ __all__ = [
 STAGES: dict[str, tuple[str, tuple[str, ...]]] = {
     "frontend": ("p1_frontend", FRONTEND_SOURCES),
     "range": ("p1_range", RANGE_SOURCES),
+}
+#: The whole top, without (``top``) and with (``top+probes``) its probes.
+_TOPS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "top": (TOPLEVEL, HDL_SOURCES),
+    "top+probes": (TOPLEVEL, HDL_SOURCES),
 }
 
 
@@ -206,7 +218,7 @@ def stage_parameters(config: P1Config, stage: str, shape: tuple[int, int]) -> di
 
 def _key(stage: str, target: str, params: Mapping, version: str) -> str:
     h = hashlib.sha256()
-    _top, sources = STAGES[stage]
+    _top, sources = (STAGES | _TOPS)[stage]
     h.update(json.dumps([stage, target, TARGETS[target].command, sorted(params.items()), version])
              .encode())  # fmt: skip
     # the sources and every header they may `include (the shared parameter lists)
@@ -223,11 +235,15 @@ def _verilog_constant(value: object) -> str:
     return str(value)
 
 
-def _yosys_script(top: str, sources: tuple[str, ...], params: Mapping, target: str) -> str:
-    lines = ["read_verilog -defer " + " ".join(str(HDL_DIR / s) for s in sources)]
+def _yosys_script(
+    top: str, sources: tuple[str, ...], params: Mapping, target: str, keep_probes: bool = False
+) -> str:
+    lines = [f"read_verilog -defer -I{HDL_DIR} " + " ".join(str(HDL_DIR / s) for s in sources)]
     sets = " ".join(f"-set {k} {_verilog_constant(v)}" for k, v in params.items())
-    lines += [f"chparam {sets} {top}", f"hierarchy -top {top}", TARGETS[target].command,
-              "tee -q -o stat.json stat -json"]  # fmt: skip
+    lines += [f"chparam {sets} {top}", f"hierarchy -top {top}"]
+    if keep_probes:  # every module's outputs (taps, overflow counters) survive flattening
+        lines.append("setattr -set keep 1 */o:*")
+    lines += [TARGETS[target].command, "tee -q -o stat.json stat -json"]
     return "\n".join(lines) + "\n"
 
 
@@ -247,10 +263,40 @@ def synth_stage(
     UserError
         Yosys is missing, or fails on the design (its last lines are in the message).
     """
+    return _synthesise(config, stage, target, stage_parameters(config, stage, shape),
+                       use_cache=use_cache, timeout_s=timeout_s)  # fmt: skip
+
+
+def synth_top(
+    config: P1Config,
+    target: str = "xcup",
+    shape: tuple[int, int] = (512, 512),
+    mode: str = "stereo",
+    *,
+    probes: bool = False,
+    use_cache: bool = True,
+    timeout_s: float = 3600.0,
+) -> tuple[SynthArea, bool]:
+    """Yosys area of the whole ``p1_top`` synthesised flat; returns ``(area, from_cache)``.
+
+    ``probes`` False: the design (taps the datapath does not read and the overflow
+    counters drive nothing, so Yosys removes them); True: with every module's outputs
+    kept. In motion mode the frame store is sized for ``shape``.
+    """
+    params = config_top_parameters(config, shape, mode, "recip_rom.mem")
+    if config.divider == "reciprocal":
+        params["ROM_FILE"] = '"recip_rom.mem"'  # in the work directory: no path in the key
+    return _synthesise(config, "top+probes" if probes else "top", target, params,
+                       use_cache=use_cache, timeout_s=timeout_s)  # fmt: skip
+
+
+def _synthesise(
+    config: P1Config, stage: str, target: str, params: Mapping, *, use_cache: bool,
+    timeout_s: float,
+) -> tuple[SynthArea, bool]:  # fmt: skip
     if target not in TARGETS:
         raise UserError(f"unknown synthesis target {target!r}; choose from {', '.join(TARGETS)}")
     version = yosys_version()
-    params = stage_parameters(config, stage, shape)
     key = _key(stage, target, params, version)
     cached = cache_dir() / f"{stage}-{target}-{key}.json"
     if use_cache and cached.is_file():
@@ -259,27 +305,28 @@ def synth_stage(
             return area_from_cells(data["cells"], target), True
         except (OSError, ValueError, KeyError):
             pass  # a damaged cache entry: synthesise again
-    top, sources = STAGES[stage]
+    top, sources = (STAGES | _TOPS)[stage]
     with tempfile.TemporaryDirectory(prefix="rangefx-synth-") as tmp:
         work = Path(tmp)
         if config.divider == "reciprocal":
             write_recip_rom(config, work / "recip_rom.mem")
-        (work / "synth.ys").write_text(_yosys_script(top, sources, params, target))
+        script = _yosys_script(top, sources, params, target, keep_probes=stage == "top+probes")
+        (work / "synth.ys").write_text(script)
         try:
             run = subprocess.run(["yosys", "-q", "-s", "synth.ys"], cwd=work, capture_output=True,
                                  text=True, timeout=timeout_s, check=False)  # fmt: skip
         except subprocess.TimeoutExpired:
-            raise UserError(f"yosys took over {timeout_s:.0f} s on stage {stage}") from None
+            raise UserError(f"yosys took over {timeout_s:.0f} s on {stage}") from None
         if run.returncode != 0 or not (work / "stat.json").is_file():
             tail = " | ".join((run.stderr or run.stdout).strip().splitlines()[-3:])
-            raise UserError(f"yosys failed on stage {stage} ({target}): {tail}")
+            raise UserError(f"yosys failed on {stage} ({target}): {tail}")
         stat = json.loads((work / "stat.json").read_text())
     modules = stat.get("modules", {})
     top_stat = modules.get(f"\\{top}") or next(iter(modules.values()))
     cells = {str(k).lstrip("\\$"): int(v) for k, v in top_stat["num_cells_by_type"].items()}
     cached.parent.mkdir(parents=True, exist_ok=True)
     tmp_file = cached.with_suffix(".tmp")
-    tmp_file.write_text(json.dumps({"stage": stage, "target": target, "params": params,
+    tmp_file.write_text(json.dumps({"stage": stage, "target": target, "params": dict(params),
                                     "yosys": version, "cells": cells}, indent=1))  # fmt: skip
     tmp_file.replace(cached)
     return area_from_cells(cells, target), False
@@ -290,35 +337,69 @@ def synth_p1(
     target: str = "xcup",
     shape: tuple[int, int] = (512, 512),
     mode: str = "stereo",
-    stages: tuple[str, ...] = ("frontend", "range"),
+    parts: tuple[str, ...] = ("top", "frontend", "range"),
     *,
     use_cache: bool = True,
+    probes: bool = True,
 ) -> dict:
-    """Area of each stage and of the whole P1 as instantiated (``frontend`` once per stream:
-    two in stereo, one in motion; ``range`` once). Returns a JSON-able dict: ``target``,
-    ``shape``, ``mode``, ``stages`` {stage: {``instances``, ``cached``, per-instance area,
-    ``proxy`` (:func:`proxy_area`), ``proxy_ratio`` (:func:`proxy_ratios`)}}, ``total``
-    (the sum as instantiated, over ``stages`` only; also at the top level: ``lut``, ``ff``,
-    ``carry``, ``dsp``, ``bram``) and the summed ``proxy`` and ``proxy_ratio``."""
+    """Area of the whole P1 (``top``, the headline) and of its stages (the breakdown),
+    each synthesised when named in ``parts``.
+
+    Returns a JSON-able dict: ``target``, ``shape``, ``mode``, ``headline`` (``p1_top``,
+    or ``stages`` when the top is not in ``parts``) and its ``lut``, ``ff``, ``carry``,
+    ``dsp``, ``bram`` at the top level; with ``top``: ``cached``, ``cells`` of the whole
+    ``p1_top`` without its probes (:func:`synth_top`) and, when ``probes``, ``probes``:
+    what the taps and overflow counters add (the top with them kept, minus the headline);
+    ``stages`` {stage: {``instances`` (``frontend`` once per stream: two in stereo, one in
+    motion; ``range`` once), ``cached``, per-instance area with its probes, ``proxy``
+    (:func:`proxy_area`), ``proxy_ratio`` (:func:`proxy_ratios`)}}; ``stages_sum``: those
+    stages as instantiated; ``proxy``: the proxy of the whole P1 (the frame store's BRAM
+    in motion) and its ``proxy_ratio`` against the headline."""
     if mode not in ("stereo", "motion"):
         raise UserError(f"unknown P1 mode {mode!r}; choose stereo or motion")
     instances = {"frontend": 2 if mode == "stereo" else 1, "range": 1}
     out_stages = {}
     total = SynthArea()
     proxy_total = {"register_bits": 0, "dsp": 0, "bram18": 0}
-    for stage in stages:
+    for stage in (s for s in parts if s in STAGES):
         area, hit = synth_stage(config, stage, target, shape, use_cache=use_cache)
         proxy = proxy_area(config, stage, shape)
         ratio = proxy_ratios(proxy, area.as_dict())
         out_stages[stage] = {"instances": instances[stage], "cached": hit, **area.as_dict(),
                              "proxy": proxy, "proxy_ratio": ratio}  # fmt: skip
         total = total + area.times(instances[stage])
-        for k in proxy_total:
-            proxy_total[k] += proxy[k] * instances[stage]
-    totals = {k: getattr(total, k) for k in AREA_KEYS}
-    return {"target": target, "shape": list(shape), "mode": mode, "stages": out_stages,
-            "total": totals, **totals, "proxy": proxy_total,
-            "proxy_ratio": proxy_ratios(proxy_total, totals)}  # fmt: skip
+    for stage in STAGES:
+        for k, v in proxy_area(config, stage, shape).items():
+            proxy_total[k] += v * instances[stage]
+    if mode == "motion":  # the frame store: E_hat, ex, ey of every pixel
+        proxy_total["bram18"] += _frame_store_bram18(config, shape)
+    stages_sum = {k: getattr(total, k) for k in AREA_KEYS}
+    out: dict = {"target": target, "shape": list(shape), "mode": mode}
+    if "top" in parts:
+        whole, hit = synth_top(config, target, shape, mode, use_cache=use_cache)
+        head = {k: getattr(whole, k) for k in AREA_KEYS}
+        out |= {"headline": "p1_top", **head, "cached": hit, "cells": whole.cells}
+        if probes:
+            kept, k_hit = synth_top(config, target, shape, mode, probes=True, use_cache=use_cache)
+            out["probes"] = {k: getattr(kept, k) - head[k] for k in AREA_KEYS} | {"cached": k_hit}
+    else:
+        head = stages_sum
+        out |= {"headline": "stages", **head}
+    return out | {
+        "stages": out_stages,
+        "stages_sum": stages_sum,
+        "proxy": proxy_total,
+        "proxy_ratio": proxy_ratios(proxy_total, head),
+    }
+
+
+def _frame_store_bram18(config: P1Config, shape: tuple[int, int]) -> int:
+    """RAMB18 of the motion frame store (``p1_top.v``: ``{ey, ex, E_hat}`` per pixel)."""
+    from rangefx.rtl_model.cost import bram18_blocks
+
+    f = config.formats
+    word = f["col_s1"].word + f[config.ex_signal].word + f["col_s2"].word
+    return bram18_blocks(shape[0] * shape[1], word)
 
 
 #: Signals whose registers each stage of ``hdl/`` holds (``rtl_model/p1/cost.py``
@@ -387,10 +468,11 @@ def proxy_ratios(proxy: Mapping[str, int], area: Mapping[str, int]) -> dict[str,
 def synth_record(
     config: P1Config, shape: tuple[int, int], mode: str, target: str = "xcup"
 ) -> dict[str, int]:
-    """A sweep point's synthesis figures (the whole P1, :func:`synth_p1`): ``synth_lut``,
-    ``synth_ff``, ``synth_carry``, ``synth_dsp``, ``synth_bram`` and the cost the studies
-    minimise, ``synth_cost`` = LUT + FF."""
-    area = synth_p1(config, target, shape, mode)
+    """A sweep point's synthesis figures (the whole ``p1_top`` without its probes,
+    :func:`synth_top`): ``synth_lut``, ``synth_ff``, ``synth_carry``, ``synth_dsp``,
+    ``synth_bram`` and the cost the studies minimise, ``synth_cost`` = LUT + FF."""
+    whole, _hit = synth_top(config, target, shape, mode)
+    area = whole.as_dict()
     rec = {f"synth_{k}": area[k] for k in AREA_KEYS}
     rec["synth_cost"] = area["lut"] + area["ff"]
     return rec
