@@ -88,11 +88,13 @@ def tap_names(config: P3Config) -> tuple[str, ...]:
 # --------------------------------------------------------------------------------------
 # kernels: raw int64 arithmetic only
 # --------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True, inline="always")
+@njit((_R, _I, _I, _I, _P, _P, _R, _R), cache=True, nogil=True)
 def _cast_logged_row(acc, f_in, s, site, fm, st, ov, out):
     """``cast(acc[x], s)`` for a whole row with :func:`cast_row`, logged at ``site`` as
     :func:`cast_site` logs each element (the same min/max, ``frac_in`` and counts), once
-    per row: the per-element log stores kept the window loops from vectorising."""
+    per row: the per-element log stores kept the window loops from vectorising. An
+    explicit signature: the constant signal, site and ``frac_in`` it is called with would
+    otherwise compile a copy of ``cast_row`` per constant (tests/test_compile.py)."""
     lo, hi, flags = cast_row(acc, f_in, fm[s, 0], fm[s, 1], fm[s, 2] != 0, fm[s, 3], fm[s, 4], out)
     st[site, 0] = min(st[site, 0], lo)
     st[site, 1] = max(st[site, 1], hi)
