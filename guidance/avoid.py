@@ -134,6 +134,9 @@ MANOEUVRES: tuple[str, ...] = ("hover", "climb", "turn-away")
 #: SLSQP iterations allowed to one safe-manoeuvre candidate (one seed).
 MANOEUVRE_MAXITER: int = 80
 
+#: SLSQP iterations allowed to a re-plan warm-started from a plan that keeps the clearance.
+REPLAN_MAXITER: int = 60
+
 #: Longest plan to a hold point (s): the candidates lie 100-250 ft away.
 MANOEUVRE_MAX_TIME: float = 30.0
 
@@ -670,6 +673,7 @@ def plan_trajectory(
     t_go_max: float | None = None,
     relax: bool = True,
     side_seeds: bool = True,
+    report_seed: bool = True,
 ) -> AvoidPlan:
     """Solve the programme of the module docstring once, from ``(r0, v0)`` at ``t0``.
 
@@ -684,7 +688,8 @@ def plan_trajectory(
     ``relax=False`` (the caller has a safe manoeuvre to fall back on) the relaxed
     programme is not solved and the lowest-cost result of the seeds is returned,
     ``feasible=False``. ``meets_floor`` says whether the plan met what was asked.
-    ``side_seeds=False`` skips the bent seeds.
+    ``side_seeds=False`` skips the bent seeds, ``report_seed=False`` (with ``warm``) the
+    report's extremal too.
     """
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
@@ -722,7 +727,8 @@ def plan_trajectory(
         seeds.append(np.concatenate([[t_go], _fit_coeffs(prob, t_go, target).ravel()]))
     t_rep, c_rep = _report_seed(prob)
     x_rep = np.concatenate([[t_rep], c_rep.ravel()])
-    seeds.append(x_rep)
+    if report_seed or not seeds:
+        seeds.append(x_rep)
     amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
     if side_seeds:
         seeds += [
@@ -963,9 +969,11 @@ def simulate_avoid(
     plan, manoeuvre, blocked = _decide(bc.r0, bc.v0, bc, field, boxes, params, av)
     goal = bc if manoeuvre is None else manoeuvre.goal
     # A manoeuvre's re-plans get its candidates' iteration budget (a short, open target).
-    replan_cfg = (
-        av if manoeuvre is None else replace(av, maxiter=min(av.maxiter, MANOEUVRE_MAXITER))
-    )
+    # Re-plans of a plan that keeps the clearance start from it and converge in a few
+    # iterations (~5 on runway/P1); one that does not within REPLAN_MAXITER is dropped
+    # (the plan is kept), not re-solved from other seeds: on some stress layouts those
+    # failing re-plans cost minutes of CPU. A manoeuvre's re-plans get the same budget.
+    replan_cfg = replace(av, maxiter=min(av.maxiter, REPLAN_MAXITER))
     plan_field = field if manoeuvre is None else _hold_field(field)
     plans = [plan]
     feasible = plan.feasible and manoeuvre is None
@@ -981,7 +989,8 @@ def simulate_avoid(
         remaining = plan.t_go - (t - plan.t0)
         if t - last_plan_t >= av.replan_interval - 1e-9 and remaining > av.terminal_time:
             new = plan_trajectory(
-                r, v, goal, plan_field, boxes, params=params, config=replan_cfg, warm=plan, t0=t,
+                r, v, goal, plan_field, boxes, params=params,
+                config=replan_cfg if plan.meets_floor else av, warm=plan, t0=t,
                 # A re-plan may delay the arrival by at most one re-plan interval (and
                 # never past 1.25 x the first plan's), a relaxed plan (whose cost is the
                 # clearance, not time) not at all: else the time-to-go drifts up.
@@ -997,6 +1006,7 @@ def simulate_avoid(
                 # seeds (the warm start is the plan's own path, already clear of them).
                 relax=not plan.meets_floor,
                 side_seeds=not plan.meets_floor,
+                report_seed=not plan.meets_floor,
             )  # fmt: skip
             plans.append(new)
             last_plan_t = t
