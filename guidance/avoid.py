@@ -134,6 +134,12 @@ MANOEUVRES: tuple[str, ...] = ("hover", "climb", "turn-away")
 #: SLSQP iterations allowed to one safe-manoeuvre candidate (one seed).
 MANOEUVRE_MAXITER: int = 80
 
+#: SLSQP iterations allowed to a re-plan warm-started from a plan that keeps the clearance.
+REPLAN_MAXITER: int = 60
+
+#: Longest plan to a hold point (s): the candidates lie 100-250 ft away.
+MANOEUVRE_MAX_TIME: float = 30.0
+
 #: How a closed-loop flight ends: at the touch-down, holding at a hover point short of
 #: the obstacles, after a go-around (climb over or turn away, then hold), or not at all
 #: (the model left its domain: reported, never raised).
@@ -667,6 +673,7 @@ def plan_trajectory(
     t_go_max: float | None = None,
     relax: bool = True,
     side_seeds: bool = True,
+    report_seed: bool = True,
 ) -> AvoidPlan:
     """Solve the programme of the module docstring once, from ``(r0, v0)`` at ``t0``.
 
@@ -681,7 +688,8 @@ def plan_trajectory(
     ``relax=False`` (the caller has a safe manoeuvre to fall back on) the relaxed
     programme is not solved and the lowest-cost result of the seeds is returned,
     ``feasible=False``. ``meets_floor`` says whether the plan met what was asked.
-    ``side_seeds=False`` skips the bent seeds.
+    ``side_seeds=False`` skips the bent seeds, ``report_seed=False`` (with ``warm``) the
+    report's extremal too.
     """
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
@@ -719,7 +727,8 @@ def plan_trajectory(
         seeds.append(np.concatenate([[t_go], _fit_coeffs(prob, t_go, target).ravel()]))
     t_rep, c_rep = _report_seed(prob)
     x_rep = np.concatenate([[t_rep], c_rep.ravel()])
-    seeds.append(x_rep)
+    if report_seed or not seeds:
+        seeds.append(x_rep)
     amp = cfg.clearance_ft + max((max(b.half_u, b.half_v) for b in boxes), default=0.0)
     if side_seeds:
         seeds += [
@@ -822,6 +831,18 @@ def manoeuvre_candidates(
     return [(k, p) for k, p in cands if not boxes or _clearances(p[None], boxes).min() >= need]
 
 
+#: β of a manoeuvre's cost (eq 20 without its obstacle term, in effect): the report's
+#: −β Σ|r − r_i|² rewards distance from the obstacle points without bound, and with a
+#: free hold point instead of a fixed touch-down the plan wandered hundreds of feet
+#: away (measured on a synthetic layout); the clearance constraints keep it safe.
+MANOEUVRE_BETA: float = 1e-12
+
+
+def _hold_field(field: ObstacleField) -> ObstacleField:
+    """The obstacle field of a manoeuvre's cost: the same points and weights, β tiny."""
+    return ObstacleField(field.points, replace(field.weights, beta=MANOEUVRE_BETA))
+
+
 def plan_safe_manoeuvre(
     r: np.ndarray,
     v: np.ndarray,
@@ -849,6 +870,7 @@ def plan_safe_manoeuvre(
     solve_cfg = replace(cfg, maxiter=min(cfg.maxiter, MANOEUVRE_MAXITER))
     r = np.asarray(r, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
+    hold = _hold_field(field)
     tried = 0
     for kind, point in manoeuvre_candidates(r, v, boxes, cfg):
         chord = point - r
@@ -858,8 +880,8 @@ def plan_safe_manoeuvre(
         goal = BoundaryConditions(r0=r, v0=v, rf=point, vf=vf)
         tried += 1
         plan = plan_trajectory(
-            r, v, goal, field, boxes, params=params, config=solve_cfg, t0=t0, relax=False,
-            side_seeds=False,
+            r, v, goal, hold, boxes, params=params, config=solve_cfg, t0=t0, relax=False,
+            side_seeds=False, t_go_max=MANOEUVRE_MAX_TIME,
         )  # fmt: skip
         if plan.meets_floor:
             return SafeManoeuvre(kind, goal, plan, t0, tried)
@@ -922,6 +944,10 @@ def simulate_avoid(
     integrator failure, no end within ``config.max_time``): the flight ends there with
     ``outcome == "crash"`` and the reason in ``crash_reason``.
 
+    A manoeuvre's deceleration that brings the airspeed to zero before its hold point
+    ends the flight there, as a hover (``stopped_short_of_hold_s`` says how much of the
+    plan was left): the hold begins where the vehicle stopped.
+
     ``extras`` of the result hold ``outcome`` (one of :data:`OUTCOMES`), ``manoeuvre``
     (:meth:`SafeManoeuvre.to_dict` or ``None``), ``touchdown`` (the original final
     point; ``result.bc`` is the goal flown), ``feasible`` (the touch-down was reached on
@@ -942,12 +968,20 @@ def simulate_avoid(
     rec: dict[str, list] = {k: [] for k in ("t_cmd", "a_cmd", "a_ach", "T", "th", "ph", "tgo")}
     plan, manoeuvre, blocked = _decide(bc.r0, bc.v0, bc, field, boxes, params, av)
     goal = bc if manoeuvre is None else manoeuvre.goal
+    # A manoeuvre's re-plans get its candidates' iteration budget (a short, open target).
+    # Re-plans of a plan that keeps the clearance start from it and converge in a few
+    # iterations (~5 on runway/P1); one that does not within REPLAN_MAXITER is dropped
+    # (the plan is kept), not re-solved from other seeds: on some stress layouts those
+    # failing re-plans cost minutes of CPU. A manoeuvre's re-plans get the same budget.
+    replan_cfg = replace(av, maxiter=min(av.maxiter, REPLAN_MAXITER))
+    plan_field = field if manoeuvre is None else _hold_field(field)
     plans = [plan]
     feasible = plan.feasible and manoeuvre is None
     failures = 0
     terminal_skip = 0.0
     limited = 0
     crash = ""
+    stopped_short = 0.0
     last_plan_t = 0.0
     w, zt = av.track_omega, av.track_damping
     while True:
@@ -955,7 +989,8 @@ def simulate_avoid(
         remaining = plan.t_go - (t - plan.t0)
         if t - last_plan_t >= av.replan_interval - 1e-9 and remaining > av.terminal_time:
             new = plan_trajectory(
-                r, v, goal, field, boxes, params=params, config=av, warm=plan, t0=t,
+                r, v, goal, plan_field, boxes, params=params,
+                config=replan_cfg if plan.meets_floor else av, warm=plan, t0=t,
                 # A re-plan may delay the arrival by at most one re-plan interval (and
                 # never past 1.25 x the first plan's), a relaxed plan (whose cost is the
                 # clearance, not time) not at all: else the time-to-go drifts up.
@@ -967,8 +1002,11 @@ def simulate_avoid(
                     remaining + 1e-6,
                 ),
                 # Following a plan that keeps the clearance, a re-plan that does not is
-                # dropped anyway: do not pay for the relaxed programme.
+                # dropped anyway: do not pay for the relaxed programme, nor for the bent
+                # seeds (the warm start is the plan's own path, already clear of them).
                 relax=not plan.meets_floor,
+                side_seeds=not plan.meets_floor,
+                report_seed=not plan.meets_floor,
             )  # fmt: skip
             plans.append(new)
             last_plan_t = t
@@ -989,6 +1027,16 @@ def simulate_avoid(
         try:
             sol = integrate_held_controls(state, ctrl, params, t, t_end, t_eval, cfg)
         except RuntimeError as exc:
+            # Near V = 0 eqs 2-3 are singular (γ', χ' ∝ 1/V): the integrator fails or
+            # the airspeed reaches zero. Decelerating to its hold, the vehicle has then
+            # come (nearly) to a stop before the hold point: a rotorcraft hovers there,
+            # the model cannot. The hold begins here; says how early.
+            crawling = float(state[3]) <= max(3.0 * float(np.linalg.norm(goal.vf)), 3.0)
+            slowing = remaining <= av.terminal_time  # the plan's final deceleration
+            stopped = "airspeed reached zero" in str(exc) or crawling or slowing
+            if not last and manoeuvre is not None and stopped:
+                stopped_short = remaining
+                break
             if not last:
                 crash = str(exc)  # the model left its domain: the flight ends, said so
                 break
@@ -1047,6 +1095,7 @@ def simulate_avoid(
             "crash_reason": crash,
             "manoeuvre": None if manoeuvre is None else manoeuvre.to_dict(),
             "landing_blocked": blocked,
+            "stopped_short_of_hold_s": stopped_short,
             "touchdown": [float(c) for c in bc.rf],
             "feasible": bool(feasible),
             "plans": len(plans),
