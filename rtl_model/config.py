@@ -245,17 +245,6 @@ class WordLengthConfig:
                     f"than the model's int64 arithmetic holds ({INT64_BITS}); narrow its "
                     "operands' formats"
                 )
-            shift = (
-                max(sum(f.frac for f in ops) for ops in terms) + extra - self.formats[name].frac
-                if name in self.formats
-                else 0
-            )
-            if abs(shift) >= INT64_BITS:  # the cast shifts by this: beyond int64, undefined
-                raise ValueError(
-                    f"signal {name!r}: casting its exact value to {self.formats[name]} shifts "
-                    f"by {shift} bits, more than the model's int64 arithmetic holds "
-                    f"({INT64_BITS - 1}); bring its fraction bits closer to its operands'"
-                )
         for name, need, what in self.divider_intermediates():
             if need > INT64_BITS:
                 raise ValueError(

@@ -490,6 +490,8 @@ def p2_registers(
     st = config.formats["p2_st"]
     s_end = min(riccati.gamma / beta_px, float(st.to_float(st.raw_max)))
     td = math.ceil(2.0 * riccati.threshold_e * 2.0 ** config.formats["p2_d"].frac)
+    # every |d| code is below 2**W: a larger threshold compares the same and must fit int64
+    td = min(td, 1 << config.formats["p2_d"].word)
     registers.hold("T_D", td, "p2_d", 2.0 * riccati.threshold_e)
     raw = np.array(
         [
