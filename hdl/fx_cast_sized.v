@@ -11,7 +11,7 @@
 //   fx_cast_sized: a cast whose shift IN_F - OUT_F is a parameter (any sign)
 //   fx_cast_var  : a right shift that varies per sample (the reciprocal divider's
 //                  normalisation), 0 <= sh < 2^SH_W
-// All combinational.
+// All combinational (fx_cast_var with REG = 1: one register between shift and rounding).
 `timescale 1ns / 1ps
 
 // Rounding carry from (floor q, remainder class) and overflow into OUT_W bits.
@@ -121,8 +121,10 @@ module fx_cast_var #(
     parameter integer OUT_W = 8,
     parameter integer OUT_S = 0,
     parameter integer QUANT = 0,
-    parameter integer OVF   = 0
+    parameter integer OVF   = 0,
+    parameter integer REG   = 0     // 1: the shifted value and remainder class registered
 ) (
+    input  wire                    clk,
     input  wire signed [IN_W-1:0]  x,
     input  wire        [SH_W-1:0]  sh,
     output wire        [OUT_W-1:0] y,
@@ -135,7 +137,18 @@ module fx_cast_var #(
     wire        [XW-1:0] rem = xe & mask;
     wire        [XW-1:0] half = (ONE << sh) >> 1;  // 0 when sh = 0: no tie
     wire signed [XW-1:0] q = xe >>> sh;
+    wire signed [XW-1:0] q_r;
+    wire                 above_r, tie_r, nonzero_r;
+    generate
+        if (REG != 0) begin : g_reg
+            reg signed [XW-1:0] q1;
+            reg                 a1, t1, n1;
+            always @(posedge clk) {q1, a1, t1, n1} <= {q, rem > half, (sh != 0) && (rem == half), |rem};
+            assign {q_r, above_r, tie_r, nonzero_r} = {q1, a1, t1, n1};
+        end else begin : g_comb
+            assign {q_r, above_r, tie_r, nonzero_r} = {q, rem > half, (sh != 0) && (rem == half), |rem};
+        end
+    endgenerate
     fx_round_sat #(XW, OUT_W, OUT_S, QUANT, OVF) u_rs (
-        .q(q), .above(rem > half), .tie((sh != 0) && (rem == half)), .nonzero(|rem),
-        .y(y), .ovf(ovf));
+        .q(q_r), .above(above_r), .tie(tie_r), .nonzero(nonzero_r), .y(y), .ovf(ovf));
 endmodule

@@ -7,8 +7,13 @@
 // clock, the caller carries its own valid bit beside it.
 //   fx_div_restoring : radix-2 restoring, sign-magnitude, OUT_W + 1 quotient bits (one
 //                      per stage) with the guard bit, a sticky bit; latency OUT_W + 4
+//                      (+ FRONT: the operands' magnitudes registered first)
 //   fx_div_reciprocal: seed ROM (2^L words, $readmemh of ROM_FILE) + one Newton step,
-//                      three products, a normalising cast; latency 8
+//                      three products, a normalising cast; latency 8 (+ 10 with PIPE = 1:
+//                      the magnitudes, the leading one and the seed index each registered
+//                      (+3), the products in 3 stages each (fx_mul_pipe, +6), the cast's
+//                      shift registered before its rounding (+1))
+// P1 (p1_range.v, p1_frontend.v) uses FRONT = 1 / PIPE = 1 to close its clock (docs/hdl.md).
 // D = 0 gives 0 when N = 0, otherwise the overflow mode of S acting on an infinite value
 // with the sign of N (ovf = 1).
 `timescale 1ns / 1ps
@@ -17,7 +22,8 @@ module fx_div_restoring #(
     parameter integer N_W = 16, parameter integer N_F = 0,
     parameter integer D_W = 16, parameter integer D_F = 0,
     parameter integer OUT_W = 16, parameter integer OUT_F = 0, parameter integer OUT_S = 1,
-    parameter integer QUANT = 2, parameter integer OVF = 1
+    parameter integer QUANT = 2, parameter integer OVF = 1,
+    parameter integer FRONT = 0         // 1: |N|, |D| registered first (latency + 1)
 ) (
     input  wire                    clk,
     input  wire signed [N_W-1:0]   n,
@@ -38,12 +44,33 @@ module fx_div_restoring #(
     localparam integer CW = ((TW > RW) ? TW : RW) + 1;
     localparam integer MW = QB + 2;             // magnitude 2q + sticky
 
-    wire [N_W-1:0] an = n[N_W-1] ? -n : n;
-    wire [D_W-1:0] ad = d[D_W-1] ? -d : d;
+    wire [N_W-1:0] an_n = n[N_W-1] ? -n : n;
+    wire [D_W-1:0] ad_n = d[D_W-1] ? -d : d;
+    wire [N_W-1:0] an;
+    wire [D_W-1:0] ad;
+    wire           dz, nz, sn, sd;
+    generate
+        if (FRONT != 0) begin : g_front
+            reg [N_W-1:0] an_r;
+            reg [D_W-1:0] ad_r;
+            reg           dz_r, nz_r, sn_r, sd_r;
+            always @(posedge clk) begin
+                {an_r, ad_r} <= {an_n, ad_n};
+                dz_r <= (d == {D_W{1'b0}});
+                nz_r <= (n != {N_W{1'b0}});
+                {sn_r, sd_r} <= {n[N_W-1], d[D_W-1]};
+            end
+            assign {an, ad, dz, nz, sn, sd} = {an_r, ad_r, dz_r, nz_r, sn_r, sd_r};
+        end else begin : g_direct
+            assign {an, ad} = {an_n, ad_n};
+            assign dz = (d == {D_W{1'b0}});
+            assign nz = (n != {N_W{1'b0}});
+            assign {sn, sd} = {n[N_W-1], d[D_W-1]};
+        end
+    endgenerate
     wire [CW-1:0]  t  = {{(CW-N_W){1'b0}}, an} << SHN;
     wire [CW-1:0]  dd = {{(CW-D_W){1'b0}}, ad} << SHD;
-    wire           dz = (d == {D_W{1'b0}});
-    wire           big = dz ? (n != {N_W{1'b0}}) : (t >= (dd << QB));
+    wire           big = dz ? nz : (t >= (dd << QB));
 
     // stage 0: operands; stages 1..QB: one quotient bit each (MSB first). Stage k's
     // registers sit at slice k of these buses.
@@ -57,7 +84,7 @@ module fx_div_restoring #(
     always @(posedge clk) begin
         rem0 <= (big | dz) ? {RW{1'b0}} : t[RW-1:0];
         div0 <= dd[DW-1:0];
-        neg0 <= dz ? n[N_W-1] : n[N_W-1] ^ d[D_W-1];
+        neg0 <= dz ? sn : sn ^ sd;
         sat0 <= big;
         zer0 <= dz;
     end
@@ -112,7 +139,8 @@ module fx_div_reciprocal #(
     parameter integer QUANT = 2, parameter integer OVF = 1,
     parameter integer L = 8,            // seed ROM index bits (recip_lut_bits)
     parameter integer R = 20,           // reciprocal fraction bits (recip_bits)
-    parameter ROM_FILE = "recip_rom.mem"
+    parameter ROM_FILE = "recip_rom.mem",
+    parameter integer PIPE = 0          // 1: + 10 stages, see above
 ) (
     input  wire                    clk,
     input  wire signed [N_W-1:0]   n,
@@ -137,73 +165,100 @@ module fx_div_reciprocal #(
     reg [YW-1:0] rom [0:(1 << L) - 1];
     initial $readmemh(ROM_FILE, rom);
 
-    // stage 1: magnitude, leading one p, the L seed index bits and mR, the ROM read
-    wire [N_W-1:0] an = n[N_W-1] ? -n : n;
-    wire [D_W-1:0] ad = d[D_W-1] ? -d : d;
-    reg  [PB-1:0]  p;
+    // stage 1: magnitude, leading one p, the L seed index bits and mR, the ROM read.
+    // PIPE cuts it in four: |N| |D|; p; idx and mR; the ROM read.
+    wire [N_W-1:0] an_n = n[N_W-1] ? -n : n;
+    wire [D_W-1:0] ad_n = d[D_W-1] ? -d : d;
+    wire           neg_n = (d == {D_W{1'b0}}) ? n[N_W-1] : n[N_W-1] ^ d[D_W-1];
+    wire           dz_n = (d == {D_W{1'b0}});
+    wire           nz_n = (n != {N_W{1'b0}});
+    wire [N_W-1:0] an, an_b, an_c;     // after cut a (|N| |D|), b (p), c (idx, mR)
+    wire [D_W-1:0] ad, ad_b;
+    wire [2:0]     fl, fl_b, fl_c;     // neg, dz, nz
+    wire [PB-1:0]  p, p_c;
+    wire [L-1:0]   idx, idx_c;
+    wire [R:0]     mr, mr_c;
+    reg  [PB-1:0]  p_n;
     integer k;
     always @* begin
-        p = {PB{1'b0}};
+        p_n = {PB{1'b0}};
         for (k = 0; k < D_W; k = k + 1)
-            if (ad[k]) p = k;
+            if (ad[k]) p_n = k;
     end
-    wire [D_W-1:0] aligned = ad << (D_W - 1 - p);  // leading one at bit D_W - 1
+    wire [D_W-1:0] aligned = ad_b << (D_W - 1 - p);  // leading one at bit D_W - 1
     // idx = floor(|D| 2^(L-p)) - 2^L, mR = floor(|D| 2^(R-p)): constant shifts of `aligned`
     wire [D_W+L-1:0] idx_w = {aligned, {L{1'b0}}} >> (D_W - 1);
-    wire [L-1:0]     idx = idx_w[L-1:0];
     wire [D_W+R-1:0] mr_w = {aligned, {R{1'b0}}} >> (D_W - 1);
-    wire [R:0]       mr = mr_w[R:0];
+    assign idx = idx_w[L-1:0];
+    assign mr = mr_w[R:0];
+    generate
+        if (PIPE != 0) begin : g_front
+            reg [N_W-1:0] an_a, an_b_r, an_c_r;
+            reg [D_W-1:0] ad_a, ad_b_r;
+            reg [2:0]     fl_a, fl_b_r, fl_c_r;
+            reg [PB-1:0]  p_b, p_c_r;
+            reg [L-1:0]   idx_c_r;
+            reg [R:0]     mr_c_r;
+            always @(posedge clk) begin
+                {an_a, ad_a, fl_a} <= {an_n, ad_n, neg_n, dz_n, nz_n};
+                {an_b_r, ad_b_r, fl_b_r, p_b} <= {an_a, ad_a, fl_a, p_n};
+                {an_c_r, fl_c_r, p_c_r, idx_c_r, mr_c_r} <= {an_b_r, fl_b_r, p_b, idx, mr};
+            end
+            assign {an, ad, fl} = {an_a, ad_a, fl_a};
+            assign {an_b, ad_b, fl_b, p} = {an_b_r, ad_b_r, fl_b_r, p_b};
+            assign {an_c, fl_c, p_c, idx_c, mr_c} = {an_c_r, fl_c_r, p_c_r, idx_c_r, mr_c_r};
+        end else begin : g_direct
+            assign {an, ad, fl} = {an_n, ad_n, neg_n, dz_n, nz_n};
+            assign {an_b, ad_b, fl_b, p} = {an, ad, fl, p_n};
+            assign {an_c, fl_c, p_c, idx_c, mr_c} = {an_b, fl_b, p, idx, mr};
+        end
+    endgenerate
     reg [YW-1:0]  y0_1;
     reg [R:0]     mr_1;
     reg [N_W-1:0] an_1;
     reg [PB-1:0]  p_1;
     reg           neg_1, dz_1, nz_1;
     always @(posedge clk) begin
-        y0_1 <= rom[idx];
-        mr_1 <= mr;
-        an_1 <= an;
-        p_1 <= p;
-        neg_1 <= (d == {D_W{1'b0}}) ? n[N_W-1] : n[N_W-1] ^ d[D_W-1];
-        dz_1 <= (d == {D_W{1'b0}});
-        nz_1 <= (n != {N_W{1'b0}});
+        y0_1 <= rom[idx_c];
+        mr_1 <= mr_c;
+        an_1 <= an_c;
+        p_1 <= p_c;
+        {neg_1, dz_1, nz_1} <= fl_c;
     end
-    // stages 2-3: t = floor(mR y0 2^-R), e = 2^(R+1) - t
-    reg [2*R+1:0] m1_2;
-    reg [EW-1:0]  e_3;
-    reg [YW-1:0]  y0_2, y0_3;
-    // stages 4-5: y1 = floor(y0 e 2^-R); stages 6-7: |N| y1, its sign and the shift
-    reg [YW+EW-1:0] m2_4;
-    reg [Y1W-1:0]   y1_5;
-    reg [PW-1:0]    m3_6;
+    // stages 2-7 (PIPE: products of ML = 3 register stages, fx_pipe.v):
+    // t = floor(mR y0 2^-R), e = 2^(R+1) - t; y1 = floor(y0 e 2^-R); |N| y1, its sign, the shift
+    localparam integer ML = (PIPE != 0) ? 3 : 1;
+    wire [2*R+1:0] m1;
+    fx_umul #(R + 1, YW, PIPE) u_m1 (clk, mr_1, y0_1, m1);
+    wire [2*R+1:0] t_full = m1 >> R;
+    reg  [EW-1:0]  e_3;
+    always @(posedge clk) e_3 <= ({{(EW-1){1'b0}}, 1'b1} << (R + 1)) - t_full[EW-1:0];
+    wire [YW-1:0]  y0_3;
+    fx_delay #(YW, ML + 1) d_y0 (clk, y0_1, y0_3);
+    wire [YW+EW-1:0] m2;
+    fx_umul #(YW, EW, PIPE) u_m2 (clk, y0_3, e_3, m2);
+    reg  [Y1W-1:0] y1_5;
+    always @(posedge clk) y1_5 <= m2 >> R;
+    wire [N_W-1:0] an_5;
+    fx_delay #(N_W, 2 * ML + 2) d_an (clk, an_1, an_5);
+    wire [PW-1:0]  m3_6;
+    fx_umul #(N_W, Y1W, PIPE) u_m3 (clk, an_5, y1_5, m3_6);
+    wire [PB-1:0]  p_6;
+    wire           neg_6, dz_6, nz_6;
+    fx_delay #(PB + 3, 3 * ML + 2) d_pf (clk, {p_1, neg_1, dz_1, nz_1}, {p_6, neg_6, dz_6, nz_6});
     reg signed [XW-1:0] x_7;
     reg [SH_W-1:0]  sh_7;
-    reg [N_W-1:0]   an_2, an_3, an_4, an_5;
-    reg [PB-1:0]    p_2, p_3, p_4, p_5, p_6;
-    reg             neg_2, neg_3, neg_4, neg_5, neg_6;
-    reg             dz_2, dz_3, dz_4, dz_5, dz_6, nz_2, nz_3, nz_4, nz_5, nz_6;
-    wire [2*R+1:0]  t_full = m1_2 >> R;
     wire [XW-1:0]   mag = {{(XW-PW){1'b0}}, m3_6} << SHL0;
     wire [XW-1:0]   inf = {{(XW-1){1'b0}}, 1'b1} << (XW - 2);  // beyond any code of S
     always @(posedge clk) begin
-        m1_2 <= mr_1 * y0_1;
-        e_3 <= ({{(EW-1){1'b0}}, 1'b1} << (R + 1)) - t_full[EW-1:0];
-        m2_4 <= y0_3 * e_3;
-        y1_5 <= m2_4 >> R;
-        m3_6 <= an_5 * y1_5;
         x_7 <= dz_6 ? (nz_6 ? (neg_6 ? -$signed(inf) : $signed(inf)) : {XW{1'b0}})
                     : (neg_6 ? -$signed(mag) : $signed(mag));
         sh_7 <= dz_6 ? {SH_W{1'b0}} : SH0 + SHL0 + p_6;
-        {y0_2, y0_3} <= {y0_1, y0_2};
-        {an_2, an_3, an_4, an_5} <= {an_1, an_2, an_3, an_4};
-        {p_2, p_3, p_4, p_5, p_6} <= {p_1, p_2, p_3, p_4, p_5};
-        {neg_2, neg_3, neg_4, neg_5, neg_6} <= {neg_1, neg_2, neg_3, neg_4, neg_5};
-        {dz_2, dz_3, dz_4, dz_5, dz_6} <= {dz_1, dz_2, dz_3, dz_4, dz_5};
-        {nz_2, nz_3, nz_4, nz_5, nz_6} <= {nz_1, nz_2, nz_3, nz_4, nz_5};
     end
-    // stage 8: the cast
+    // stage 8: the cast (PIPE: its shift registered before the rounding, + 1)
     wire [OUT_W-1:0] y_c;
     wire             ovf_c;
-    fx_cast_var #(XW, SH_W, SH_MAX, OUT_W, OUT_S, QUANT, OVF) u_cast (
-        .x(x_7), .sh(sh_7), .y(y_c), .ovf(ovf_c));
+    fx_cast_var #(XW, SH_W, SH_MAX, OUT_W, OUT_S, QUANT, OVF, PIPE) u_cast (
+        .clk(clk), .x(x_7), .sh(sh_7), .y(y_c), .ovf(ovf_c));
     always @(posedge clk) {y, ovf} <= {y_c, ovf_c};
 endmodule

@@ -17,6 +17,7 @@ module p1_colfilt #(
     parameter integer ADDR_W = 11,
     parameter integer CENTRED = 0,    // s1 = cast((q + q_next) / 2) instead of cast(q)
     parameter integer INIT_FIRST = 1,
+    parameter integer POLE_K = -1,    // -1: C from pole_raw; k >= 0: C = 2^-k, a shift
     parameter integer POLE_W = 17, parameter integer POLE_F = 16, parameter integer POLE_S = 0,
     parameter integer R_W = 20,  parameter integer R_F = 11, parameter integer R_S = 0,
     parameter integer ST_W = 22, parameter integer ST_F = 13, parameter integer ST_S = 0,
@@ -79,7 +80,7 @@ module p1_colfilt #(
     wire signed [DW-1:0] r_al = r_s;
     wire signed [DW-1:0] q_al = q_s;
     wire signed [DW-1:0] diff = (r_al <<< (FE - R_F)) - (q_al <<< (FE - ST_F));
-    wire signed [PW-1:0] prod = pole * diff;
+    wire signed [PW-1:0] prod = (POLE_K < 0) ? pole * diff : diff <<< (POLE_F - POLE_K);
     reg signed [PW-1:0]  prod2;
     reg  [ST_W-1:0]      q2;
     reg                  ovf_init2;

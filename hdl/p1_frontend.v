@@ -7,11 +7,12 @@
 // stage_latencies; every tap is registered, each stage has its own valid):
 //   t+1 input register x = cast(pixel, pix_in), column counter, first-row flag
 //   t+2 bias_in                                            (bias_v)
-//   t+3 row filter loop: prod = C (b - p), p_next, one state register
+//   t+3 row filter loop: prod = C (b - p), p_next, one state register (POLE_K >= 0:
+//       C = 2^-k, the loop is one sum and the cast's overflow mode, no multiplier)
 //   t+4 row_r1, row_r2, row_state                          (row_v)
 //   t+7 col_s1, col_s2, col_state (p1_colfilt: line buffer read, product, casts);
 //       consistent: col2_state, ex = col2_out beside them (x-derivative latency 0)
-//   paper: t+9 N = s1 r2 (two product registers), t+9+DIV_LAT ex = div_quot (ex_v)
+//   paper: t+10 N = s1 r2 (fx_mul_pipe), t+10+DIV_LAT ex = div_quot (ex_v)
 // The stream outputs E_hat = s1, ex, ey = s2 leave together, aligned with ex (out_*), for
 // the range stage (p1_range) or the frame store.
 //
@@ -32,11 +33,12 @@ module p1_frontend #(
     parameter integer RECIP_L = 8,
     parameter integer RECIP_R = 20,
     parameter ROM_FILE = "recip_rom.mem",
+    parameter integer POLE_K = -1,            // -1: C from pole_raw; k >= 0: C = 2^-k, a shift
 `include "p1_frontend_params.vh"
     // derived: the x-derivative's format and the stage latencies
     parameter integer EX_W = CONSISTENT ? X2_W : DQ_W,
-    parameter integer DIV_LAT = DIVIDER ? 8 : DQ_W + 4,
-    parameter integer EX_LAT = CONSISTENT ? 0 : 2 + DIV_LAT
+    parameter integer DIV_LAT = DIVIDER ? 8 + 10 : DQ_W + 4 + 1,  // PIPE / FRONT
+    parameter integer EX_LAT = CONSISTENT ? 0 : 3 + DIV_LAT
 ) (
     input  wire              clk,
     input  wire              rst,
@@ -142,12 +144,13 @@ module p1_frontend #(
     fx_cast_sized #(XB, FX, B_W, B_F, B_S, B_Q, B_O) c_bias (
         .x(xb), .y(b_next), .ovf(ovf_b));
     reg [ADDR_W:0] col2;
-    reg            v2, sof2, eol2, first2;
+    reg            v2, sof2, eol2, first2, col0;   // col0: registered, out of the loop's mux
     always @(posedge clk) begin
         v2 <= rst ? 1'b0 : v1;
         bias_v <= rst ? 1'b0 : v1;
         bias_in <= b_next;
         col2 <= col1;
+        col0 <= col1 == {(ADDR_W + 1){1'b0}};
         first2 <= first1;
         sof2 <= sof1;
         eol2 <= eol1;
@@ -161,19 +164,42 @@ module p1_frontend #(
     wire signed [B_W:0]  b_s = {(B_S != 0) & bias_in[B_W-1], bias_in};
     fx_cast_sized #(B_W + 1, B_F, P_W, P_F, P_S, P_Q, P_O) c_pinit (
         .x(b_s), .y(p_init), .ovf(ovf_pinit));
-    wire           col0 = col2 == {(ADDR_W + 1){1'b0}};
     wire [P_W-1:0] p_cur = col0 ? (INIT_FIRST ? p_init : {P_W{1'b0}}) : p_reg;
     wire signed [P_W:0]  p_s = {(P_S != 0) & p_cur[P_W-1], p_cur};
     wire signed [DW-1:0] b_al = b_s;
     wire signed [DW-1:0] p_al = p_s;
-    wire signed [PW-1:0] prod = pole * ((b_al <<< (FE - B_F)) - (p_al <<< (FE - P_F)));
-    wire signed [SW-1:0] p_w = p_s;
-    wire signed [SW-1:0] prod_w = prod;
-    wire signed [SW-1:0] pre = (p_w <<< (FS - P_F)) + (prod_w <<< (FS - FP));
+    wire signed [DW-1:0] diff = (b_al <<< (FE - B_F)) - (p_al <<< (FE - P_F));
+    wire signed [PW-1:0] prod;      // C (b - p) at FP fraction bits, exact
     wire [P_W-1:0] p_next;
     wire           ovf_pnext;
-    fx_cast_sized #(SW, FS, P_W, P_F, P_S, P_Q, P_O) c_pnext (
-        .x(pre), .y(p_next), .ovf(ovf_pnext));
+    generate
+        if (POLE_K < 0) begin : g_row_direct
+            // the report's form: the pole register times (b - p), then p + prod
+            assign prod = pole * diff;
+            wire signed [SW-1:0] p_w = p_s;
+            wire signed [SW-1:0] prod_w = prod;
+            wire signed [SW-1:0] pre = (p_w <<< (FS - P_F)) + (prod_w <<< (FS - FP));
+            fx_cast_sized #(SW, FS, P_W, P_F, P_S, P_Q, P_O) c_pnext (
+                .x(pre), .y(p_next), .ovf(ovf_pnext));
+        end else begin : g_row_shift
+            // C = 2^-K: the same exact values without a multiplier. The loop computes
+            // p + (b - p) 2^-K = (p (2^K - 1) + b) 2^-K as one sum at FE + K fraction bits;
+            // a RND cast takes its half LSB from b's zero low bits (an OR, no carry) and
+            // keeps only the floor and the overflow mode in the loop.
+            assign prod = diff <<< (POLE_F - POLE_K);
+            localparam integer FK = FE + POLE_K;
+            localparam integer KW = DW + POLE_K + 2;
+            localparam integer SHR = FK - P_F;                       // bits the cast drops
+            localparam integer FOLD = (P_Q == 2 && SHR > 0 && B_F <= P_F) ? 1 : 0;
+            wire signed [KW-1:0] pk = p_al <<< (FE - P_F);
+            wire signed [KW-1:0] bk0 = b_al <<< (FE - B_F);
+            wire signed [KW-1:0] half = FOLD ? ({{(KW-1){1'b0}}, 1'b1} <<< (SHR - 1)) : 0;
+            wire signed [KW-1:0] bk = bk0 | half;
+            wire signed [KW-1:0] pre = (POLE_K == 1) ? pk + bk : (pk <<< POLE_K) - pk + bk;
+            fx_cast_sized #(KW, FK, P_W, P_F, P_S, FOLD ? 0 : P_Q, P_O) c_pnext (
+                .x(pre), .y(p_next), .ovf(ovf_pnext));
+        end
+    endgenerate
     reg signed [PW-1:0] prod3;
     reg [P_W-1:0]  p3, pn3;
     reg [ADDR_W:0] col3;
@@ -231,7 +257,7 @@ module p1_frontend #(
     wire [S2_W-1:0] unused_s2;
     p1_colfilt #(
         .MAX_WIDTH(MAX_WIDTH), .ADDR_W(ADDR_W), .CENTRED(CONSISTENT), .INIT_FIRST(INIT_FIRST),
-        .POLE_W(POLE_W), .POLE_F(POLE_F), .POLE_S(POLE_S),
+        .POLE_K(POLE_K), .POLE_W(POLE_W), .POLE_F(POLE_F), .POLE_S(POLE_S),
         .R_W(R1_W), .R_F(R1_F), .R_S(R1_S),
         .ST_W(Q_W), .ST_F(Q_F), .ST_S(Q_S), .ST_Q(Q_Q), .ST_O(Q_O),
         .S1_W(S1_W), .S1_F(S1_F), .S1_S(S1_S), .S1_Q(S1_Q), .S1_O(S1_O),
@@ -254,7 +280,7 @@ module p1_frontend #(
         if (CONSISTENT != 0) begin : g_col2
             p1_colfilt #(
                 .MAX_WIDTH(MAX_WIDTH), .ADDR_W(ADDR_W), .CENTRED(1), .INIT_FIRST(INIT_FIRST),
-                .POLE_W(POLE_W), .POLE_F(POLE_F), .POLE_S(POLE_S),
+                .POLE_K(POLE_K), .POLE_W(POLE_W), .POLE_F(POLE_F), .POLE_S(POLE_S),
                 .R_W(R2_W), .R_F(R2_F), .R_S(R2_S),
                 .ST_W(Q2_W), .ST_F(Q2_F), .ST_S(Q2_S), .ST_Q(Q2_Q), .ST_O(Q2_O),
                 .S1_W(X2_W), .S1_F(X2_F), .S1_S(X2_S), .S1_Q(X2_Q), .S1_O(X2_O),
@@ -282,25 +308,24 @@ module p1_frontend #(
             end
             wire signed [S1_W:0] s1_s = {(S1_S != 0) & col_s1[S1_W-1], col_s1};
             wire signed [R2_W:0] r2_s = {(R2_S != 0) & r2_d[2][R2_W-1], r2_d[2]};
-            wire signed [NW-1:0] nprod = s1_s * r2_s;
-            reg  signed [NW-1:0] n8, n9;
-            reg  [R1_W-1:0]      d8, d9;
-            always @(posedge clk) begin
-                n8 <= nprod; n9 <= n8;
-                d8 <= r1_d[2]; d9 <= d8;
-            end
+            wire signed [NW-1:0] nprod;   // t+10 (FX_MUL_LAT = 3)
+            fx_mul_pipe #(S1_W + 1, R2_W + 1) u_n (clk, s1_s, r2_s, nprod);
+            wire [R1_W-1:0] d9;
+            fx_delay #(R1_W, 3) d_r1 (clk, r1_d[2], d9);
+            wire signed [NW-1:0] n9 = nprod;
             // the divider takes two's complement operands: D = r1 with its sign bit
             wire signed [R1_W:0] d9_s = {(R1_S != 0) & d9[R1_W-1], d9};
             if (DIVIDER != 0) begin : g_recip
                 fx_div_reciprocal #(
                     .N_W(NW), .N_F(S1_F + R2_F), .D_W(R1_W + 1), .D_F(R1_F),
                     .OUT_W(DQ_W), .OUT_F(DQ_F), .OUT_S(DQ_S), .QUANT(DQ_Q), .OVF(DQ_O),
-                    .L(RECIP_L), .R(RECIP_R), .ROM_FILE(ROM_FILE)
+                    .L(RECIP_L), .R(RECIP_R), .ROM_FILE(ROM_FILE), .PIPE(1)
                 ) u_div (.clk(clk), .n(n9), .d(d9_s), .y(ex_w), .ovf(ovf_dq_w));
             end else begin : g_restoring
                 fx_div_restoring #(
                     .N_W(NW), .N_F(S1_F + R2_F), .D_W(R1_W + 1), .D_F(R1_F),
-                    .OUT_W(DQ_W), .OUT_F(DQ_F), .OUT_S(DQ_S), .QUANT(DQ_Q), .OVF(DQ_O)
+                    .OUT_W(DQ_W), .OUT_F(DQ_F), .OUT_S(DQ_S), .QUANT(DQ_Q), .OVF(DQ_O),
+                    .FRONT(1)
                 ) u_div (.clk(clk), .n(n9), .d(d9_s), .y(ex_w), .ovf(ovf_dq_w));
             end
         end else begin : g_no_div

@@ -11,12 +11,13 @@
 // Input: one beat per clock when s_valid (no back-pressure), s_sof = first pixel of a
 // frame, s_eol = last pixel of a line; the two streams' outputs E_hat (col_s1), ex
 // (div_quot or col2_out) and ey (col_s2) of the same pixel. The pipeline advances every
-// clock; each tap group leaves at a fixed latency after its input beat, as
-// rtl_model/p1/model.py stage_latencies declares:
-//   range_coords   +2            : xp yp c1 a1 b1 k0 k1 k2 vx vy wx wy w0  (c_valid)
-//   range_products +2 (+4 in all) : gv num den v_sq g_sq g_thr              (p_valid)
-//   range_divider  +DIV_LAT       : range_q                                 (q_valid)
-//   threshold      +1             : valid, range                            (m_valid)
+// clock, one carry chain or one product (fx_mul_pipe, 3 stages) per cycle; each tap
+// group leaves at a fixed latency after its input beat, as rtl_model/p1/model.py
+// stage_latencies declares (the schedule: docs/hdl.md):
+//   range_coords   +13               : xp yp c1 a1 b1 k0 k1 k2 vx vy wx wy w0  (c_valid)
+//   range_products +9 (+22 in all)   : gv num den v_sq g_sq g_thr              (p_valid)
+//   range_divider  +1 + DIV_LAT      : range_q                                 (q_valid)
+//   threshold      +1                : valid, range                            (m_valid)
 // Each group's cast overflow flags leave with it (ovf_c, ovf_p, ovf_q; bit order as the
 // tap lists above). Host registers (raw codes in their register formats) are ports.
 `timescale 1ns / 1ps
@@ -117,7 +118,13 @@ module p1_range #(
     localparam integer RNG_SW = RNG_W + (RNG_S ? 0 : 1);
     localparam integer VSQ_SW = VSQ_W + (VSQ_S ? 0 : 1);
     localparam integer GSQ_SW = GSQ_W + (GSQ_S ? 0 : 1);
-    localparam integer DIV_LAT = DIVIDER ? 8 : RNG_W + 4;  // runtime.divider_latency
+    // latencies (rtl_model/p1/model.py stage_latencies): range_coords, range_products, and
+    // the divider's own (runtime.divider_latency plus its registered operand normalisation)
+    localparam integer FX_MUL_LAT = 3;
+    localparam integer C_LAT = 13;
+    localparam integer P_LAT = 9;
+    localparam integer DIV_FRONT = DIVIDER ? 10 : 1;  // PIPE = 1 / FRONT = 1
+    localparam integer DIV_LAT = (DIVIDER ? 8 : RNG_W + 4) + DIV_FRONT;
 
     // host registers as two's complement values
     wire signed [CO_SW-1:0]  cx_v = `RFX_SX(cx_raw, CO_S);
@@ -131,11 +138,17 @@ module p1_range #(
     wire signed [DEN_SW-1:0] dmin_v = `RFX_SX(dmin_raw, DEN_S);
     wire signed [RNG_SW-1:0] rmax_v = `RFX_SX(rmax_raw, RNG_S);
 
-    // ---- pixel counters: column i and row j of the incoming beat ------------------------
+    // ---- +1: the input beat registered; pixel counters: column i and row j ----------------
     reg  [X_W-1:0] col_cnt;
     reg  [Y_W-1:0] row_cnt;
     wire [X_W-1:0] i_in = s_sof ? {X_W{1'b0}} : col_cnt;
     wire [Y_W-1:0] j_in = s_sof ? {Y_W{1'b0}} : row_cnt;
+    reg            v1, sof1, eol1;
+    reg [X_W-1:0]  i1;
+    reg [Y_W-1:0]  j1;
+    reg [S1_W-1:0] e1_s1_1, e2_s1_1;
+    reg [EX_W-1:0] e1_ex_1, e2_ex_1;
+    reg [S2_W-1:0] e1_s2_1, e2_s2_1;
     always @(posedge clk) begin
         if (rst) begin
             col_cnt <= {X_W{1'b0}};
@@ -144,37 +157,66 @@ module p1_range #(
             col_cnt <= s_eol ? {X_W{1'b0}} : i_in + 1'b1;
             row_cnt <= s_eol ? j_in + 1'b1 : j_in;
         end
+        v1 <= s_valid & ~rst;
+        {sof1, eol1, i1, j1} <= {s_sof, s_eol, i_in, j_in};
+        {e1_s1_1, e2_s1_1, e1_ex_1, e2_ex_1, e1_s2_1, e2_s2_1}
+            <= {e1_s1, e2_s1, e1_ex, e2_ex, e1_s2, e2_s2};
     end
+    // valid (a shift register cleared by reset), sof, eol from +1 to the stages that use them
+    reg  [C_LAT+P_LAT-3:0] v_sr;
+    always @(posedge clk) v_sr <= rst ? {(C_LAT + P_LAT - 2){1'b0}} : {v_sr[C_LAT+P_LAT-4:0], v1};
+    wire [1:0] se12, se21;
+    fx_delay #(2, C_LAT - 2) d_se12 (clk, {sof1, eol1}, se12);
+    fx_delay #(2, P_LAT) d_se21 (clk, se12, se21);
+    wire [2:0] ctl12 = {v_sr[C_LAT-3], se12};
+    wire [2:0] ctl21 = {v_sr[C_LAT+P_LAT-3], se21};
 
-    // ---- stage 1: xp, yp, c1, a1, b1 and k0..k2 -------------------------------------------
+    // ---- +2: exact xp, yp, c1, a1, b1 ----------------------------------------------------
     localparam integer F_CO0 = `RFX_MAX(CO_F, 0);  // counters are integers
     localparam integer XPW = `RFX_MAX(X_W + 1 + F_CO0, CO_SW + F_CO0 - CO_F) + 1;
     localparam integer YPW = `RFX_MAX(Y_W + 1 + F_CO0, CO_SW + F_CO0 - CO_F) + 1;
-    wire signed [XPW-1:0] xp_x = ($signed({1'b0, i_in}) <<< F_CO0) - (cx_v <<< (F_CO0 - CO_F));
-    wire signed [YPW-1:0] yp_x = ($signed({1'b0, j_in}) <<< F_CO0) - (cy_v <<< (F_CO0 - CO_F));
-    wire [CO_W-1:0] xp_c, yp_c;
-    wire [12:0] ovf_c_n;
-    fx_cast_sized #(XPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_xp (xp_x, xp_c, ovf_c_n[0]);
-    fx_cast_sized #(YPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_yp (yp_x, yp_c, ovf_c_n[1]);
+    reg signed [XPW-1:0]   xp_x;
+    reg signed [YPW-1:0]   yp_x;
+    reg signed [S1_SW:0]   c1_x;
+    reg signed [EX_SW:0]   a1_x;
+    reg signed [S2_SW:0]   b1_x;
+    always @(posedge clk) begin
+        xp_x <= ($signed({1'b0, i1}) <<< F_CO0) - (cx_v <<< (F_CO0 - CO_F));
+        yp_x <= ($signed({1'b0, j1}) <<< F_CO0) - (cy_v <<< (F_CO0 - CO_F));
+        c1_x <= `RFX_SX(e1_s1_1, S1_S) - `RFX_SX(e2_s1_1, S1_S);
+        a1_x <= `RFX_SX(e1_ex_1, EX_S) + `RFX_SX(e2_ex_1, EX_S);
+        b1_x <= `RFX_SX(e1_s2_1, S2_S) + `RFX_SX(e2_s2_1, S2_S);
+    end
 
-    wire signed [S1_SW:0] c1_x = `RFX_SX(e1_s1, S1_S) - `RFX_SX(e2_s1, S1_S);
-    wire signed [EX_SW:0] a1_x = `RFX_SX(e1_ex, EX_S) + `RFX_SX(e2_ex, EX_S);
-    wire signed [S2_SW:0] b1_x = `RFX_SX(e1_s2, S2_S) + `RFX_SX(e2_s2, S2_S);
+    // ---- +3: the casts xp, yp, c1, a1, b1 --------------------------------------------------
+    wire [CO_W-1:0] xp_c, yp_c;
     wire [C1_W-1:0] c1_c;
     wire [GA_W-1:0] a1_c;
     wire [GB_W-1:0] b1_c;
-    fx_cast_sized #(S1_SW + 1, S1_F, C1_W, C1_F, C1_S, C1_Q, C1_O) u_c1 (c1_x, c1_c, ovf_c_n[2]);
+    wire [12:0]     ovf_n;
+    fx_cast_sized #(XPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_xp (xp_x, xp_c, ovf_n[0]);
+    fx_cast_sized #(YPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_yp (yp_x, yp_c, ovf_n[1]);
+    fx_cast_sized #(S1_SW + 1, S1_F, C1_W, C1_F, C1_S, C1_Q, C1_O) u_c1 (c1_x, c1_c, ovf_n[2]);
     fx_cast_sized #(EX_SW + 1, EX_F + 1, GA_W, GA_F, GA_S, GA_Q, GA_O) u_a1 (
-        a1_x, a1_c, ovf_c_n[3]);
+        a1_x, a1_c, ovf_n[3]);
     fx_cast_sized #(S2_SW + 1, S2_F + 1, GB_W, GB_F, GB_S, GB_Q, GB_O) u_b1 (
-        b1_x, b1_c, ovf_c_n[4]);
+        b1_x, b1_c, ovf_n[4]);
+    reg [CO_W-1:0] xp3, yp3;
+    reg [C1_W-1:0] c1_3;
+    reg [GA_W-1:0] a1_3;
+    reg [GB_W-1:0] b1_3;
+    reg [4:0]      ovf3;
+    always @(posedge clk) begin
+        {xp3, yp3, c1_3, a1_3, b1_3} <= {xp_c, yp_c, c1_c, a1_c, b1_c};
+        ovf3 <= ovf_n[4:0];
+    end
 
-    // k_r = cast(M_r0 + M_r1 xp + M_r2 yp, k_rot), at FK = max(F_M, F_M + F_coord) bits
+    // ---- +3 .. +8: k_r = cast(M_r0 + M_r1 xp + M_r2 yp, k_rot), summed at FK fraction bits
     localparam integer FK = `RFX_MAX(KM_F, KM_F + CO_F);
     localparam integer KPW = KM_SW + CO_SW;
     localparam integer KW = `RFX_MAX(KM_SW + FK - KM_F, KPW + FK - KM_F - CO_F) + 2;
-    wire signed [CO_SW-1:0] xp_s = `RFX_SX(xp_c, CO_S);
-    wire signed [CO_SW-1:0] yp_s = `RFX_SX(yp_c, CO_S);
+    wire signed [CO_SW-1:0] xp3_s = `RFX_SX(xp3, CO_S);
+    wire signed [CO_SW-1:0] yp3_s = `RFX_SX(yp3, CO_S);
     wire [3*KR_W-1:0] k_c;
     genvar r;
     generate
@@ -182,31 +224,22 @@ module p1_range #(
             wire signed [KM_SW-1:0] m0 = `RFX_SX(m_raw[(3*r)*KM_W +: KM_W], KM_S);
             wire signed [KM_SW-1:0] m1 = `RFX_SX(m_raw[(3*r+1)*KM_W +: KM_W], KM_S);
             wire signed [KM_SW-1:0] m2 = `RFX_SX(m_raw[(3*r+2)*KM_W +: KM_W], KM_S);
-            wire signed [KPW-1:0] m1x = m1 * xp_s;
-            wire signed [KPW-1:0] m2y = m2 * yp_s;
-            wire signed [KW-1:0] k_x = (m0 <<< (FK - KM_F)) + (m1x <<< (FK - KM_F - CO_F))
-                                     + (m2y <<< (FK - KM_F - CO_F));
+            wire signed [KPW-1:0] m1x, m2y;
+            fx_mul_pipe #(KM_SW, CO_SW) u_m1x (clk, m1, xp3_s, m1x);
+            fx_mul_pipe #(KM_SW, CO_SW) u_m2y (clk, m2, yp3_s, m2y);
+            reg signed [KW-1:0] k_x;  // +7
+            always @(posedge clk)
+                k_x <= (m0 <<< (FK - KM_F)) + (m1x <<< (FK - KM_F - CO_F))
+                     + (m2y <<< (FK - KM_F - CO_F));
             fx_cast_sized #(KW, FK, KR_W, KR_F, KR_S, KR_Q, KR_O) u_k (
-                k_x, k_c[r*KR_W +: KR_W], ovf_c_n[5 + r]);
+                k_x, k_c[r*KR_W +: KR_W], ovf_n[5 + r]);
         end
     endgenerate
+    reg [3*KR_W-1:0] k8;
+    reg [2:0]        ovf8;
+    always @(posedge clk) {k8, ovf8} <= {k_c, ovf_n[7:5]};
 
-    reg              v1;
-    reg              sof1, eol1;
-    reg [CO_W-1:0]   xp1, yp1;
-    reg [C1_W-1:0]   c1_1;
-    reg [GA_W-1:0]   a1_1;
-    reg [GB_W-1:0]   b1_1;
-    reg [3*KR_W-1:0] k_1;
-    reg [7:0]        ovf1;
-    always @(posedge clk) begin
-        v1 <= s_valid & ~rst;
-        {sof1, eol1} <= {s_sof, s_eol};
-        {xp1, yp1, c1_1, a1_1, b1_1, k_1} <= {xp_c, yp_c, c1_c, a1_c, b1_c, k_c};
-        ovf1 <= ovf_c_n[7:0];
-    end
-
-    // ---- stage 2: vx, vy, wx, wy, w0 --------------------------------------------------------
+    // ---- +8 .. +13: vx, vy, wx, wy, w0 -------------------------------------------------------
     localparam integer FGV = `RFX_MAX(FR_F + KT_F, CO_F + KT_F);
     localparam integer VPW = `RFX_MAX(FR_SW + KT_SW + FGV - FR_F - KT_F,
                                       CO_SW + KT_SW + FGV - CO_F - KT_F) + 1;
@@ -215,39 +248,62 @@ module p1_range #(
                                       CO_SW + KR_SW + FGW - CO_F - KR_F) + 1;
     localparam integer F_W0 = `RFX_MAX(KR_F, 0);
     localparam integer W0W = `RFX_MAX(2 + F_W0, KR_SW + F_W0 - KR_F) + 1;
-    wire signed [CO_SW-1:0] xp1_s = `RFX_SX(xp1, CO_S);
-    wire signed [CO_SW-1:0] yp1_s = `RFX_SX(yp1, CO_S);
-    wire signed [KR_SW-1:0] k0_s = `RFX_SX(k_1[0 +: KR_W], KR_S);
-    wire signed [KR_SW-1:0] k1_s = `RFX_SX(k_1[KR_W +: KR_W], KR_S);
-    wire signed [KR_SW-1:0] k2_s = `RFX_SX(k_1[2*KR_W +: KR_W], KR_S);
-    wire signed [FR_SW+KT_SW-1:0] fk4 = f_v * k4_v, fk5 = f_v * k5_v;
-    wire signed [CO_SW+KT_SW-1:0] xk3 = xp1_s * k3_v, yk3 = yp1_s * k3_v;
-    wire signed [FR_SW+KR_SW-1:0] fk1 = f_v * k1_s, fk2 = f_v * k2_s;
-    wire signed [CO_SW+KR_SW-1:0] xk0 = xp1_s * k0_s, yk0 = yp1_s * k0_s;
-    wire signed [VPW-1:0] vx_x = (fk4 <<< (FGV - FR_F - KT_F)) - (xk3 <<< (FGV - CO_F - KT_F));
-    wire signed [VPW-1:0] vy_x = (fk5 <<< (FGV - FR_F - KT_F)) - (yk3 <<< (FGV - CO_F - KT_F));
-    wire signed [WPW-1:0] wx_x = (fk1 <<< (FGW - FR_F - KR_F)) - (xk0 <<< (FGW - CO_F - KR_F));
-    wire signed [WPW-1:0] wy_x = (fk2 <<< (FGW - FR_F - KR_F)) - (yk0 <<< (FGW - CO_F - KR_F));
-    wire signed [W0W-1:0] w0_x = ($signed(3'sd1) <<< F_W0) + (k0_s <<< (F_W0 - KR_F));
+    wire [CO_W-1:0] xp8, yp8;
+    fx_delay #(2 * CO_W, 5) d_xy8 (clk, {xp3, yp3}, {xp8, yp8});
+    wire signed [CO_SW-1:0] xp8_s = `RFX_SX(xp8, CO_S);
+    wire signed [CO_SW-1:0] yp8_s = `RFX_SX(yp8, CO_S);
+    wire signed [KR_SW-1:0] k0_s = `RFX_SX(k8[0 +: KR_W], KR_S);
+    wire signed [KR_SW-1:0] k1_s = `RFX_SX(k8[KR_W +: KR_W], KR_S);
+    wire signed [KR_SW-1:0] k2_s = `RFX_SX(k8[2*KR_W +: KR_W], KR_S);
+    wire signed [FR_SW+KT_SW-1:0] fk4, fk5;
+    wire signed [CO_SW+KT_SW-1:0] xk3, yk3;
+    wire signed [FR_SW+KR_SW-1:0] fk1, fk2;
+    wire signed [CO_SW+KR_SW-1:0] xk0, yk0;
+    fx_mul_pipe #(FR_SW, KT_SW) u_fk4 (clk, f_v, k4_v, fk4);
+    fx_mul_pipe #(FR_SW, KT_SW) u_fk5 (clk, f_v, k5_v, fk5);
+    fx_mul_pipe #(CO_SW, KT_SW) u_xk3 (clk, xp8_s, k3_v, xk3);
+    fx_mul_pipe #(CO_SW, KT_SW) u_yk3 (clk, yp8_s, k3_v, yk3);
+    fx_mul_pipe #(FR_SW, KR_SW) u_fk1 (clk, f_v, k1_s, fk1);
+    fx_mul_pipe #(FR_SW, KR_SW) u_fk2 (clk, f_v, k2_s, fk2);
+    fx_mul_pipe #(CO_SW, KR_SW) u_xk0 (clk, xp8_s, k0_s, xk0);
+    fx_mul_pipe #(CO_SW, KR_SW) u_yk0 (clk, yp8_s, k0_s, yk0);
+    wire [KR_W-1:0] k0_11;
+    fx_delay #(KR_W, FX_MUL_LAT) d_k0 (clk, k8[0 +: KR_W], k0_11);
+    wire signed [KR_SW-1:0] k0_11_s = `RFX_SX(k0_11, KR_S);
+    reg signed [VPW-1:0] vx_x, vy_x;  // +12
+    reg signed [WPW-1:0] wx_x, wy_x;
+    reg signed [W0W-1:0] w0_x;
+    always @(posedge clk) begin
+        vx_x <= (fk4 <<< (FGV - FR_F - KT_F)) - (xk3 <<< (FGV - CO_F - KT_F));
+        vy_x <= (fk5 <<< (FGV - FR_F - KT_F)) - (yk3 <<< (FGV - CO_F - KT_F));
+        wx_x <= (fk1 <<< (FGW - FR_F - KR_F)) - (xk0 <<< (FGW - CO_F - KR_F));
+        wy_x <= (fk2 <<< (FGW - FR_F - KR_F)) - (yk0 <<< (FGW - CO_F - KR_F));
+        w0_x <= ($signed(3'sd1) <<< F_W0) + (k0_11_s <<< (F_W0 - KR_F));
+    end
     wire [V_W-1:0] vx_c, vy_c;
     wire [W_W-1:0] wx_c, wy_c, w0_c;
-    fx_cast_sized #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vx (vx_x, vx_c, ovf_c_n[8]);
-    fx_cast_sized #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vy (vy_x, vy_c, ovf_c_n[9]);
-    fx_cast_sized #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wx (wx_x, wx_c, ovf_c_n[10]);
-    fx_cast_sized #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wy (wy_x, wy_c, ovf_c_n[11]);
-    fx_cast_sized #(W0W, F_W0, W_W, W_F, W_S, W_Q, W_O) u_w0 (w0_x, w0_c, ovf_c_n[12]);
+    fx_cast_sized #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vx (vx_x, vx_c, ovf_n[8]);
+    fx_cast_sized #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vy (vy_x, vy_c, ovf_n[9]);
+    fx_cast_sized #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wx (wx_x, wx_c, ovf_n[10]);
+    fx_cast_sized #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wy (wy_x, wy_c, ovf_n[11]);
+    fx_cast_sized #(W0W, F_W0, W_W, W_F, W_S, W_Q, W_O) u_w0 (w0_x, w0_c, ovf_n[12]);
 
+    // ---- +13: the range_coords taps, each cast's value from its own cycle ---------------------
+    localparam integer G3W = 2 * CO_W + C1_W + GA_W + GB_W + 5;
+    localparam integer G8W = 3 * KR_W + 3;
+    wire [G3W-1:0] g3_13;
+    wire [G8W-1:0] g8_13;
+    fx_delay #(G3W, C_LAT - 4) d_g3 (clk, {xp3, yp3, c1_3, a1_3, b1_3, ovf3}, g3_13);
+    fx_delay #(G8W, C_LAT - 9) d_g8 (clk, {k8, ovf8}, g8_13);
     always @(posedge clk) begin
-        c_valid <= v1 & ~rst;
-        {xp, yp, c1, a1, b1, k0, k1, k2} <= {xp1, yp1, c1_1, a1_1, b1_1,
-                                             k_1[0 +: KR_W], k_1[KR_W +: KR_W], k_1[2*KR_W +: KR_W]};
+        c_valid <= ctl12[2] & ~rst;
+        {xp, yp, c1, a1, b1} <= g3_13[G3W-1:5];
+        {k2, k1, k0} <= g8_13[G8W-1:3];
         {vx, vy, wx, wy, w0} <= {vx_c, vy_c, wx_c, wy_c, w0_c};
-        ovf_c <= {ovf_c_n[12:8], ovf1};
+        ovf_c <= {ovf_n[12:8], g8_13[2:0], g3_13[4:0]};
     end
-    reg sof2, eol2;
-    always @(posedge clk) {sof2, eol2} <= {sof1, eol1};
 
-    // ---- stage 3: gv, den, v_sq and the product k3 c1 ---------------------------------------
+    // ---- +13 .. +22: gv, den, v_sq (+18), num (+20), g_sq and g_thr (+22) -----------------------
     localparam integer FGVS = `RFX_MAX(GA_F + V_F, GB_F + V_F);
     localparam integer GVW = `RFX_MAX(GA_SW + V_SW + FGVS - GA_F - V_F,
                                       GB_SW + V_SW + FGVS - GB_F - V_F) + 1;
@@ -261,88 +317,123 @@ module p1_range #(
     wire signed [V_SW-1:0]  vx_s = `RFX_SX(vx, V_S), vy_s = `RFX_SX(vy, V_S);
     wire signed [W_SW-1:0]  wx_s = `RFX_SX(wx, W_S), wy_s = `RFX_SX(wy, W_S);
     wire signed [W_SW-1:0]  w0_s = `RFX_SX(w0, W_S);
-    wire signed [GA_SW+V_SW-1:0] avx = a1_s * vx_s;
-    wire signed [GB_SW+V_SW-1:0] bvy = b1_s * vy_s;
-    wire signed [GA_SW+W_SW-1:0] awx = a1_s * wx_s;
-    wire signed [GB_SW+W_SW-1:0] bwy = b1_s * wy_s;
-    wire signed [C1_SW+W_SW-1:0] cw0 = c1_s * w0_s;
-    wire signed [2*V_SW-1:0] vx2 = vx_s * vx_s, vy2 = vy_s * vy_s;
-    wire signed [GVW-1:0] gv_x = (avx <<< (FGVS - GA_F - V_F)) + (bvy <<< (FGVS - GB_F - V_F));
-    wire signed [DSW-1:0] den_x = (awx <<< (FDS - GA_F - W_F)) + (bwy <<< (FDS - GB_F - W_F))
-                                - (cw0 <<< (FDS - C1_F - W_F));
-    wire signed [2*V_SW:0] vsq_x = vx2 + vy2;
+    wire signed [GA_SW+V_SW-1:0] avx;
+    wire signed [GB_SW+V_SW-1:0] bvy;
+    wire signed [GA_SW+W_SW-1:0] awx;
+    wire signed [GB_SW+W_SW-1:0] bwy;
+    wire signed [C1_SW+W_SW-1:0] cw0;
+    wire signed [2*V_SW-1:0]     vx2, vy2;
+    wire signed [KT_SW+C1_SW-1:0] k3c1;
+    fx_mul_pipe #(GA_SW, V_SW) u_avx (clk, a1_s, vx_s, avx);
+    fx_mul_pipe #(GB_SW, V_SW) u_bvy (clk, b1_s, vy_s, bvy);
+    fx_mul_pipe #(GA_SW, W_SW) u_awx (clk, a1_s, wx_s, awx);
+    fx_mul_pipe #(GB_SW, W_SW) u_bwy (clk, b1_s, wy_s, bwy);
+    fx_mul_pipe #(C1_SW, W_SW) u_cw0 (clk, c1_s, w0_s, cw0);
+    fx_mul_pipe #(V_SW, V_SW) u_vx2 (clk, vx_s, vx_s, vx2);
+    fx_mul_pipe #(V_SW, V_SW) u_vy2 (clk, vy_s, vy_s, vy2);
+    fx_mul_pipe #(KT_SW, C1_SW) u_k3c1 (clk, k3_v, c1_s, k3c1);
+    reg signed [GVW-1:0]        gv_x;  // +17
+    reg signed [DSW-1:0]        den_x;
+    reg signed [2*V_SW:0]       vsq_x;
+    reg signed [KT_SW+C1_SW-1:0] k3c1_17, k3c1_18;
+    always @(posedge clk) begin
+        gv_x <= (avx <<< (FGVS - GA_F - V_F)) + (bvy <<< (FGVS - GB_F - V_F));
+        den_x <= (awx <<< (FDS - GA_F - W_F)) + (bwy <<< (FDS - GB_F - W_F))
+               - (cw0 <<< (FDS - C1_F - W_F));
+        vsq_x <= vx2 + vy2;
+        k3c1_17 <= k3c1;
+        k3c1_18 <= k3c1_17;
+    end
     wire [GV_W-1:0]  gv_c;
     wire [DEN_W-1:0] den_c;
     wire [VSQ_W-1:0] vsq_c;
-    wire [2:0]       ovf3_n;
-    fx_cast_sized #(GVW, FGVS, GV_W, GV_F, GV_S, GV_Q, GV_O) u_gv (gv_x, gv_c, ovf3_n[0]);
+    wire [5:0]       ovfp_n;   // bit order gv, num, den, v_sq, g_sq, g_thr
+    fx_cast_sized #(GVW, FGVS, GV_W, GV_F, GV_S, GV_Q, GV_O) u_gv (gv_x, gv_c, ovfp_n[0]);
     fx_cast_sized #(DSW, FDS, DEN_W, DEN_F, DEN_S, DEN_Q, DEN_O) u_den (
-        den_x, den_c, ovf3_n[1]);
+        den_x, den_c, ovfp_n[2]);
     fx_cast_sized #(2 * V_SW + 1, 2 * V_F, VSQ_W, VSQ_F, VSQ_S, VSQ_Q, VSQ_O) u_vsq (
-        vsq_x, vsq_c, ovf3_n[2]);
-    reg                          v3, sof3, eol3;
-    reg [GV_W-1:0]               gv3;
-    reg [DEN_W-1:0]              den3;
-    reg [VSQ_W-1:0]              vsq3;
-    reg signed [KT_SW+C1_SW-1:0] k3c1_3;
-    reg [C1_W-1:0]               c1_3;
-    reg [2:0]                    ovf3;
+        vsq_x, vsq_c, ovfp_n[3]);
+    reg [GV_W-1:0]  gv18;
+    reg [DEN_W-1:0] den18;
+    reg [VSQ_W-1:0] vsq18;
+    reg [2:0]       ovf18;   // gv, den, v_sq
     always @(posedge clk) begin
-        {v3, sof3, eol3} <= {c_valid & ~rst, sof2, eol2};
-        {gv3, den3, vsq3, c1_3} <= {gv_c, den_c, vsq_c, c1};
-        k3c1_3 <= k3_v * c1_s;
-        ovf3 <= ovf3_n;
+        {gv18, den18, vsq18} <= {gv_c, den_c, vsq_c};
+        ovf18 <= {ovfp_n[3], ovfp_n[2], ovfp_n[0]};
     end
-
-    // ---- stage 4: num, g_sq, g_thr ---------------------------------------------------------
+    // num = cast(k3 c1 - gv): +19 exact, +20 cast
     localparam integer FNS = `RFX_MAX(KT_F + C1_F, GV_F);
     localparam integer NSW = `RFX_MAX(KT_SW + C1_SW + FNS - KT_F - C1_F, GV_SW + FNS - GV_F) + 1;
-    wire signed [GV_SW-1:0]  gv3_s = `RFX_SX(gv3, GV_S);
-    wire signed [VSQ_SW-1:0] vsq3_s = `RFX_SX(vsq3, VSQ_S);
-    wire signed [NSW-1:0] num_x = (k3c1_3 <<< (FNS - KT_F - C1_F)) - (gv3_s <<< (FNS - GV_F));
-    wire signed [2*GV_SW-1:0] gsq_x = gv3_s * gv3_s;
-    wire signed [TG2_SW+VSQ_SW-1:0] gthr_x = tg2_v * vsq3_s;
+    wire signed [GV_SW-1:0]  gv18_s = `RFX_SX(gv18, GV_S);
+    wire signed [VSQ_SW-1:0] vsq18_s = `RFX_SX(vsq18, VSQ_S);
+    reg signed [NSW-1:0] num_x;
+    always @(posedge clk)
+        num_x <= (k3c1_18 <<< (FNS - KT_F - C1_F)) - (gv18_s <<< (FNS - GV_F));
     wire [NUM_W-1:0] num_c;
-    wire [GSQ_W-1:0] gsq_c, gthr_c;
-    wire [2:0]       ovf4_n;
     fx_cast_sized #(NSW, FNS, NUM_W, NUM_F, NUM_S, NUM_Q, NUM_O) u_num (
-        num_x, num_c, ovf4_n[0]);
-    fx_cast_sized #(2 * GV_SW, 2 * GV_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gsq (
-        gsq_x, gsq_c, ovf4_n[1]);
-    fx_cast_sized #(TG2_SW + VSQ_SW, TG2_F + VSQ_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gthr (
-        gthr_x, gthr_c, ovf4_n[2]);
-    reg [C1_W-1:0] c1_4;
-    reg            sof4, eol4;
+        num_x, num_c, ovfp_n[1]);
+    reg [NUM_W-1:0] num20;
+    reg             ovf20;
+    always @(posedge clk) {num20, ovf20} <= {num_c, ovfp_n[1]};
+    // g_sq = cast(gv^2), g_thr = cast(TG2 v_sq): +21 products, +22 casts
+    wire signed [2*GV_SW-1:0]       gsq_x;
+    wire signed [TG2_SW+VSQ_SW-1:0] gthr_x;
+    fx_mul_pipe #(GV_SW, GV_SW) u_gsq (clk, gv18_s, gv18_s, gsq_x);
+    fx_mul_pipe #(TG2_SW, VSQ_SW) u_gthr (clk, tg2_v, vsq18_s, gthr_x);
+    wire [GSQ_W-1:0] gsq_c, gthr_c;
+    fx_cast_sized #(2 * GV_SW, 2 * GV_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gsq_c (
+        gsq_x, gsq_c, ovfp_n[4]);
+    fx_cast_sized #(TG2_SW + VSQ_SW, TG2_F + VSQ_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gthr_c (
+        gthr_x, gthr_c, ovfp_n[5]);
+    localparam integer G18W = GV_W + DEN_W + VSQ_W + 3;
+    wire [G18W-1:0]     g18_22;
+    wire [NUM_W:0]      g20_22;
+    wire [C1_W-1:0]     c1_22;
+    fx_delay #(G18W, 22 - 18 - 1) d_g18 (clk, {gv18, den18, vsq18, ovf18}, g18_22);
+    fx_delay #(NUM_W + 1, 22 - 20 - 1) d_g20 (clk, {num20, ovf20}, g20_22);
+    fx_delay #(C1_W, P_LAT - 1) d_c1 (clk, c1, c1_22);
+    reg [C1_W-1:0] c1_p;
+    reg            p_sof, p_eol;
     always @(posedge clk) begin
-        p_valid <= v3 & ~rst;
-        {sof4, eol4} <= {sof3, eol3};
-        {gv, den, v_sq, c1_4} <= {gv3, den3, vsq3, c1_3};
-        {num, g_sq, g_thr} <= {num_c, gsq_c, gthr_c};
-        // bit order gv, num, den, v_sq, g_sq, g_thr
-        ovf_p <= {ovf4_n[2], ovf4_n[1], ovf3[2], ovf3[1], ovf4_n[0], ovf3[0]};
+        p_valid <= ctl21[2] & ~rst;
+        {p_sof, p_eol} <= ctl21[1:0];
+        {gv, den, v_sq} <= g18_22[G18W-1:3];
+        num <= g20_22[NUM_W:1];
+        {g_sq, g_thr} <= {gsq_c, gthr_c};
+        c1_p <= c1_22;
+        ovf_p <= {ovfp_n[5], ovfp_n[4], g18_22[2], g18_22[1], g20_22[0], g18_22[0]};
     end
 
-    // ---- range divider: num / den where |den| >= DMIN and den != 0, else 0 / 1 -----------
+    // ---- the divider's front end (+1): num / den where |den| >= DMIN and den != 0, else 0 / 1
     localparam integer DVW = `RFX_MAX(DEN_SW, DEN_F + 2);  // holds 1.0 = 2^DEN_F
     wire signed [NUM_SW-1:0] num_s = `RFX_SX(num, NUM_S);
     wire signed [DEN_SW-1:0] den_s = `RFX_SX(den, DEN_S);
     wire signed [DEN_SW:0]   den_abs = den_s[DEN_SW-1] ? -den_s : den_s;
     wire den_ok = (den_abs >= dmin_v) && (den_s != 0);
-    wire signed [NUM_SW-1:0] div_n = den_ok ? num_s : {NUM_SW{1'b0}};
-    wire signed [DVW-1:0]    div_d = den_ok ? den_s : ($signed({{(DVW-1){1'b0}}, 1'b1}) <<< DEN_F);
-    wire signed [C1_SW:0]    c1_abs = `RFX_SX(c1_4, C1_S) < 0 ? -`RFX_SX(c1_4, C1_S)
-                                                                : `RFX_SX(c1_4, C1_S);
-    wire te_ok = c1_abs >= te_v;
-    wire g_ok = `RFX_SX(g_sq, GSQ_S) >= `RFX_SX(g_thr, GSQ_S);
+    wire signed [C1_SW:0]    c1_abs = `RFX_SX(c1_p, C1_S) < 0 ? -`RFX_SX(c1_p, C1_S)
+                                                                : `RFX_SX(c1_p, C1_S);
+    reg signed [NUM_SW-1:0] div_n;
+    reg signed [DVW-1:0]    div_d;
+    reg                     dv_valid, dv_sof, dv_eol, te_ok, g_ok, den_ok_r;
+    always @(posedge clk) begin
+        div_n <= den_ok ? num_s : {NUM_SW{1'b0}};
+        div_d <= den_ok ? den_s : ($signed({{(DVW-1){1'b0}}, 1'b1}) <<< DEN_F);
+        dv_valid <= p_valid & ~rst;
+        {dv_sof, dv_eol} <= {p_sof, p_eol};
+        te_ok <= c1_abs >= te_v;
+        g_ok <= `RFX_SX(g_sq, GSQ_S) >= `RFX_SX(g_thr, GSQ_S);
+        den_ok_r <= den_ok;
+    end
     wire [RNG_W-1:0] rq;
     wire             rq_ovf;
     generate
         if (DIVIDER == 0) begin : g_restoring
-            fx_div_restoring #(NUM_SW, NUM_F, DVW, DEN_F, RNG_W, RNG_F, RNG_S, RNG_Q, RNG_O) u_div (
+            fx_div_restoring #(NUM_SW, NUM_F, DVW, DEN_F, RNG_W, RNG_F, RNG_S, RNG_Q, RNG_O,
+                               DIV_FRONT) u_div (
                 .clk(clk), .n(div_n), .d(div_d), .y(rq), .ovf(rq_ovf));
         end else begin : g_reciprocal
             fx_div_reciprocal #(NUM_SW, NUM_F, DVW, DEN_F, RNG_W, RNG_F, RNG_S, RNG_Q, RNG_O,
-                                RECIP_L, RECIP_R, ROM_FILE) u_div (
+                                RECIP_L, RECIP_R, ROM_FILE, 1) u_div (
                 .clk(clk), .n(div_n), .d(div_d), .y(rq), .ovf(rq_ovf));
         end
     endgenerate
@@ -350,8 +441,8 @@ module p1_range #(
     reg [DIV_LAT-1:0]   valid_d;
     reg [5*DIV_LAT-1:0] flags_d;
     always @(posedge clk) begin
-        valid_d <= rst ? {DIV_LAT{1'b0}} : {valid_d[DIV_LAT-2:0], p_valid};
-        flags_d <= {flags_d[5*(DIV_LAT-1)-1:0], sof4, eol4, te_ok, g_ok, den_ok};
+        valid_d <= rst ? {DIV_LAT{1'b0}} : {valid_d[DIV_LAT-2:0], dv_valid};
+        flags_d <= {flags_d[5*(DIV_LAT-1)-1:0], dv_sof, dv_eol, te_ok, g_ok, den_ok_r};
     end
     wire [4:0] flags_q = flags_d[5*DIV_LAT-1 -: 5];
     assign q_valid = valid_d[DIV_LAT-1];

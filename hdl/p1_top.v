@@ -13,7 +13,7 @@
 // frame on. A frame larger than MAX_PIXELS sets `frame_too_big` (extra pixels unstored).
 //
 // The range stage p1_range (u_range) takes the wires rs_*: both streams' E_hat, ex, ey
-// of one pixel, at the front end's latency FE_LAT (t+7 consistent, t+9+DIV_LAT paper,
+// of one pixel, at the front end's latency FE_LAT (t+7 consistent, t+10+DIV_LAT paper,
 // after the input beat at t). m_axis carries its output, one beat per pixel:
 // TDATA = {valid, range} (range: RNG_W bits, the range code or RMAX where invalid).
 // The host registers (raw codes in their register formats) are ports, as p1_range's.
@@ -30,6 +30,7 @@ module p1_top #(
     parameter integer RECIP_L = 8,
     parameter integer RECIP_R = 20,
     parameter ROM_FILE = "recip_rom.mem",
+    parameter integer POLE_K = -1,      // filters: -1 multiply by pole_raw, k >= 0 shift by k
 `include "p1_frontend_params.vh"
     // range stage (p1_range): counters, host registers, its signals
     parameter integer X_W = 10,    parameter integer Y_W = 10,
@@ -38,8 +39,8 @@ module p1_top #(
     parameter integer EX_W = CONSISTENT ? X2_W : DQ_W,
     parameter integer EX_F = CONSISTENT ? X2_F : DQ_F,
     parameter integer EX_S = CONSISTENT ? X2_S : DQ_S,
-    parameter integer DIV_LAT = DIVIDER ? 8 : DQ_W + 4,
-    parameter integer FE_LAT = CONSISTENT ? 7 : 9 + DIV_LAT,
+    parameter integer DIV_LAT = DIVIDER ? 8 + 10 : DQ_W + 4 + 1,
+    parameter integer FE_LAT = CONSISTENT ? 7 : 10 + DIV_LAT,
     parameter integer SW = S1_W + EX_W + S2_W       // one stream's outputs (frame store)
 ) (
     input  wire              clk,
@@ -83,7 +84,7 @@ module p1_top #(
 `define P1_FE_PARAMS \
         .MAX_WIDTH(MAX_WIDTH), .ADDR_W(ADDR_W), .CONSISTENT(CONSISTENT), \
         .INIT_FIRST(INIT_FIRST), .DIVIDER(DIVIDER), .RECIP_L(RECIP_L), .RECIP_R(RECIP_R), \
-        .ROM_FILE(ROM_FILE), \
+        .ROM_FILE(ROM_FILE), .POLE_K(POLE_K), \
         .PIX_W(PIX_W), .PIX_F(PIX_F), .PIX_S(PIX_S), .PIX_Q(PIX_Q), .PIX_O(PIX_O), \
         .BREG_W(BREG_W), .BREG_F(BREG_F), .BREG_S(BREG_S), \
         .POLE_W(POLE_W), .POLE_F(POLE_F), .POLE_S(POLE_S), \

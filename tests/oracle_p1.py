@@ -367,6 +367,13 @@ def _stream(image: np.ndarray, ctx: _Ctx, C: _Sig, B: _Sig) -> dict[str, np.ndar
     lb2: list[_Sig | None] = [None] * n
     zero = {name: _Sig(0, _value(0, ctx.fmt(name))) for name in ("row_state", "col_state")}
     zero["col2_state"] = _Sig(0, _value(0, ctx.fmt("col2_state")))
+    k = cfg.pole_shift
+
+    def pole_times(diff: APyFixed) -> APyFixed:
+        """C * diff: a product with the pole register, or in the ``shift`` filter form a
+        move of the binary point by k (the hardware's wiring, C = 2^-k)."""
+        return C.v * diff if k is None else diff >> k
+
     for j in range(m):
         p = None
         for i in range(n):
@@ -375,7 +382,7 @@ def _stream(image: np.ndarray, ctx: _Ctx, C: _Sig, B: _Sig) -> dict[str, np.ndar
             # row filter
             if i == 0:
                 p = ctx.cast(b.v, "row_state") if first else zero["row_state"]
-            prod = C.v * (b.v - p.v)
+            prod = pole_times(b.v - p.v)
             r2 = ctx.cast(prod, "row_r2")
             p_next = ctx.cast(p.v + prod, "row_state")
             if consistent:
@@ -387,7 +394,7 @@ def _stream(image: np.ndarray, ctx: _Ctx, C: _Sig, B: _Sig) -> dict[str, np.ndar
             if j == 0:
                 lb1[i] = ctx.cast(r1.v, "col_state") if first else zero["col_state"]
             q = lb1[i]
-            cprod = C.v * (r1.v - q.v)
+            cprod = pole_times(r1.v - q.v)
             s2 = ctx.cast(cprod, "col_s2")
             q_next = ctx.cast(q.v + cprod, "col_state")
             if consistent:
@@ -400,7 +407,7 @@ def _stream(image: np.ndarray, ctx: _Ctx, C: _Sig, B: _Sig) -> dict[str, np.ndar
                 if j == 0:
                     lb2[i] = ctx.cast(r2.v, "col2_state") if first else zero["col2_state"]
                 q2 = lb2[i]
-                q2_next = ctx.cast(q2.v + C.v * (r2.v - q2.v), "col2_state")
+                q2_next = ctx.cast(q2.v + pole_times(r2.v - q2.v), "col2_state")
                 ex = ctx.cast((q2.v + q2_next.v) * _HALF, "col2_out")
                 lb2[i] = q2_next
                 taps["col2_state"][j, i] = q2_next.raw

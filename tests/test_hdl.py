@@ -124,6 +124,20 @@ def test_front_end_replays_value_and_cycle_exact(config_name, design, mode, tmp_
     assert report.ok, report.as_dict()
 
 
+@pytest.mark.parametrize("design", DESIGNS, ids=["-".join(d) for d in DESIGNS])
+def test_direct_filter_form_replays_value_and_cycle_exact(design, tmp_path):
+    """The report's form (the pole register times the difference, any pole) in the RTL
+    (POLE_K = -1) beside the default shift form; stereo only, to keep CI short."""
+    config = P1Config.default(variant=design[0], divider=design[1]).with_(
+        filter_form="direct", pole=0.375
+    )
+    vec, _vs = _vectors(tmp_path, config)
+    report = _replay(vec, tmp_path)
+    assert set(report.taps) == _rtl_taps(config)
+    assert report.value_mismatches == 0 and report.cycle_mismatches == 0, report.first_mismatch
+    assert report.ok, report.as_dict()
+
+
 @pytest.mark.parametrize("design", [DESIGNS[1], DESIGNS[2]], ids=["paper", "consistent"])
 def test_overflow_counts_equal_the_manifest(design, tmp_path):
     config = overflowing_config(*design)

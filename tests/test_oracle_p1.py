@@ -195,7 +195,7 @@ def test_wide_config_matches_golden_stereo(plane, variant, divider):
     ],
 )
 def test_wide_config_matches_golden_odd_pole(plane, variant, divider, pole, bias, init):
-    cfg = wide_config(variant, divider).with_(init=init, pole=pole, bias=bias)
+    cfg = wide_config(variant, divider).with_(init=init, pole=pole, bias=bias, filter_form="direct")
     assert cfg.fmt("pole_coef").to_float(reg_raw(pole, cfg.fmt("pole_coef"))) != pole
     ranging = RangingConfig(threshold_e=1.0, threshold_g=1.0, range_max=100.0, min_denominator=0.5)
     _check_against_golden(
@@ -482,3 +482,31 @@ def test_overflow_modes_through_the_datapath(mode, c1_expected):
     bias2 = {OV.SAT: 255, OV.SAT_SYM: 255, OV.SAT_ZERO: 0, OV.WRAP: 271 - 256}[mode]
     assert np.all(res.taps["e2.bias_in"] == bias2)
     assert res.minmax["bias_in"] == (16.0, 271.0)
+
+
+@pytest.mark.parametrize("variant", ["paper", "consistent"])
+@pytest.mark.parametrize("pole", [0.5, 0.25])
+def test_shift_filter_form_equals_the_direct_form_at_its_pole(plane, variant, pole):
+    """The shift form moves the binary point where the direct form multiplies by the
+    register 2^-k: every tap, count and min/max is the same (docs/p1_datapath.md)."""
+    cam = PinholeCamera(12, 6, 20.0)
+    im1, im2 = plane.image1[:6, :12], plane.image2[:6, :12]
+    motion, ranging = MotionIncrement.stereo(0.1), RangingConfig()
+    shift = P1Config.default(variant=variant, pole=pole)
+    direct = shift.with_(filter_form="direct")
+    assert (shift.pole_shift, direct.pole_shift) == (round(-math.log2(pole)), None)
+    a = oracle_p1(im1, im2, cam, motion, shift, ranging)
+    b = oracle_p1(im1, im2, cam, motion, direct, ranging)
+    assert a.taps.keys() == b.taps.keys()
+    for tap in a.taps:
+        assert np.array_equal(a.taps[tap], b.taps[tap]), tap
+    assert (a.overflows, a.minmax) == (b.overflows, b.minmax)
+
+
+def test_shift_filter_form_needs_a_pole_power_of_two():
+    with pytest.raises(ValueError, match=r"filter_form 'shift' needs a pole 2\^-k"):
+        P1Config.default(pole=0.375)
+    with pytest.raises(ValueError, match="holds 1"):  # 2^-17: half of pole_coef's LSB
+        P1Config.default(pole=2.0**-17)
+    assert P1Config.default(pole=0.375, filter_form="direct").pole_shift is None
+    assert P1Config.default(pole=1.0).pole_shift == 0

@@ -383,7 +383,19 @@ def test_other_commands_reject_unused_options_too(capsys, tmp_path):
 
 
 def test_design_options_reach_the_p1_config(capsys):
-    argv = ["run", "--scene", "lab", "--pipeline", "p1", "--pole", "0.375", "--bias", "8"]
+    argv = [
+        "run",
+        "--scene",
+        "lab",
+        "--pipeline",
+        "p1",
+        "--pole",
+        "0.375",
+        "--bias",
+        "8",
+        "--filter-form",
+        "direct",
+    ]
     assert main([*argv, "--variant", "consistent", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert (out["pole"], out["bias"], out["variant"]) == (0.375, 8.0, "consistent")

@@ -11,6 +11,7 @@ bench needs nothing but the directory. ``HDL_DIR`` locates the sources in a chec
 from __future__ import annotations
 
 import json
+import math
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -55,7 +56,7 @@ __all__ = [
 #: ``hdl/`` of the source checkout (the Verilog is not installed with the package).
 HDL_DIR = Path(__file__).resolve().parent.parent / "hdl"
 #: One stream's front end (p1_frontend), and with the top (p1_top).
-FRONTEND_SOURCES = ("fx_cast_sized.v", "fx_divide.v", "p1_colfilt.v", "p1_frontend.v")
+FRONTEND_SOURCES = ("fx_cast_sized.v", "fx_pipe.v", "fx_divide.v", "p1_colfilt.v", "p1_frontend.v")
 HDL_SOURCES = (*FRONTEND_SOURCES, "p1_range.v", "p1_top.v")
 TOPLEVEL = "p1_top"
 
@@ -114,6 +115,14 @@ def _format(text: str) -> tuple[int, int, int]:
     return int(word), int(frac), int(sign == "s")
 
 
+def _pole_shift(design: Mapping) -> int:
+    """``POLE_K`` of the filters: ``k`` of the pole ``2^-k`` in the ``shift`` filter form,
+    ``-1`` (multiply by the pole register) in the ``direct`` form."""
+    if design.get("filter_form", "direct") != "shift":
+        return -1
+    return 1 - math.frexp(float(design["pole"]))[1]
+
+
 def top_parameters(
     manifest: Mapping, rom_file: str | Path | None = None, *, with_range: bool = True
 ) -> dict[str, int | str]:
@@ -140,6 +149,7 @@ def top_parameters(
         "DIVIDER": int(design["divider"] == "reciprocal"),
         "RECIP_L": int(design["recip_lut_bits"]),
         "RECIP_R": int(design["recip_bits"]),
+        "POLE_K": _pole_shift(design),
     }
     for signal, p in _PREFIX.items():
         spec = signals[signal]
@@ -403,7 +413,7 @@ def _mem_text(tap: str, rows: Sequence[tuple[int, int | None]], word: int) -> st
 
 
 # -- the range stage (hdl/p1_range.v) ---------------------------------------------------
-RANGE_SOURCES = ("fx_cast_sized.v", "fx_divide.v", "p1_range.v")
+RANGE_SOURCES = ("fx_cast_sized.v", "fx_pipe.v", "fx_divide.v", "p1_range.v")
 
 #: Tap groups of ``p1_range`` in the order of their overflow-flag bits (``ovf_c``,
 #: ``ovf_p``, ``ovf_q``), each with its valid port; the port of a tap is its name.

@@ -17,7 +17,15 @@ from ..config import Terms, WordLengthConfig, signed_bits
 from ..fixedpoint import FixedFormat
 from ..runtime import DIVIDERS
 
-__all__ = ["DIVIDERS", "HOST_REGISTERS", "INITS", "P1_SIGNALS", "VARIANTS", "P1Config"]
+__all__ = [
+    "DIVIDERS",
+    "FILTER_FORMS",
+    "HOST_REGISTERS",
+    "INITS",
+    "P1_SIGNALS",
+    "VARIANTS",
+    "P1Config",
+]
 
 #: (name, meaning) of every P1 signal and register, in datapath order.
 _SIGNAL_TABLE: tuple[tuple[str, str], ...] = (
@@ -64,6 +72,10 @@ HOST_REGISTERS: tuple[str, ...] = (
 
 VARIANTS = ("paper", "consistent")
 INITS = ("first", "zero")
+#: How the row and column filters apply the pole C (SPIE eqs 13-21): ``"direct"`` multiplies
+#: by the pole register (the report's form, any pole); ``"shift"`` takes C = 2^-k and shifts,
+#: so the row filter's one-cycle loop holds no multiplier (hdl/p1_frontend.v).
+FILTER_FORMS = ("direct", "shift")
 _COUNTER = FixedFormat(True, 17, 0)  # pixel counters i, j: images up to 65535 wide
 _ONE = FixedFormat(True, 2, 0)
 
@@ -116,6 +128,9 @@ class P1Config(WordLengthConfig):
         Filter state at the start of a line/column: ``"first"`` input or ``"zero"``.
     recip_lut_bits, recip_bits
         Reciprocal divider: LUT index bits ``L`` and reciprocal fraction bits ``R``.
+    filter_form
+        How the filters apply the pole (:data:`FILTER_FORMS`): ``"shift"`` needs a pole
+        ``2^-k`` and computes exactly what ``"direct"`` computes with that pole.
     """
 
     PIPELINE: ClassVar[str] = "p1"
@@ -134,9 +149,11 @@ class P1Config(WordLengthConfig):
     init: str = "first"
     recip_lut_bits: int = 8
     recip_bits: int = 20
+    filter_form: str = "shift"
 
     def validate_design(self) -> None:
         self.check_choice("variant", VARIANTS)
+        self.check_choice("filter_form", FILTER_FORMS)
         self.check_choice("divider", DIVIDERS)
         self.check_choice("init", INITS)
         if not (isinstance(self.pole, int | float) and 0 < self.pole <= 1):
@@ -144,11 +161,22 @@ class P1Config(WordLengthConfig):
         if not (isinstance(self.bias, int | float) and math.isfinite(self.bias) and self.bias >= 0):
             raise ValueError(f"bias must be a finite non-negative number, not {self.bias!r}")
         self.check_reciprocal_fields()
+        if self.filter_form == "shift" and math.frexp(self.pole)[0] != 0.5:
+            raise ValueError(
+                f"filter_form 'shift' needs a pole 2^-k (1, 0.5, 0.25, ...), not {self.pole}; "
+                "choose filter_form 'direct' (--filter-form direct) for any other pole"
+            )
         pole_raw = self.formats["pole_coef"].from_float(self.pole)
         if pole_raw <= 0:
             raise ValueError(
                 f"signal 'pole_coef': pole {self.pole} quantises to {pole_raw} in "
                 f"{self.formats['pole_coef']}; widen its fraction bits"
+            )
+        shift, frac = self.pole_shift, self.formats["pole_coef"].frac
+        if shift is not None and (shift > frac or pole_raw != 1 << (frac - shift)):
+            raise ValueError(
+                f"signal 'pole_coef': filter_form 'shift' needs the pole {self.pole} exactly, "
+                f"{self.formats['pole_coef']} holds {pole_raw}; widen its fraction bits"
             )
 
     def exact_intermediates(self) -> Iterable[tuple[str, Terms, int]]:
@@ -173,6 +201,13 @@ class P1Config(WordLengthConfig):
             else:
                 need = max(n_bits + self.recip_bits + 2, 2 * (self.recip_bits + 2))
             yield name, need, f"{self.divider} divider"
+
+    @property
+    def pole_shift(self) -> int | None:
+        """``k`` of the pole ``2^-k`` in the ``"shift"`` filter form, else ``None``."""
+        if self.filter_form != "shift":
+            return None
+        return 1 - math.frexp(self.pole)[1]
 
     @property
     def ex_signal(self) -> str:

@@ -117,15 +117,19 @@ def multipliers(config: P1Config, mode: str = "stereo") -> list[Multiplier]:
     s = _streams(mode)
     f = config.formats
     c = _bits(f["pole_coef"])
-    muls = [
-        Multiplier("row filter: C * (b - p)", c, sum_bits(f["bias_in"], f["row_state"]), s),
-        Multiplier("column filter: C * (r1 - q)", c, sum_bits(f["row_r1"], f["col_state"]), s),
-    ]
+    # the shift filter form applies the pole 2^-k by wiring: no filter multiplier
+    direct = config.filter_form == "direct"
+    muls = []
+    if direct:
+        muls += [
+            Multiplier("row filter: C * (b - p)", c, sum_bits(f["bias_in"], f["row_state"]), s),
+            Multiplier("column filter: C * (r1 - q)", c, sum_bits(f["row_r1"], f["col_state"]), s),
+        ]
     if config.variant == "paper":
         muls.append(Multiplier("x-derivative: s1 * r2", _bits(f["col_s1"]), _bits(f["row_r2"]), s))
         n_bits = f["col_s1"].word + f["row_r2"].word  # magnitude of the product
         muls += _divider_muls(config, "divider s1 r2 / r1", n_bits, s)
-    else:
+    elif direct:
         muls.append(
             Multiplier(
                 "column filter on r2: C * (r2 - q2)",

@@ -1364,23 +1364,42 @@ def frame_registers(
     )  # fmt: skip
 
 
+#: Register stages of a pipelined product in the RTL (``hdl/fx_pipe.v`` fx_mul_pipe: the
+#: 18 x 18 partial products, their sums in pairs, the final sum).
+MUL_LATENCY = 3
+
+#: Stages the P1 RTL adds to a divider (``hdl/fx_divide.v`` ``PIPE`` / ``FRONT``): the
+#: reciprocal divider registers |N| |D|, the leading one and the seed index before its
+#: ROM read (3), computes its three products in 3 stages each (6) and registers its
+#: cast's shift (1); the restoring divider registers |N| |D| before its first bit (1).
+DIVIDER_FRONT = {"reciprocal": 10, "restoring": 1}
+
+
 def stage_latencies(config: P1Config) -> dict[str, int]:
-    """Latency in clock cycles of every stage, as the RTL has them (``hdl/p1_frontend.v``;
-    docs/p1_datapath.md, Timing). The consistent variant's second column filter runs
-    beside the first (its ``ex`` leaves with ``s1``): its x-derivative adds no cycle; the
-    paper variant's adds the product ``s1 r2`` (2 cycles) and the divider."""
-    div = divider_latency(config.divider, config.formats["div_quot"].word)
-    rdiv = divider_latency(config.divider, config.formats["range"].word)
-    x_derivative = 0 if config.variant == "consistent" else 2 + div
+    """Latency in clock cycles of every stage, as the RTL has them (``hdl/p1_frontend.v``,
+    ``hdl/p1_range.v``; docs/p1_datapath.md, Timing). The consistent variant's second
+    column filter runs beside the first (its ``ex`` leaves with ``s1``): its x-derivative
+    adds no cycle; the paper variant's adds the product ``s1 r2`` and the divider.
+
+    The range stage, one carry chain or one product per cycle: ``range_coords`` =
+    input register, exact ``xp yp c1 a1 b1``, their casts, ``M xp`` (product), the sum
+    and cast of ``k``, the products of ``v`` and ``w``, their sums and casts;
+    ``range_products`` = the products of ``gv den v_sq``, their sums and casts, the
+    product ``gv^2`` and its cast (``num`` beside it); ``range_divider`` = the operand
+    select register and the divider."""
+    front = DIVIDER_FRONT[config.divider]
+    div = divider_latency(config.divider, config.formats["div_quot"].word) + front
+    rdiv = divider_latency(config.divider, config.formats["range"].word) + front
+    x_derivative = 0 if config.variant == "consistent" else MUL_LATENCY + div
     return {
         "input": 1,
         "bias": 1,
         "row_filter": 2,
         "column_filter": 3,
         "x_derivative": x_derivative,
-        "range_coords": 2,  # k0..k2, then v, w
-        "range_products": 2,  # gv, num, den
-        "range_divider": rdiv,
+        "range_coords": 3 + MUL_LATENCY + 2 + MUL_LATENCY + 2,  # 13
+        "range_products": MUL_LATENCY + 2 + MUL_LATENCY + 1,  # 9
+        "range_divider": 1 + rdiv,
         "threshold": 1,
     }
 

@@ -41,7 +41,7 @@ class P1Pipeline(Pipeline):
     title: ClassVar[str] = "P1 derivative-based ranging (eq 28)"
     config_type: ClassVar[type[WordLengthConfig]] = P1Config
     modes: ClassVar[tuple[str, ...]] = MODES
-    options: ClassVar[tuple[str, ...]] = ("variant", "divider", "pole", "bias")
+    options: ClassVar[tuple[str, ...]] = ("variant", "divider", "pole", "bias", "filter_form")
     variants: ClassVar[dict[str, dict[str, Any]]] = {
         "paper": {"variant": "paper"},
         "consistent": {"variant": "consistent"},

@@ -45,6 +45,7 @@ DESIGN_OPTIONS: dict[str, str] = {
     "divider": "--divider",
     "pole": "--pole",
     "bias": "--bias",
+    "filter_form": "--filter-form",
 }
 #: Case options: attribute -> (flag, pipelines that read it).
 CASE_OPTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -112,6 +113,11 @@ def add_design_args(g: argparse._ActionsContainer, *, estimator: bool = True) ->
     if estimator:
         g.add_argument("--pole", type=float, help="filter pole c per pixel (default 0.5)")
         g.add_argument("--bias", type=float, help="input bias B, eq 19 (default 16)")
+        g.add_argument(
+            "--filter-form",
+            choices=("direct", "shift"),
+            help="P1 filters: multiply by the pole, or shift by k for a pole 2^-k (default)",
+        )
 
 
 def add_timing_args(g: argparse._ActionsContainer) -> None:

@@ -1,0 +1,118 @@
+// Pipeline building blocks of rangefx P1 (hdl/p1_range.v, p1_frontend.v), timed after
+// place and route on an ECP5 (docs/hdl.md):
+//   fx_mul_pipe: a signed product in FX_MUL_LAT = 3 register stages, cut where the
+//                MULT18X18D tiles end: the 18 x 18 partial products (one DSP each,
+//                registered), their sums in pairs, the final sum. Operands up to 35 bits
+//                give at most 4 partial products, so no stage holds more than one
+//                carry chain.
+//   fx_umul    : an unsigned product, one register or fx_mul_pipe (the dividers).
+//   fx_delay   : N registers (N = 0: a wire), for the signals that wait beside a stage.
+// Both advance every clock; callers carry their valid bits beside them.
+`timescale 1ns / 1ps
+
+module fx_mul_pipe #(
+    parameter integer AW = 18,
+    parameter integer BW = 18
+) (
+    input  wire                      clk,
+    input  wire signed [AW-1:0]      a,
+    input  wire signed [BW-1:0]      b,
+    output reg  signed [AW+BW-1:0]   y
+);
+    // chunks: 17-bit unsigned low parts, a signed top part of at most 18 bits
+    localparam integer NA = (AW <= 18) ? 1 : (AW - 18 + 16) / 17 + 1;
+    localparam integer NB = (BW <= 18) ? 1 : (BW - 18 + 16) / 17 + 1;
+    localparam integer NP = NA * NB;
+    localparam integer NS = (NP + 1) / 2;
+    localparam integer YW = AW + BW;
+    localparam integer AX = 17 * NA + 1;  // a and b sign-extended to whole chunks
+    localparam integer BX = 17 * NB + 1;
+    wire signed [AX-1:0] ax = a;
+    wire signed [BX-1:0] bx = b;
+    wire [36*NP-1:0] pp;   // stage 1: the partial products, registered
+    wire [YW*NS-1:0] ps;   // stage 2: their sums in pairs, registered
+    genvar i, j, s;
+    generate
+        for (i = 0; i < NA; i = i + 1) begin : g_a
+            wire signed [17:0] ac = (i == NA - 1) ? $signed(ax[17*i +: 18])
+                                                 : $signed({1'b0, ax[17*i +: 17]});
+            for (j = 0; j < NB; j = j + 1) begin : g_b
+                wire signed [17:0] bc = (j == NB - 1) ? $signed(bx[17*j +: 18])
+                                                     : $signed({1'b0, bx[17*j +: 17]});
+                reg signed [35:0] p;
+                always @(posedge clk) p <= ac * bc;
+                assign pp[36*(i*NB+j) +: 36] = p;
+            end
+        end
+        for (s = 0; s < NS; s = s + 1) begin : g_pair
+            localparam integer K0 = 2 * s;
+            localparam integer SH0 = 17 * (K0 / NB + K0 % NB);
+            wire signed [YW-1:0] t0 = $signed(pp[36*K0 +: 36]) <<< SH0;
+            wire signed [YW-1:0] t1;
+            if (K0 + 1 < NP) begin : g_two
+                localparam integer SH1 = 17 * ((K0 + 1) / NB + (K0 + 1) % NB);
+                assign t1 = $signed(pp[36*(K0+1) +: 36]) <<< SH1;
+            end else begin : g_one
+                assign t1 = {YW{1'b0}};
+            end
+            reg signed [YW-1:0] q;
+            always @(posedge clk) q <= t0 + t1;
+            assign ps[YW*s +: YW] = q;
+        end
+    endgenerate
+    // stage 3: the final sum
+    reg signed [YW-1:0] acc;
+    integer k;
+    always @* begin
+        acc = {YW{1'b0}};
+        for (k = 0; k < NS; k = k + 1) acc = acc + $signed(ps[YW*k +: YW]);
+    end
+    always @(posedge clk) y <= acc;
+endmodule
+
+// unsigned a * b: PIPE = 0 one register (latency 1), PIPE = 1 fx_mul_pipe (latency 3)
+module fx_umul #(
+    parameter integer AW = 18,
+    parameter integer BW = 18,
+    parameter integer PIPE = 0
+) (
+    input  wire              clk,
+    input  wire [AW-1:0]     a,
+    input  wire [BW-1:0]     b,
+    output wire [AW+BW-1:0]  y
+);
+    generate
+        if (PIPE != 0) begin : g_pipe
+            wire signed [AW+BW+1:0] p;
+            fx_mul_pipe #(AW + 1, BW + 1) u_m (clk, $signed({1'b0, a}), $signed({1'b0, b}), p);
+            assign y = p[AW+BW-1:0];
+        end else begin : g_one
+            reg [AW+BW-1:0] p;
+            always @(posedge clk) p <= a * b;
+            assign y = p;
+        end
+    endgenerate
+endmodule
+
+module fx_delay #(
+    parameter integer W = 1,
+    parameter integer N = 1
+) (
+    input  wire         clk,
+    input  wire [W-1:0] d,
+    output wire [W-1:0] q
+);
+    generate
+        if (N == 0) begin : g_wire
+            assign q = d;
+        end else begin : g_regs
+            reg [W*N-1:0] r;
+            if (N == 1) begin : g_one
+                always @(posedge clk) r <= d;
+            end else begin : g_many
+                always @(posedge clk) r <= {r[W*(N-1)-1:0], d};
+            end
+            assign q = r[W*N-1 -: W];
+        end
+    endgenerate
+endmodule
