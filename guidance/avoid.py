@@ -971,8 +971,8 @@ def simulate_avoid(
     # A manoeuvre's re-plans get its candidates' iteration budget (a short, open target).
     # Re-plans of a plan that keeps the clearance start from it and converge in a few
     # iterations (~5 on runway/P1); one that does not within REPLAN_MAXITER is dropped
-    # (the plan is kept), not re-solved from other seeds: on some stress layouts those
-    # failing re-plans cost minutes of CPU. A manoeuvre's re-plans get the same budget.
+    # (the plan is kept), not re-solved from other seeds, which only costs time. A
+    # manoeuvre's re-plans get the same budget.
     replan_cfg = replace(av, maxiter=min(av.maxiter, REPLAN_MAXITER))
     plan_field = field if manoeuvre is None else _hold_field(field)
     plans = [plan]
