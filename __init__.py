@@ -20,8 +20,8 @@ On a CPU with AVX-512, numba is also told to compile for 512-bit vectors
 turned off, :func:`numba_cpu_features`) unless ``NUMBA_CPU_NAME``,
 ``NUMBA_CPU_FEATURES`` or ``NUMBA_ENABLE_AVX`` is set: LLVM's tuning for Intel's
 AVX-512 cores stops its vectoriser at 256 bits, and the kernels' lane loops ran 9-14 %
-faster with 512 (docs/performance.md, "Eighth pass"). It applies to the process and its
-children, as numba's own setting does. Both must run before numba is first imported,
+faster with 512 (docs/performance.md, "How the kernels are built"). It applies to the
+process and its children, as numba's own setting does. Both must run before numba is first imported,
 which importing any ``rangefx`` subpackage ensures.
 """
 

@@ -12,7 +12,8 @@ arrive while group ``g`` is swept. Values do not depend on timing; cycle stamps 
 
 The model runs bands of :data:`BAND` lines in SIMD lanes (``_p2_bands``: every stage's
 recurrence runs along a line, lines are independent); configs with a cast shifting by
-more than 62 bits take the line-by-line kernel ``_p2_kernel`` (docs/performance.md, P2).
+more than 62 bits take the line-by-line kernel ``_p2_kernel`` (docs/performance.md, "How the
+kernels are built").
 
 ``tests/oracle_p2.py`` is the independent slow implementation of the same page.
 """

@@ -261,7 +261,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("demo", help="the main job on the lab scene: golden, P1, P2, guidance")
+    p = sub.add_parser("demo", help="the main job on the lab scene: golden, P1, P2, P3, guidance")
     p.add_argument(
         "--out",
         type=out_path,
