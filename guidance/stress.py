@@ -3,7 +3,8 @@
 
 Why
 ---
-The single flights and the layout sweep (:mod:`.cases`) do not put a vehicle in the way:
+The single flights and the layout sweep (:mod:`rangefx.guidance.cases`) do not put a vehicle
+in the way:
 on ``runway``/P1 no true vehicle is within 42 ft of even the report law's path, and the
 sweep's vehicles stand beside the runway with perfect points. Here each layout moves a
 whole ranged layout (the pipeline's range points, the extents extracted from them and
@@ -13,7 +14,8 @@ a seeded time along it. The obstacles therefore carry the pipeline's range error
 (extents long along the viewing rays), never perfect points, and every flight is scored
 against the true geometry.
 
-Each layout is flown by the avoiding law (:func:`.cases.fly`) and by the report's law
+Each layout is flown by the avoiding law (:func:`rangefx.guidance.cases.fly`) and by the
+report's law
 (its flight time is the reference of the flight-time ratio; its true clearance shows
 what the layout asks of a law that does not avoid).
 """
