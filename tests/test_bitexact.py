@@ -100,12 +100,13 @@ P1_MOTION = MotionIncrement.from_attitudes(
     position1=(0.0, 0.0, -3.0),
     position2=(0.6, -0.05, -2.98),
 )
+# poles that are not 2^-k take the report's direct filter form (the shift form needs 2^-k)
 P1_DESIGNS = (
     {},
-    {"pole": 0.3, "bias": 5.3, "init": "zero"},
-    {"pole": 0.75, "recip_lut_bits": 5, "recip_bits": 13},
-    {"pole": 0.61, "bias": 20.7, "recip_lut_bits": 3, "recip_bits": 8},
-    {"init": "zero", "bias": 0.0},
+    {"pole": 0.3, "bias": 5.3, "init": "zero", "filter_form": "direct"},
+    {"pole": 0.75, "recip_lut_bits": 5, "recip_bits": 13, "filter_form": "direct"},
+    {"pole": 0.61, "bias": 20.7, "recip_lut_bits": 3, "recip_bits": 8, "filter_form": "direct"},
+    {"init": "zero", "bias": 0.0, "pole": 0.25},
 )
 _SCENES: dict[str, Any] = {}
 

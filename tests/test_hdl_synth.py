@@ -38,9 +38,9 @@ def test_proxy_of_a_stage_and_its_ratios():
     cfg = P1Config.default()
     front = proxy_area(cfg, "frontend", (512, 512))
     # paper + reciprocal: one stream's pix_in .. col_s2 and div_quot plus the pole and bias
-    # registers (190 bits); the two filter products (1 DSP each), s1 * r2 (2) and the
-    # reciprocal divider's three products (2 + 2 + 3); one line buffer
-    assert front == {"register_bits": 190, "dsp": 11, "bram18": 1}
+    # registers (190 bits); s1 * r2 (2 DSP) and the reciprocal divider's three products
+    # (2 + 2 + 3); the filters' pole 2^-k is a shift (filter_form "shift"); one line buffer
+    assert front == {"register_bits": 190, "dsp": 9, "bram18": 1}
     assert proxy_ratios(front, {"ff": 380, "dsp": 11, "bram": 0}) == {
         "ff": 0.5, "dsp": 1.0, "bram": None, "lut": None}  # fmt: skip
     consistent = proxy_area(P1Config.default(variant="consistent"), "frontend", (512, 512))

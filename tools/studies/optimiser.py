@@ -297,6 +297,8 @@ def optimise(
         nonlocal n_evals
         raise_if_interrupted()  # a stop signal swallowed on its way stops at the next batch
         n_evals += len(cfgs)
+        if not cfgs:  # a move that proposes no config evaluates nothing
+            return []
         if len(cfgs) == 1 or workers == 1:
             figs = [
                 evaluate_scenes(cases, c, goldens, tuning, threads=2, pipeline=pipe) for c in cfgs
