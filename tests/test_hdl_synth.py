@@ -41,10 +41,13 @@ def test_proxy_of_a_stage_and_its_ratios():
     # registers (190 bits); s1 * r2 (2 DSP) and the reciprocal divider's three products
     # (2 + 2 + 3); the filters' pole 2^-k is a shift (filter_form "shift"); one line buffer
     assert front == {"register_bits": 190, "dsp": 9, "bram18": 1}
-    assert proxy_ratios(front, {"ff": 380, "dsp": 11, "bram": 0}) == {
+    assert proxy_ratios(front, {"ff": 380, "dsp": 9, "bram": 0}) == {
         "ff": 0.5, "dsp": 1.0, "bram": None, "lut": None}  # fmt: skip
     consistent = proxy_area(P1Config.default(variant="consistent"), "frontend", (512, 512))
-    assert consistent["dsp"] == 3 and consistent["bram18"] == 2  # second column filter
+    assert consistent["dsp"] == 0 and consistent["bram18"] == 2  # second column filter
+    # the report's direct form multiplies in its three filters
+    direct = P1Config.default(variant="consistent", filter_form="direct")
+    assert proxy_area(direct, "frontend", (512, 512))["dsp"] == 3
 
 
 def test_synth_without_yosys_is_one_error_line(monkeypatch, tmp_path, capsys):
