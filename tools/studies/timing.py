@@ -204,9 +204,14 @@ def nextpnr_command(target: str = "ecp5") -> list[str]:
 
 
 def _version(cmd: list[str], flag: str) -> str:
+    """The tool's version line (part of the cache key). YoWASP's first run of a tool also
+    prints a "Preparing to run ..." line, so the line naming the tool is taken, not the
+    first one: otherwise the first run's key differs from every later run's."""
     out = subprocess.run([*cmd, flag], capture_output=True, text=True, check=False, timeout=300)
-    text = (out.stdout or out.stderr).strip().splitlines()
-    return text[0] if text else "unknown"
+    lines = [ln.strip() for ln in f"{out.stdout}\n{out.stderr}".splitlines() if ln.strip()]
+    named = [ln for ln in lines if "yosys" in ln.lower() or "nextpnr" in ln.lower()]
+    named = [ln for ln in named if not ln.lower().startswith("preparing")]
+    return (named or lines or ["unknown"])[0]
 
 
 def timing_wrapper(params: Mapping[str, int | str]) -> tuple[str, int]:
