@@ -6,11 +6,7 @@ read, the per-signal statistics (new and merged across threads), the quantisatio
 host registers, the checks of an input image pair, their conversion on the worker threads
 (:func:`kernel_image`) and the one pass that fills a band's float range map and cycle
 maps (:func:`finish_band`). The shared numba cast and divider
-kernels stay in P1's model module (:mod:`rangefx.rtl_model.p1.model`: ``cast_site``,
-``cast_row_site``, ``divide_into``, ...), where they were written: moved here, the P1
-kernels that call them ran 25-45 % slower (measured: front end 49 -> 62-67 ns/pixel, range
-stage 46 -> 67 ns/pixel, one thread, 512x512), since numba does not optimise across the
-cached libraries of two modules as it does within one.
+kernels are :mod:`rangefx.rtl_model.kernels`.
 """
 
 from __future__ import annotations

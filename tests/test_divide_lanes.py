@@ -1,6 +1,7 @@
-"""The divider on SIMD lanes (``divide_lanes``, issue 18) against the scalar divider it
-replaces in the band kernels (``divide_scalar``): value, overflow flag and logged
-value, element by element, over formats, modes, both divider kinds, ``D = 0``, negative
+"""The divider on SIMD lanes (issue 18: the lane helpers of ``rtl_model/kernels.py`` as a
+band kernel composes them, with ``divide_lanes_scalar`` as the fallback) against the
+scalar divider they replace (``divide_scalar``): value, overflow flag and logged value,
+element by element, over formats, modes, both divider kinds, ``D = 0``, negative
 operands and operands large enough to take the scalar fallback."""
 
 from __future__ import annotations
@@ -9,8 +10,19 @@ import numpy as np
 import pytest
 from numba import njit
 
-from rangefx.rtl_model.fixedpoint import Overflow, Quant
-from rangefx.rtl_model.p1.model import divide_lanes, divide_scalar
+from rangefx.rtl_model.fixedpoint import ANY_MODES, Overflow, Quant
+from rangefx.rtl_model.kernels import (
+    bit_length,
+    divide_lanes_scalar,
+    divide_scalar,
+    lane_log_values,
+    lane_overflows,
+    ldexp2,
+    reciprocal_lane,
+    reciprocal_seed_index,
+    restoring_lane,
+    restoring_lane_setup,
+)
 from rangefx.rtl_model.runtime import DIV_RECIPROCAL, DIV_RESTORING, reciprocal_lut
 
 
@@ -19,9 +31,33 @@ def _lanes(num, fn, den, fd, word, frac, signed, quant, ovf, kind, lut, r_bits):
     k = num.shape[0]
     out, flags = np.empty(k, np.int64), np.empty(k, np.bool_)
     lo, hi = np.full(k, np.inf), np.full(k, -np.inf)
-    count = divide_lanes(num, fn, den, fd, k, word, frac, signed, quant, ovf, kind, lut, r_bits,
-                         out, flags, lo, hi, True)  # fmt: skip
-    return out, flags, lo, hi, count
+    # the lane loops of a band kernel (P2's backward step): branch-free helpers, and the
+    # scalar fallback for the whole call when a lane is beyond them
+    ov_pos, ov_neg = lane_overflows(word, signed, ovf)
+    far = not -1022 <= fd - fn <= 1022
+    if kind == DIV_RESTORING:
+        sh, plan, cap = restoring_lane_setup(fn, fd, word, frac, signed, quant, ovf)
+        for i in range(k):
+            out[i], flags[i], beyond = restoring_lane(num[i], den[i], sh, plan, cap, ov_pos,
+                                                      ov_neg, ANY_MODES)  # fmt: skip
+            far |= beyond
+    else:
+        lut_bits, mask = bit_length(lut.shape[0]) - 1, lut.shape[0] - 1
+        for i in range(k):
+            out[i] = lut[reciprocal_seed_index(den[i], lut_bits, mask)]
+        for i in range(k):
+            out[i], flags[i], beyond = reciprocal_lane(num[i], den[i], out[i], fn, fd, r_bits,
+                                                       word, frac, signed, quant, ovf, ov_pos,
+                                                       ov_neg, ANY_MODES)  # fmt: skip
+            far |= beyond
+    if far:
+        count = divide_lanes_scalar(num, fn, den, fd, k, word, frac, signed, quant, ovf, kind,
+                                    lut, r_bits, out, flags, lo, hi, True)  # fmt: skip
+        return out, flags, lo, hi, count, True
+    scale = ldexp2(1.0, fd - fn)
+    for i in range(k):
+        lo[i], hi[i] = lane_log_values(num[i], den[i], scale)
+    return out, flags, lo, hi, flags.sum(), False
 
 
 @njit
@@ -64,9 +100,9 @@ def _draws(seed: int):
 
 
 @pytest.mark.parametrize("seed", range(8))
-def test_divide_lanes_equals_divide_scalar(seed):
+def test_lane_divider_equals_divide_scalar(seed):
     for args in _draws(seed):
-        out, flags, lo, hi, count = _lanes(*args)
+        out, flags, lo, hi, count, _ = _lanes(*args)
         want_out, want_flags, want_lo, want_hi = _scalar(*args)
         np.testing.assert_array_equal(out, want_out)
         np.testing.assert_array_equal(flags, want_flags)
@@ -75,7 +111,7 @@ def test_divide_lanes_equals_divide_scalar(seed):
         assert count == want_flags.sum()
 
 
-def test_divide_lanes_covers_its_fallback_and_zero_denominators():
+def test_lane_divider_covers_its_fallback_and_zero_denominators():
     """Operands of 2**53 and more (the restoring divider's float quotient is not exact
     there) take the scalar fallback; D = 0 gives the scalar divider's saturated code."""
     lut = reciprocal_lut(8, 20)
@@ -84,6 +120,7 @@ def test_divide_lanes_covers_its_fallback_and_zero_denominators():
         for kind in (DIV_RESTORING, DIV_RECIPROCAL):
             args = (num, 0, den, 0, 20, 10, True, int(Quant.RND), int(Overflow.SAT), kind, lut, 20)
             got, want = _lanes(*args), _scalar(*args)
+            assert got[5] == (den[0] == 1 << 54)  # the fallback, for both kinds
             for g, w in zip(got[:4], want, strict=True):
                 np.testing.assert_array_equal(g, w)
             assert got[1][3] and got[0][3] == (1 << 19) - 1  # 5 / 0 saturates

@@ -26,9 +26,15 @@ from rangefx.rtl_model.fixedpoint import (
     cast_array,
     plain_modes,
 )
+from rangefx.rtl_model.kernels import (
+    divide_lanes_fit,
+    divide_row,
+    divide_row_lanes,
+    floor_log2_lanes,
+)
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
-from rangefx.rtl_model.p1.model import divide_row_lanes, floor_log2_lanes, untranspose_band
+from rangefx.rtl_model.p1.model import RANGE, untranspose_band
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.rtl_model.runtime import DIV_RECIPROCAL, divider_setup, format_table
 from rangefx.rtl_model.stream import make_stream, pixel_cycles
@@ -481,13 +487,12 @@ def test_divide_row_lanes_equals_the_scalar_divider(
 ):
     """The reciprocal divider in lanes (front end and range stage) against divide_row: every
     quotient, flag, overflow count and logged min/max, with D = 0, N = 0 and both signs."""
-    from rangefx.rtl_model.p1 import model
     from rangefx.rtl_model.runtime import reciprocal_lut
 
     fm = np.zeros((len(P1_SIGNALS), 5), dtype=np.int64)
-    s = model.RANGE
+    s = RANGE
     fm[s] = (word, frac, int(signed), int(quant), int(overflow))
-    assume(model.divide_lanes_fit(fn, fd, d_word, s, r_bits, fm))
+    assume(divide_lanes_fit(fn, fd, d_word, s, r_bits, fm))
     rng = np.random.default_rng(seed)
     n = 67
     num = rng.integers(-(2**30), 2**30, n) >> rng.integers(0, 30, n)
@@ -504,11 +509,9 @@ def test_divide_row_lanes_equals_the_scalar_divider(
         ov = np.zeros(len(P1_SIGNALS), dtype=np.int64)
         q, flags = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_)
         if modes == "scalar":
-            model.divide_row(num, fn, den, fd, s, DIV_RECIPROCAL, lut, r_bits, fm, dst, ov, q,
-                             flags)  # fmt: skip
+            divide_row(num, fn, den, fd, s, DIV_RECIPROCAL, lut, r_bits, fm, dst, ov, q, flags)
         else:
-            model.divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, q, flags, True,
-                                   modes)  # fmt: skip
+            divide_row_lanes(num, fn, den, fd, s, lut, r_bits, fm, dst, ov, q, flags, True, modes)
         results.append([q, flags, ov[s], dst[s]])
     want = results[-1]
     for got in results[:-1]:

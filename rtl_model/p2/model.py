@@ -33,7 +33,7 @@ from rangefx.golden.riccati import RiccatiConfig, stereo_baseline
 from .. import runtime
 from ..config import TimingConfig
 from ..fixedpoint import cast_by_plan, cast_modes
-from ..p1.model import (
+from ..kernels import (
     bit_length,
     divide_lanes_scalar,
     lane_log_values,
@@ -46,8 +46,8 @@ from ..p1.model import (
     restoring_lane_setup,
     signal_plan,
 )
-from ..p1.model import cast_site as _cast
-from ..p1.model import divide_into as _divide_into
+from ..kernels import cast_site as _cast
+from ..kernels import divide_into as _divide_into
 from ..pipeline import PipelineResult
 from ..stream import input_cycles, line_starts
 from .config import P2_SIGNALS, P2Config, loop_latency

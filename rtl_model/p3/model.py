@@ -29,8 +29,8 @@ from rangefx.golden.ranging import RangingConfig
 from .. import runtime
 from ..config import TimingConfig
 from ..fixedpoint import FixedFormat, cast_raw, cast_row
-from ..p1.model import at_frac as _at
-from ..p1.model import divide_row as _divide_row
+from ..kernels import at_frac as _at
+from ..kernels import divide_row as _divide_row
 from ..pipeline import PipelineResult
 from ..runtime import KERNEL_INT, KERNEL_PLANE, KERNEL_ROW
 from ..stream import input_cycles

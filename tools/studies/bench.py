@@ -34,8 +34,8 @@ from rangefx.rtl_model.fixedpoint import (
     cast_modes,
     cast_plan,
 )
+from rangefx.rtl_model.kernels import divide_row_lanes
 from rangefx.rtl_model.p1 import P1_SIGNALS, P1Config
-from rangefx.rtl_model.p1.model import divide_row_lanes
 from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.rtl_model.runtime import divider_setup, format_table, model_pool
