@@ -179,7 +179,8 @@ def _p2_kernel(
 # lanes of one column is contiguous and branch-free (cast_by_plan, the plans hoisted out
 # of the loops), each lane carries its own recurrence state, and the min/max log and the
 # overflow counts are kept in local scalars and merged once per call. The divider runs
-# on the lanes between the two halves of a backward step (divide_lanes). ``log`` and
+# on the lanes between the two halves of a backward step (the lane helpers of
+# rangefx.rtl_model.kernels). ``log`` and
 # ``want_taps`` are runtime flags of one compiled body. Configs with a cast shifting by
 # more than 62 bits (band_fits False) take _p2_kernel.
 # --------------------------------------------------------------------------------------
@@ -245,7 +246,7 @@ def _p2_bands(
     pl_z, pl_e = signal_plan(f_a + f_lam, ZZ, fm), signal_plan(f_e_in, EE, fm)
     w_r, sg_r, qn_r, of_r = fm[RR, 0], fm[RR, 2] != 0, fm[RR, 3], fm[RR, 4]
     one = np.int64(1)
-    # the divider's per-frame constants (divide_lanes); r = 1 / den, the numerator at frac 0
+    # the lane divider's per-frame constants; r = 1 / den, the numerator at frac 0
     r_direct = -1022 <= f_den <= 1022  # else every column takes divide_lanes_scalar
     r_scale = ldexp2(1.0, min(max(f_den, -1022), 1022))
     ov_pos, ov_neg = lane_overflows(w_r, sg_r, of_r)
@@ -327,8 +328,8 @@ def _p2_bands(
                 denv[k] = den
                 cT[it, k] = c
                 denT[it, k] = den
-            # the divider: divide_lanes' loops written out, so that no array is handed to
-            # an inlined function once per column (divide_lanes: its reference counts)
+            # the divider's lane loops written out, so that no array is handed to an
+            # inlined function once per column (its reference counts: rtl_model/kernels.py)
             far = not r_direct
             if kind == runtime.DIV_RESTORING:
                 for k in range(BAND):
