@@ -12,9 +12,11 @@ estimates, so no tool re-derives them.
 from __future__ import annotations
 
 import abc
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any, ClassVar
+from pathlib import Path
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 
@@ -29,12 +31,14 @@ from .fixedpoint import FixedFormat, Overflow, Quant
 from .runtime import divider_roms
 
 __all__ = [
+    "CASE_SETTINGS",
     "MODES",
     "VALID_FORMAT",
     "Case",
     "GoldenReference",
     "Pipeline",
     "PipelineResult",
+    "Profiles",
     "TapSpec",
 ]
 
@@ -42,6 +46,11 @@ __all__ = [
 MODES = ("stereo", "motion")
 #: The 1-bit flag ``valid``: unsigned, one bit, no fraction.
 VALID_FORMAT = FixedFormat(False, 1, 0, Quant.TRN, Overflow.WRAP)
+#: Error build-up profiles: name -> {"index": positions, "<curve>": values, ...}.
+Profiles = dict[str, dict[str, np.ndarray]]
+#: Settings keys that are fields of :class:`Case` (the report's pipelines' settings).
+CASE_SETTINGS = ("ranging", "riccati")
+_S = TypeVar("_S")
 
 
 @dataclass(frozen=True)
@@ -49,10 +58,13 @@ class Case:
     """Everything one pipeline run needs besides the word-length config and timing.
 
     ``image1`` is E1 (left camera, or the previous frame in motion mode), ``image2`` E2;
-    ``mode`` is the scene's kind (``Scene.kind``). ``ranging`` holds the derivative
-    pipelines' thresholds and ``range_max`` (P1), ``riccati`` the Riccati weights,
-    threshold and ``range_max`` (P2); each pipeline reads its own. ``scene`` is the
-    rendered scene with its truth, ``label`` a name when there is no scene (a real pair).
+    ``mode`` is the scene's kind (``Scene.kind``). Each pipeline reads its own settings
+    from the case by its :attr:`Pipeline.settings_key` (:meth:`setting`): ``ranging``
+    holds the report's thresholds and ``range_max`` (P1, P3), ``riccati`` the Riccati
+    weights, threshold and ``range_max`` (P2), and ``settings`` the settings of any other
+    key (a pipeline registered from outside the package), key -> a frozen dataclass;
+    a key absent there means its type's defaults. ``scene`` is the rendered scene with
+    its truth, ``label`` a name when there is no scene (a real pair).
     """
 
     image1: np.ndarray
@@ -64,10 +76,34 @@ class Case:
     riccati: RiccatiConfig = field(default_factory=RiccatiConfig)
     scene: Scene | None = None
     label: str | None = None
+    settings: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"unknown mode {self.mode!r}; choose from {', '.join(MODES)}")
+        for key in self.settings:
+            if key in CASE_SETTINGS:
+                raise ValueError(f"case settings {key!r} belong in the field {key}, not settings")
+
+    def setting(self, key: str, settings_type: type[_S]) -> _S:
+        """The settings under ``key`` (a field of the case, or ``settings[key]``; absent:
+        ``settings_type()``, its defaults); ``ValueError`` if they are not a
+        ``settings_type``."""
+        value = getattr(self, key) if key in CASE_SETTINGS else self.settings.get(key)
+        if value is None:
+            return settings_type()
+        if not isinstance(value, settings_type):
+            raise ValueError(
+                f"case settings {key!r} must be a {settings_type.__name__}, not "
+                f"{type(value).__name__}"
+            )
+        return value
+
+    def with_setting(self, key: str, value: Any) -> Case:
+        """The case with the settings under ``key`` replaced by ``value``."""
+        if key in CASE_SETTINGS:
+            return replace(self, **{key: value})
+        return replace(self, settings={**self.settings, key: value})
 
     @property
     def name(self) -> str:
@@ -100,6 +136,15 @@ class TapSpec:
     stage: str | None
     latency: int | None
     stream: str | None = None
+
+    @property
+    def lsb_rms(self) -> float:
+        """``LSB / sqrt(12)`` of its format: the RMS error of one rounding."""
+        return 2.0**-self.fmt.frac / math.sqrt(12.0)
+
+    def values(self, result: PipelineResult) -> np.ndarray:
+        """Its raw codes in ``result`` as float values (raw times 2^-F)."""
+        return np.ldexp(result.taps[self.name].astype(np.float64), -self.fmt.frac)
 
 
 @dataclass(frozen=True)
@@ -178,7 +223,12 @@ class Pipeline(abc.ABC):
     (its :class:`WordLengthConfig` subclass), :attr:`modes` (input modes it models),
     :attr:`options` (command-line design options it accepts, besides ``--config``),
     :attr:`variants` (the named design variants a demo or benchmark runs),
-    :attr:`signal_groups` (named signal groups a sweep axis may move together).
+    :attr:`signal_groups` (named signal groups a sweep axis may move together),
+    :attr:`settings_key` and :attr:`settings_type` (its own settings in a case),
+    :attr:`case_options` (the fields of those settings a user may set per run),
+    :attr:`sweep_examples` (its example sweep definitions). Everything a consumer needs
+    to know about one pipeline is here, so a pipeline defined outside the package works
+    everywhere once :func:`rangefx.rtl_model.registry.register_pipeline` has it.
     """
 
     name: ClassVar[str]
@@ -191,6 +241,59 @@ class Pipeline(abc.ABC):
     #: Design fields of the config that :meth:`golden` reads (``None``: every one), so
     #: that a cache of goldens keys on what they depend on (:meth:`golden_key`).
     golden_fields: ClassVar[tuple[str, ...] | None] = None
+    #: Where its settings live in a case (:meth:`Case.setting`), and their type: a frozen
+    #: dataclass whose defaults are usable and which has a ``range_max`` (the length
+    #: invalid pixels carry).
+    settings_key: ClassVar[str] = "ranging"
+    settings_type: ClassVar[type] = RangingConfig
+    #: The case options it reads: fields of its settings a user may set per run (the
+    #: command line's ``--threshold-e``, ``--threshold-g``, ``--range-max``).
+    case_options: ClassVar[tuple[str, ...]] = ("range_max",)
+    #: Its example sweep definitions: TOML files, relative to the ``rangefx`` package root
+    #: or absolute (:meth:`sweep_example_paths`).
+    sweep_examples: ClassVar[tuple[str, ...]] = ()
+
+    def sweep_example_paths(self) -> tuple[Path, ...]:
+        """:attr:`sweep_examples` as absolute paths."""
+        root = Path(__file__).resolve().parent.parent
+        return tuple(root / p for p in self.sweep_examples)
+
+    # -- settings of a case -----------------------------------------------------------
+    def settings(self, case: Case) -> Any:
+        """Its own settings in ``case`` (:attr:`settings_key`, :attr:`settings_type`)."""
+        return case.setting(self.settings_key, self.settings_type)
+
+    def with_case_options(self, case: Case, **options: Any) -> Case:
+        """``case`` with the given case options (``None``: not given) set in its settings;
+        ``ValueError`` for an option it does not read or a bad value."""
+        given = {k: v for k, v in options.items() if v is not None}
+        for name in given:
+            if name not in self.case_options:
+                takes = ", ".join(self.case_options) or "none"
+                raise ValueError(
+                    f"pipeline {self.name} does not read case option {name!r} (it reads: {takes})"
+                )
+        if not given:
+            return case
+        return case.with_setting(self.settings_key, replace(self.settings(case), **given))
+
+    def range_max(self, case: Case) -> float:
+        """The ``range_max`` this pipeline uses on ``case`` (invalid pixels carry it)."""
+        return float(self.settings(case).range_max)
+
+    def tap_specs(self, config: WordLengthConfig, mode: str = "stereo") -> dict[str, TapSpec]:
+        """:meth:`tap_table` by tap name."""
+        return {t.name: t for t in self.tap_table(config, mode)}
+
+    def buildup_profiles(self, result: PipelineResult, golden: GoldenReference) -> Profiles:
+        """Error build-up profiles of ``result`` (run with taps) beside ``golden`` (with
+        taps) along its recursions (SPEC §6): profile name -> ``{"index": positions,
+        "<curve>": values, "<curve>.lsb_rms": LSB / sqrt(12) of its format}``;
+        :attr:`buildup_axes` says what each index counts. None by default."""
+        return {}
+
+    #: Build-up profile name -> what its index counts (the plot's x label).
+    buildup_axes: ClassVar[dict[str, str]] = {}
 
     # -- configs ----------------------------------------------------------------------
     def default_config(self, **design: Any) -> WordLengthConfig:
@@ -285,10 +388,6 @@ class Pipeline(abc.ABC):
     @abc.abstractmethod
     def golden_label(self, config: WordLengthConfig) -> str:
         """Name of the golden method :meth:`golden` runs under ``config``."""
-
-    @abc.abstractmethod
-    def range_max(self, case: Case) -> float:
-        """The ``range_max`` this pipeline uses on ``case`` (invalid pixels carry it)."""
 
     @abc.abstractmethod
     def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:

@@ -74,8 +74,13 @@ def _write_sweep(tmp_path: Path, name: str = "a", values: str = "[6, 8]") -> Pat
 
 COMMANDS = {
     "run": lambda t, out: ["run", *_pair(t), "--out", out],
-    "run_p1": lambda t, out: ["run", *_pair(t), "--pipeline", "p1", "--out", out],
-    "run_p2": lambda t, out: ["run", *_pair(t), "--pipeline", "p2", "--out", out],
+    **{
+        f"run_{name}": lambda t, out, name=name: [
+            *("run", *_pair(t)),
+            *("--pipeline", name, "--out", out),
+        ]
+        for name in PIPELINES
+    },
     "vectors_gen": lambda t, out: ["vectors", "gen", "--scene", "lab", *CROP, "--out", out],
     # the report law: the guarantee is about the output directory, not the law (the avoiding
     # law on the synthetic set solves for minutes)

@@ -27,7 +27,7 @@ from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.riccati import RiccatiConfig
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig, loads_json
 from rangefx.rtl_model.fixedpoint import FixedFormat
-from rangefx.rtl_model.pipeline import Case, Pipeline, PipelineResult
+from rangefx.rtl_model.pipeline import CASE_SETTINGS, Case, Pipeline, PipelineResult
 from rangefx.rtl_model.registry import get_pipeline
 from rangefx.rtl_model.stream import make_stream
 
@@ -279,6 +279,12 @@ def build_vectors(
             "motion": _motion_dict(case.motion),
             "ranging": asdict(case.ranging),
             "riccati": asdict(case.riccati),
+            # a pipeline registered from outside keeps its own settings in the case
+            **(
+                {}
+                if pipe.settings_key in CASE_SETTINGS
+                else {pipe.settings_key: asdict(pipe.settings(case))}
+            ),
         },
         "latency": {"total": result.latency, "stages": dict(result.stage_latency)},
         "total_cycles": result.total_cycles,
@@ -442,8 +448,11 @@ def case_from_manifest(directory: str | Path, manifest: Mapping) -> dict:
             RangingConfig(**c["ranging"]),
             RiccatiConfig(**c["riccati"]) if "riccati" in c else RiccatiConfig(),
         )
+        key = pipe.settings_key
+        if key not in CASE_SETTINGS:
+            case = case.with_setting(key, pipe.settings_type(**c.get(key, {})))
         timing = TimingConfig(**manifest["timing"])
-        rest = {k: v for k, v in c.items() if k not in ("camera", "motion", "ranging", "riccati")}
+        rest = {k: v for k, v in c.items() if k not in ("camera", "motion", *CASE_SETTINGS, key)}
     except (TypeError, KeyError, AttributeError, ValueError, IndexError) as exc:
         raise ValueError(f"manifest case is incomplete: {exc!r:.200}") from None
     if manifest.get("mode") not in ("stereo", "motion") or not isinstance(

@@ -6,12 +6,13 @@ from typing import Any, ClassVar
 
 from rangefx.golden.estimator import EstimatorConfig
 from rangefx.golden.methods import run_method
+from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.taps import p1_golden_taps
 
 from ..config import TimingConfig, WordLengthConfig
 from ..cost import CostReport
-from ..pipeline import MODES, Case, GoldenReference, Pipeline, PipelineResult, TapSpec
-from . import cost, model, taps
+from ..pipeline import MODES, Case, GoldenReference, Pipeline, PipelineResult, Profiles, TapSpec
+from . import buildup, cost, model, taps
 from .config import HOST_REGISTERS, P1_SIGNALS, P1Config
 
 __all__ = ["FRONTEND_SIGNALS", "P1Pipeline"]
@@ -47,6 +48,11 @@ class P1Pipeline(Pipeline):
         "consistent": {"variant": "consistent"},
     }
     golden_fields: ClassVar[tuple[str, ...] | None] = ("variant", "pole", "bias", "init")
+    settings_key: ClassVar[str] = "ranging"
+    settings_type: ClassVar[type] = RangingConfig
+    case_options: ClassVar[tuple[str, ...]] = ("threshold_e", "threshold_g", "range_max")
+    buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
+    sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p1_lab.toml",)
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:
@@ -69,7 +75,7 @@ class P1Pipeline(Pipeline):
         log: bool = True,
     ) -> PipelineResult:
         return model.run_p1(
-            case.image1, case.image2, case.camera, case.motion, config, case.ranging,
+            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
             timing=timing, mode=case.mode, taps=taps, threads=threads, log=log,
         )  # fmt: skip
 
@@ -79,7 +85,7 @@ class P1Pipeline(Pipeline):
         )
         result = run_method(
             f"g4_{config.variant}", case.image1, case.image2, case.camera, case.motion,
-            estimator=est, ranging=case.ranging,
+            estimator=est, ranging=self.settings(case),
         )  # fmt: skip
         values = {}
         if taps:
@@ -88,9 +94,6 @@ class P1Pipeline(Pipeline):
 
     def golden_label(self, config: WordLengthConfig) -> str:
         return f"g4_{self.check_config(config).variant}"
-
-    def range_max(self, case: Case) -> float:
-        return case.ranging.range_max
 
     def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
         return model.stage_latencies(self.check_config(config))
@@ -106,3 +109,6 @@ class P1Pipeline(Pipeline):
 
     def rejected_weight(self, signal: str) -> int:
         return sum(cost.REGISTER_INSTANCES[signal])
+
+    def buildup_profiles(self, result: PipelineResult, golden: GoldenReference) -> Profiles:
+        return buildup.buildup_profiles(result, golden, self.tap_specs(result.config, result.mode))

@@ -6,13 +6,13 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from rangefx.golden.riccati import range_g5
+from rangefx.golden.riccati import RiccatiConfig, range_g5
 from rangefx.golden.taps import p2_golden_taps
 
 from ..config import TimingConfig, WordLengthConfig
 from ..cost import CostReport
-from ..pipeline import Case, GoldenReference, Pipeline, PipelineResult, TapSpec
-from . import cost, model, taps
+from ..pipeline import Case, GoldenReference, Pipeline, PipelineResult, Profiles, TapSpec
+from . import buildup, cost, model, taps
 from .config import P2Config
 
 __all__ = ["P2Pipeline"]
@@ -31,6 +31,11 @@ class P2Pipeline(Pipeline):
     options: ClassVar[tuple[str, ...]] = ("divider",)
     variants: ClassVar[dict[str, dict[str, Any]]] = {"": {}}
     golden_fields: ClassVar[tuple[str, ...] | None] = ()  # G5 reads only the case
+    settings_key: ClassVar[str] = "riccati"
+    settings_type: ClassVar[type] = RiccatiConfig
+    case_options: ClassVar[tuple[str, ...]] = ("threshold_e", "range_max")
+    buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
+    sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p2_lab.toml",)
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:
@@ -52,19 +57,16 @@ class P2Pipeline(Pipeline):
         log: bool = True,
     ) -> PipelineResult:
         return model.run_p2(
-            case.image1, case.image2, case.camera, case.motion, config, case.riccati,
+            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
             timing=timing, taps=taps, threads=threads, log=log,
         )  # fmt: skip
 
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
-        result = range_g5(case.image1, case.image2, case.camera, case.motion, case.riccati)
+        result = range_g5(case.image1, case.image2, case.camera, case.motion, self.settings(case))
         return GoldenReference(result, p2_golden_taps(result) if taps else {})
 
     def golden_label(self, config: WordLengthConfig) -> str:
         return "g5_riccati"
-
-    def range_max(self, case: Case) -> float:
-        return case.riccati.range_max
 
     def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
         return model.stage_latencies(self.check_config(config))
@@ -88,3 +90,6 @@ class P2Pipeline(Pipeline):
         self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
     ) -> CostReport:
         return cost.config_cost(self.check_config(config), shape, mode)
+
+    def buildup_profiles(self, result: PipelineResult, golden: GoldenReference) -> Profiles:
+        return buildup.buildup_profiles(result, golden, self.tap_specs(result.config, result.mode))

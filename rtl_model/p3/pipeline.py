@@ -7,12 +7,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from rangefx.golden.multiscale import disparity_g6, range_g6
+from rangefx.golden.ranging import RangingConfig
 
 from ..config import TimingConfig, WordLengthConfig
 from ..cost import CostReport
-from ..pipeline import Case, GoldenReference, Pipeline, PipelineResult, TapSpec
+from ..pipeline import Case, GoldenReference, Pipeline, PipelineResult, Profiles, TapSpec
 from ..runtime import divider_roms
-from . import cost, model, taps
+from . import buildup, cost, model, taps
 from .config import MULTISCALE_FIELDS, P3Config
 
 __all__ = ["P3Pipeline"]
@@ -31,6 +32,11 @@ class P3Pipeline(Pipeline):
     options: ClassVar[tuple[str, ...]] = ("divider",)
     variants: ClassVar[dict[str, dict[str, Any]]] = {"": {}}
     golden_fields: ClassVar[tuple[str, ...] | None] = MULTISCALE_FIELDS
+    settings_key: ClassVar[str] = "ranging"
+    settings_type: ClassVar[type] = RangingConfig
+    case_options: ClassVar[tuple[str, ...]] = ("range_max",)
+    buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
+    sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p3_lab.toml",)
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:
@@ -51,13 +57,15 @@ class P3Pipeline(Pipeline):
         log: bool = True,
     ) -> PipelineResult:
         return model.run_p3(
-            case.image1, case.image2, case.camera, case.motion, config, case.ranging,
+            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
             timing=timing, taps=taps, threads=threads, log=log,
         )  # fmt: skip
 
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         ms = config.multiscale()
-        result = range_g6(case.image1, case.image2, case.camera, case.motion, ms, case.ranging)
+        result = range_g6(
+            case.image1, case.image2, case.camera, case.motion, ms, self.settings(case)
+        )
         golden_taps = {}
         if taps:  # P3 models the second camera on the right: G6 unmirrored
             traced = disparity_g6(case.image1, case.image2, ms, trace=True)
@@ -68,9 +76,6 @@ class P3Pipeline(Pipeline):
 
     def golden_label(self, config: WordLengthConfig) -> str:
         return "g6_multiscale"
-
-    def range_max(self, case: Case) -> float:
-        return case.ranging.range_max
 
     def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
         return model.stage_latencies(self.check_config(config))
@@ -101,3 +106,6 @@ class P3Pipeline(Pipeline):
         word = config.formats["p3_keys"].word
         rom = model.keys_rom(config).ravel() & ((1 << word) - 1)
         return {**divider_roms(config), "keys_rom": rom}
+
+    def buildup_profiles(self, result: PipelineResult, golden: GoldenReference) -> Profiles:
+        return buildup.buildup_profiles(result, golden, self.tap_specs(result.config, result.mode))

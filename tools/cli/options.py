@@ -4,7 +4,7 @@ not use is an error (one ``rangefx: error:`` line), never silently ignored (SPEC
 Design options (``--variant``, ``--divider``, ``--pole``, ``--bias``) go to the chosen
 pipeline's config only if it has that design field (:attr:`Pipeline.options`); case
 options (``--threshold-e``, ``--threshold-g``, ``--range-max``) only if the pipeline
-reads that setting (:data:`CASE_OPTIONS`). Every such option defaults to ``None``
+reads that setting (:attr:`Pipeline.case_options`). Every such option defaults to ``None``
 ("not given") so that a given one can be checked.
 """
 
@@ -20,7 +20,6 @@ from rangefx.rtl_model.registry import PIPELINES, get_pipeline
 from rangefx.rtl_model.runtime import DIVIDERS
 
 from ..errors import UserError
-from ..studies.cases import with_thresholds
 
 __all__ = [
     "CASE_OPTIONS",
@@ -47,11 +46,11 @@ DESIGN_OPTIONS: dict[str, str] = {
     "bias": "--bias",
     "filter_form": "--filter-form",
 }
-#: Case options: attribute -> (flag, pipelines that read it).
-CASE_OPTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "threshold_e": ("--threshold-e", ("p1", "p2")),
-    "threshold_g": ("--threshold-g", ("p1",)),
-    "range_max": ("--range-max", ("p1", "p2", "p3")),
+#: Case options: attribute (a field of a pipeline's settings) -> command-line flag.
+CASE_OPTIONS: dict[str, str] = {
+    "threshold_e": "--threshold-e",
+    "threshold_g": "--threshold-g",
+    "range_max": "--range-max",
 }
 #: Timing options: attribute -> flag.
 TIMING_OPTIONS: dict[str, str] = {
@@ -156,15 +155,14 @@ def design_from_args(pipeline: Pipeline, args: argparse.Namespace) -> dict[str, 
 
 def apply_case_options(pipeline: Pipeline, case: Case, args: argparse.Namespace) -> Case:
     """The case with the given case options; one the pipeline does not read is an error."""
-    for name, (flag, users) in CASE_OPTIONS.items():
-        if _given(args, name) and pipeline.name not in users:
-            raise UserError(f"{flag} does not apply to pipeline {pipeline.name}")
-    return with_thresholds(
-        case,
-        threshold_e=getattr(args, "threshold_e", None),
-        threshold_g=getattr(args, "threshold_g", None),
-        range_max=getattr(args, "range_max", None),
-    )
+    given = {name: getattr(args, name) for name in CASE_OPTIONS if _given(args, name)}
+    for name in given:
+        if name not in pipeline.case_options:
+            raise UserError(f"{CASE_OPTIONS[name]} does not apply to pipeline {pipeline.name}")
+    try:
+        return pipeline.with_case_options(case, **given)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
 
 
 def reject_options(args: argparse.Namespace, names: dict[str, str], why: str) -> None:

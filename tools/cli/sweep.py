@@ -43,7 +43,6 @@ import hashlib
 import json
 import sys
 from collections.abc import Callable
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -93,8 +92,8 @@ VERIFY_SCENES: tuple[str, ...] = (*TUNING_SCENES, *HELD_OUT_SCENES)
 
 
 def example_path() -> Path:
-    """Path of the shipped example sweep definition."""
-    return Path(str(resources.files("rangefx.tools.studies").joinpath("sweeps", "p1_lab.toml")))
+    """Path of the example sweep definition: the first registered pipeline's first."""
+    return next(p for pipe in PIPELINES.values() for p in pipe.sweep_example_paths())
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -523,14 +522,14 @@ def _write_optimise_out(
     """optimised.toml, the build-up plots of the result and of the start on the first
     tuning scene (:func:`rangefx.tools.studies.buildup.buildup_for`), summary.json."""
     from ..report.wlplots import save_buildup
-    from ..studies.buildup import PROFILE_AXES, buildup_for
+    from ..studies.buildup import buildup_for
 
     # as every other command: filled aside, then put in place; the user's files are kept
     with atomic_output_dir(out) as tmp:
         atomic_write_text(tmp / "optimised.toml", res.config.to_toml())
         for stem, cfg in (("buildup_optimised", res.config), ("buildup_start", res.start)):
             title = f"{pipe.name} " + stem.replace("_", " ").replace("buildup", "build-up,")
-            save_buildup(tmp, stem, buildup_for(pipe, case, cfg), title, xlabels=PROFILE_AXES)
+            save_buildup(tmp, stem, buildup_for(pipe, case, cfg), title, xlabels=pipe.buildup_axes)
         atomic_write_text(tmp / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
 
 

@@ -84,7 +84,7 @@ from ..errors import UserError
 from ..interrupts import raise_if_interrupted
 from ..report.lock import output_lock
 from ..report.outdir import refuse_links
-from .buildup import PROFILE_AXES, buildup_for
+from .buildup import buildup_for
 from .cases import scene_case
 from .runner import compare_ranges
 from .taps import signal_of_taps, tap_errors
@@ -1005,7 +1005,7 @@ def write_outputs(defn: SweepDef, outcome: SweepOutcome, out_dir: str | Path) ->
     profiles = buildup_for(pipe, first, defn.base)
     written = save_buildup(
         out, "buildup_base", profiles,
-        f"{pipe.name} error build-up, base config ({defn.scenes[0]})", xlabels=PROFILE_AXES,
+        f"{pipe.name} error build-up, base config ({defn.scenes[0]})", xlabels=pipe.buildup_axes,
     )  # fmt: skip
     summary["buildup"] = [p.name for p in written]
     n_ok = sum(1 for r in unique.values() if r["status"] == "ok")

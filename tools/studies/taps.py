@@ -29,7 +29,7 @@ def tap_specs(table: Sequence[TapSpec]) -> dict[str, TapSpec]:
 
 def tap_float(result: PipelineResult, spec: TapSpec) -> np.ndarray:
     """The raw codes of tap ``spec`` in ``result`` as float values (raw times 2^-F)."""
-    return np.ldexp(result.taps[spec.name].astype(np.float64), -spec.fmt.frac)
+    return spec.values(result)
 
 
 def tap_errors(
