@@ -10,14 +10,9 @@ do not depend on timing, so ``timing`` and ``threads`` are accepted and ignored.
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 from oracle_p1 import oracle_p1
 from oracle_p2 import oracle_p2
 from oracle_p3 import oracle_p3

@@ -184,3 +184,65 @@ def test_private_check_flags_a_planted_import(tmp_path, monkeypatch):
         "mod.py:2: rangefx.rtl_model.runtime._I64",
         "mod.py:3: rangefx.rtl_model.p1.model._SIG",
     ]
+
+
+# -- the tests themselves: helper modules, never another test module ----------------------
+TESTS = ROOT / "tests"
+
+
+def faults_of_test_file(path: Path) -> list[str]:
+    """Where a file of ``tests/`` imports a test module (``test_*``, its own name
+    included) or edits ``sys.path``: helpers live in plain modules (``tests/conftest.py``)."""
+    bad = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        names = []
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            names = [node.module]
+        for name in names:
+            if name.split(".")[-1].startswith("test_") or name.startswith("tests."):
+                bad.append(f"{path.name}:{node.lineno}: imports {name}")
+        # sys.path.insert(...) and the like, or an assignment to sys.path (reading it,
+        # say for a child process's PYTHONPATH, is fine)
+        edited = [node.func.value] if isinstance(node, ast.Call) and isinstance(
+            node.func, ast.Attribute) else []  # fmt: skip
+        if isinstance(node, (ast.Assign, ast.AugAssign)):
+            edited = node.targets if isinstance(node, ast.Assign) else [node.target]
+            edited = [t.value if isinstance(t, ast.Subscript) else t for t in edited]
+        if any(_is_sys_path(e) for e in edited):
+            bad.append(f"{path.name}:{node.lineno}: edits sys.path")
+    return sorted(bad, key=lambda b: int(b.split(":")[1]))
+
+
+def _is_sys_path(node: ast.AST) -> bool:
+    return (
+        isinstance(node, ast.Attribute)
+        and node.attr == "path"
+        and isinstance(node.value, ast.Name)
+        and node.value.id == "sys"
+    )
+
+
+@pytest.mark.parametrize("path", sorted(TESTS.glob("*.py")), ids=lambda p: p.name)
+def test_no_test_imports_a_test_module_or_patches_sys_path(path):
+    assert faults_of_test_file(path) == []
+
+
+def test_the_test_module_check_flags_planted_faults(tmp_path):
+    fake = tmp_path / "test_fake.py"
+    fake.write_text(
+        "import sys\n"
+        "from test_bitexact import assert_bit_exact\n"
+        "import test_compile as t\n"
+        "sys.path.insert(0, '.')\n"
+        "from bitexact_cases import p1_case\n"
+        "env = {'PYTHONPATH': ':'.join(sys.path)}\n"
+        "sys.path[0:0] = ['x']\n"
+    )
+    assert faults_of_test_file(fake) == [
+        "test_fake.py:2: imports test_bitexact",
+        "test_fake.py:3: imports test_compile",
+        "test_fake.py:4: edits sys.path",
+        "test_fake.py:7: edits sys.path",
+    ]

@@ -18,7 +18,7 @@ from rangefx.golden.central import (
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.methods import METHODS, run_method
 from rangefx.golden.ranging import RangingConfig
-from rangefx.golden.scenes import render_plane, render_scene
+from rangefx.golden.scenes import render_plane
 from rangefx.tools import report
 
 
@@ -157,11 +157,6 @@ def test_g2_registered_and_matches_range_g2():
     )
     np.testing.assert_array_equal(a.range, b.range)
     np.testing.assert_array_equal(a.valid, b.valid)
-
-
-@pytest.fixture(scope="module")
-def lab():
-    return render_scene("lab")
 
 
 def test_lab_g2_underestimates_more_than_g3_consistent(lab):

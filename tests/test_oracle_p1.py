@@ -8,14 +8,9 @@ results; (c) SAT_ZERO / SAT_SYM behaviour, directly and through the datapath.
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 from oracle_p1 import (
     RANGE_TAPS,
     _restoring_loop,

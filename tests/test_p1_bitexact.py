@@ -8,8 +8,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from bitexact_cases import assert_bit_exact, p1_case
 from oracles import ORACLES
-from test_bitexact import assert_bit_exact, p1_case
 
 from rangefx.golden.geometry import PinholeCamera
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant

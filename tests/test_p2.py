@@ -11,7 +11,6 @@ import pytest
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.methods import SCENE_RICCATI
 from rangefx.golden.riccati import range_g5
-from rangefx.golden.scenes import render_scene
 from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p1.config import P1Config
@@ -27,11 +26,6 @@ from rangefx.rtl_model.p2.model import (
 from rangefx.rtl_model.stream import input_cycles, pixel_cycles
 from rangefx.tools.cli import main
 from rangefx.tools.studies.runner import compare_ranges
-
-
-@pytest.fixture(scope="module")
-def lab():
-    return render_scene("lab")
 
 
 @pytest.fixture(scope="module")

@@ -12,8 +12,8 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
+from bitexact_cases import assert_bit_exact, p3_case
 from oracles import ORACLES
-from test_bitexact import assert_bit_exact, p3_case
 
 from rangefx.golden.geometry import MotionIncrement
 from rangefx.golden.multiscale import streaming_schedule

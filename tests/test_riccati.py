@@ -23,7 +23,7 @@ from rangefx.golden.riccati import (
     riccati_sweep,
     weights_in_pixels,
 )
-from rangefx.golden.scenes import render_plane, render_scene
+from rangefx.golden.scenes import render_plane
 from rangefx.tools import report
 
 _F = 618.0
@@ -153,11 +153,6 @@ def test_bryson_rule_reproduces_the_paper_weights():
     assert cfg.beta == pytest.approx(b, rel=0.01)
     assert cfg.gamma == pytest.approx(g, rel=0.01)
     assert bryson_weights(2.0, 4.0, 8.0) == (1 / 8, 1 / 16, 1 / 4)
-
-
-@pytest.fixture(scope="module")
-def lab():
-    return render_scene("lab")
 
 
 @pytest.mark.parametrize(("sampling", "within"), [("edge", True), ("centre", False)])
