@@ -65,6 +65,7 @@ from rangefx.tools.studies.runner import (
     pipeline_figures,
     run_case,
 )
+from rangefx.tools.studies.sweep import SweepDef, SweepOutcome
 from rangefx.tools.studies.tuning import DEFAULT_MARGIN, OptimiseReport
 from rangefx.vectors.generate import (
     FORMATS,
@@ -77,6 +78,7 @@ from rangefx.vectors.generate import (
     write_vectors,
 )
 from rangefx.vectors.generate import check_vectors as _check_files
+from rangefx.vectors.replay import ReplayReport
 
 __all__ = [
     "DEFAULT_METHOD",
@@ -568,7 +570,7 @@ class ReplayResult:
 
     directory: Path
     simulator: str
-    report: Any
+    report: ReplayReport
     figures: dict[str, Any]
 
     @property
@@ -656,9 +658,9 @@ class SweepResult:
     (points, records, the keys computed this time) and the summary (``summary.json``:
     point counts, Pareto fronts per scene, timing)."""
 
-    definition: Any
+    definition: SweepDef
     out: Path
-    outcome: Any = field(repr=False)
+    outcome: SweepOutcome = field(repr=False)
     summary: dict[str, Any]
 
     def to_dict(self) -> dict[str, Any]:

@@ -212,7 +212,7 @@ def test_generate_vectors_never_replaces_a_users_directory(tmp_path):
 
 
 @pytest.mark.skipif(shutil.which("iverilog") is None, reason="needs Icarus Verilog")
-def test_replay_a_p1_directory_in_a_simulator(tmp_path):
+def test_replay_a_p1_directory_in_a_simulator(tmp_path, monkeypatch):
     pytest.importorskip("cocotb")
     vec = api.generate_vectors("lab", tmp_path / "vec", crop=CROP).out
     result = api.replay(vec, "icarus", dump=tmp_path / "dump")
@@ -220,8 +220,13 @@ def test_replay_a_p1_directory_in_a_simulator(tmp_path):
     assert (tmp_path / "dump" / "status.json").is_file()
     assert json.loads(result.write(tmp_path / "rep").read_text()) == result.to_dict()
     p2 = api.generate_vectors("lab", tmp_path / "p2", crop=CROP, pipeline="p2").out
-    with pytest.raises(UserError, match="the RTL implements P1"):
-        api.replay(p2)
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("the simulator was built for P2 vectors")
+
+    monkeypatch.setattr("rangefx.vectors.replay.simulate", no_build)
+    with pytest.raises(UserError, match="the RTL implements P1; these are p2 vectors"):
+        api.replay(p2)  # refused before any build
 
 
 # -- word-length studies --------------------------------------------------------------------
@@ -275,7 +280,7 @@ def test_guide_flies_the_report_law_and_writes_its_files(tmp_path):
     out = result.write(tmp_path / "g")
     assert json.loads((out / "summary.json").read_text()) == result.to_dict()
     assert {"trajectory.csv", "obstacles.csv", "extents.csv"} <= {p.name for p in out.iterdir()}
-    with pytest.raises(UserError, match="--clearance"):
+    with pytest.raises(UserError, match="clearance must be a positive number of feet"):
         api.guide(clearance_ft=-1.0)
 
 
