@@ -23,6 +23,11 @@ AVX-512 cores stops its vectoriser at 256 bits, and the kernels' lane loops ran 
 faster with 512 (docs/performance.md, "How the kernels are built"). It applies to the
 process and its children, as numba's own setting does. Both must run before numba is first imported,
 which importing any ``rangefx`` subpackage ensures.
+
+The Python API of the three jobs is :mod:`rangefx.api` (``from rangefx import api``); its
+functions are also attributes of this package (``rangefx.run``, ``rangefx.scene_case``,
+...). It is imported on first use, so ``import rangefx`` (and every ``rangefx`` command's
+start) does not pay for numpy, numba and matplotlib.
 """
 
 from __future__ import annotations
@@ -149,3 +154,26 @@ if not any(name in os.environ for name in NUMBA_TARGET_SETTINGS):
         PREFER_512_BIT = True
 # a user's own choice of locators is kept (rangefx's kernels then cache as numba places them)
 os.environ.setdefault("NUMBA_CACHE_LOCATOR_CLASSES", NUMBA_LOCATORS)
+
+
+#: Names of :mod:`rangefx.api` this package gives as its own attributes (imported lazily).
+API_NAMES = (
+    "Case", "CheckReport", "DiffReport", "EvalResult", "GuideResult", "OptimiseReport",
+    "ReplayResult", "RunResult", "SweepResult", "UserError", "VectorsResult", "check_vectors",
+    "diff_vectors", "evaluate", "generate_vectors", "guide", "image_case", "optimise",
+    "real_pair_case", "replay", "run", "scene_case", "sweep",
+)  # fmt: skip
+
+
+def __getattr__(name: str) -> object:
+    """``rangefx.api`` and its names (:data:`API_NAMES`), imported on first use (PEP 562)."""
+    if name == "api" or name in API_NAMES:
+        import importlib
+
+        api = importlib.import_module(f"{__name__}.api")
+        return api if name == "api" else getattr(api, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), "api", *API_NAMES})

@@ -151,7 +151,9 @@ def repository_path_link(app, env, node, contnode):
 #: The API reference: one page per package, listing every public module under it (the
 #: CLI's own modules are documented by the CLI reference, from the parser).
 API_PACKAGES = {
-    "rangefx": "The package: numba's cache and CPU settings.",
+    "rangefx.api": "The Python API of the three jobs: cases, run, test vectors, replay, "
+    "sweep, optimise, evaluate, guide.",
+    "rangefx": "The package: numba's cache and CPU settings; the API's names, lazily.",
     "rangefx.golden": "Float64 reference of every algorithm of the report (SPEC §3).",
     "rangefx.rtl_model": "The bit-accurate, cycle-faithful pipelines and their interface.",
     "rangefx.vectors": "Test vectors, their files and manifest, the HDL replay.",

@@ -29,6 +29,7 @@ REPO = Path(__file__).resolve().parent.parent
 DOCS = REPO / "docs"
 #: The pages whose code blocks are executed.
 RUNNABLE_PAGES = (
+    "index.md",
     "tutorial.md",
     "pipelines.md",
     "recipes/testbench_vectors.md",

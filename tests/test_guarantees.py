@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rangefx import api
 from rangefx.rtl_model.config import MAX_NESTING
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.tools.cli import demo as cli_demo
 from rangefx.tools.cli import main
-from rangefx.tools.cli import vectors as cli_vectors
 from rangefx.tools.errors import UserError
 from rangefx.tools.report.outdir import MARKER_NAME, atomic_output_dir, remove_leftovers
 from rangefx.tools.studies import sweep as sweep_mod
@@ -229,14 +229,16 @@ def test_unwritable_output_is_one_line_before_the_work(tmp_path, capsys, monkeyp
 
     for target in ("run_case", "run_method", "render_scene"):
         for module in (
+            "rangefx.api",
             "rangefx.tools.cli.run",
             "rangefx.tools.cli.demo",
+            "rangefx.tools.studies.demo",
             "rangefx.tools.studies.cases",
             "rangefx.tools.studies.runner",
         ):
             with contextlib.suppress(AttributeError):
                 monkeypatch.setattr(f"{module}.{target}", no_work)
-    monkeypatch.setattr(cli_vectors, "build_vectors", no_work)
+    monkeypatch.setattr(api, "build_vectors", no_work)
     argv = UNWRITABLE[command](tmp_path, str(tmp_path / "ro" / "out"))
     with _unwritable(tmp_path / "ro"):
         code = main(argv)
@@ -254,9 +256,9 @@ def _interrupt(*args, **kwargs):
 @pytest.mark.parametrize(
     ("argv", "target", "says"),
     [
-        (["vectors", "gen", "--scene", "lab", *CROP], "rangefx.tools.cli.vectors.build_vectors",
+        (["vectors", "gen", "--scene", "lab", *CROP], "rangefx.api.build_vectors",
          "no output was written"),
-        (["run", "--scene", "lab"], "rangefx.tools.cli.run.run_method", "no output was written"),
+        (["run", "--scene", "lab"], "rangefx.golden.methods.run_method", "no output was written"),
         (["sweep", "DEF"], "rangefx.tools.studies.sweep.evaluate_point", "re-run the same command"),
     ],
 )  # fmt: skip

@@ -26,8 +26,7 @@ from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p1 import RANGE_TAPS
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.tools.cli import main
-from rangefx.tools.cli.vectors import crop_case
-from rangefx.tools.studies.cases import scene_case
+from rangefx.tools.studies.cases import crop_case, scene_case
 from rangefx.vectors import replay
 from rangefx.vectors.generate import build_vectors, write_vectors
 from rangefx.vectors.hdl import FRONTEND_TAPS, OVERFLOW_CODES, QUANT_CODES, stream_entries

@@ -28,8 +28,7 @@ from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p1 import RANGE_TAPS
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.rtl_model.p1.taps import TAP_SIGNALS
-from rangefx.tools.cli.vectors import crop_case
-from rangefx.tools.studies.cases import scene_case
+from rangefx.tools.studies.cases import crop_case, scene_case
 from rangefx.vectors import formats as fmt_io
 from rangefx.vectors.generate import build_vectors, diff_dump, load_manifest, write_vectors
 from rangefx.vectors.hdl import HDL_DIR, RANGE_SOURCES, range_parameters, range_registers

@@ -29,9 +29,9 @@ from rangefx.golden.realdata import (
 )
 from rangefx.golden.scenes import render_scene
 from rangefx.tools import report
-from rangefx.tools.cli import eval as eval_cli
 from rangefx.tools.cli import main
-from rangefx.tools.cli.eval import (
+from rangefx.tools.studies import evaluation
+from rangefx.tools.studies.evaluation import (
     MIDDLEBURY_KEYS,
     MIDDLEBURY_METHODS,
     MIDDLEBURY_PIPELINES,
@@ -328,7 +328,7 @@ def test_eval_headline_takes_nothing_from_the_ground_truth(capsys, monkeypatch):
     pytest.importorskip("cv2")
     argv = ["eval", "--factor", "19", "--peers", "--json"]
     plain = _eval_json(capsys, argv)["factors"]["19"]
-    monkeypatch.setattr(eval_cli, "search_range", lambda data: 40)
+    monkeypatch.setattr(evaluation, "search_range", lambda data: 40)
     moved = _eval_json(capsys, argv)["factors"]["19"]
     assert moved["methods"] == plain["methods"]
     assert moved["valid_in_both"] == plain["valid_in_both"]

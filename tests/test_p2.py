@@ -241,7 +241,7 @@ def test_cli_run_p2_json(capsys):
 
 
 def test_demo_helper(tmp_path, lab):
-    from rangefx.tools.cli.demo import demo_pipelines
+    from rangefx.tools.studies.demo import demo_pipelines
 
     out = demo_pipelines(lab, tmp_path)["p2"]
     assert out["overflows"]["total"] == 0 and out["valid_agreement"] >= 0.99

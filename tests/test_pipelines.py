@@ -20,8 +20,7 @@ from rangefx.rtl_model.pipeline import VALID_FORMAT, Case, PipelineResult
 from rangefx.rtl_model.registry import PIPELINES, get_pipeline
 from rangefx.rtl_model.runtime import finish_band, reciprocal_lut
 from rangefx.tools.cli import main
-from rangefx.tools.cli.vectors import crop_case
-from rangefx.tools.studies.cases import scene_case
+from rangefx.tools.studies.cases import crop_case, scene_case
 from rangefx.vectors.generate import build_vectors, check_vectors, diff_dump, write_vectors
 
 NAMES = list(PIPELINES)

@@ -866,8 +866,8 @@ def test_cli_sweep_and_errors(tmp_path, capsys):
 
 
 def test_example_definition_has_200_configs():
-    from rangefx.tools.cli.sweep import example_path
     from rangefx.tools.studies.sweep import load_sweep
+    from rangefx.tools.studies.sweepdir import example_path
 
     defn = load_sweep(example_path())
     points = expand(defn)
@@ -929,8 +929,8 @@ def test_golden_cache_keys_on_what_the_golden_reads():
 
 
 def test_example_p2_definition():
-    from rangefx.tools.cli.sweep import example_path
     from rangefx.tools.studies.sweep import load_sweep
+    from rangefx.tools.studies.sweepdir import example_path
 
     defn = load_sweep(example_path().with_name("p2_lab.toml"))
     assert defn.pipeline == "p2" and defn.base == P2.default_config() and defn.size is None

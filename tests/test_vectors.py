@@ -16,6 +16,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from rangefx import api
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig
 from rangefx.rtl_model.config import TimingConfig
@@ -24,7 +25,6 @@ from rangefx.rtl_model.p1.config import P1Config
 from rangefx.rtl_model.p1.taps import TAP_SIGNALS, tap_format
 from rangefx.rtl_model.pipeline import Case
 from rangefx.tools.cli import main
-from rangefx.tools.cli import vectors as cli_vectors
 from rangefx.tools.studies.cases import scene_case
 from rangefx.vectors import formats as fio
 from rangefx.vectors import generate
@@ -307,7 +307,7 @@ def test_failed_write_leaves_no_directory(tmp_path, monkeypatch):
         (Path(directory) / "half.mem").write_text("00\n")
         raise OSError("disk full")
 
-    monkeypatch.setattr(cli_vectors, "write_vectors", boom)
+    monkeypatch.setattr(api, "write_vectors", boom)
     assert _gen(tmp_path / "o") == 2  # one error line (issue 19 item 4), not a traceback
     assert not (tmp_path / "o").exists() and list(tmp_path.iterdir()) == []
 

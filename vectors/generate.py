@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
@@ -50,6 +51,7 @@ __all__ = [
     "read_tap",
     "stream_memory_bytes",
     "tap_cycles",
+    "write_report",
     "write_vectors",
 ]
 
@@ -153,6 +155,7 @@ def build_vectors(
     *,
     description: Mapping | None = None,
     formats: Iterable[str] = ("mem",),
+    result: PipelineResult | None = None,
 ) -> VectorSet:
     """Run ``pipeline`` with all taps on ``case`` and build every vector file.
 
@@ -168,20 +171,28 @@ def build_vectors(
         Recorded in the manifest's ``case`` (scene name, seed, crop, ...); JSON-able.
     formats
         Per-tap formats among :data:`FORMATS`; ``mem`` is always included.
+    result
+        An existing run of ``pipeline`` on ``case`` with every tap (``taps=True``): its
+        config and timing are used and the model is not run again.
 
     Raises
     ------
     ValueError
-        Bad images, config, timing or format names (from the model or here).
+        Bad images, config, timing or format names (from the model or here); a ``result``
+        of another pipeline or mode, without taps, or with another config or timing.
     """
     pipe = get_pipeline(pipeline) if isinstance(pipeline, str) else pipeline
     wanted = {"mem", *formats}
     unknown = sorted(wanted - set(FORMATS))
     if unknown:
         raise ValueError(f"unknown vector formats {unknown}; choose from {', '.join(FORMATS)}")
-    timing = timing or TimingConfig()
-    config = config or pipe.default_config()
-    result = pipe.run(case, config, timing, taps=True)
+    if result is None:
+        timing = timing or TimingConfig()
+        config = config or pipe.default_config()
+        result = pipe.run(case, config, timing, taps=True)
+    else:
+        _check_result(pipe, case, config, timing, result)
+        config, timing = result.config, result.timing
     im1 = np.asarray(case.image1, dtype=np.int64)
     im2 = np.asarray(case.image2, dtype=np.int64)
     m, n = im1.shape
@@ -305,6 +316,34 @@ def build_vectors(
         "files": entries,
     }
     return VectorSet(files, manifest, result)
+
+
+def _check_result(
+    pipe: Pipeline,
+    case: Case,
+    config: WordLengthConfig | None,
+    timing: TimingConfig | None,
+    result: PipelineResult,
+) -> None:
+    """A ``result`` given to :func:`build_vectors` must be ``pipe``'s run on ``case``
+    with every tap (and the config and timing given, if any)."""
+    if result.pipeline != pipe.name or result.mode != case.mode:
+        raise ValueError(
+            f"the result is a {result.pipeline} run in {result.mode} mode, not {pipe.name} "
+            f"in the case's {case.mode} mode"
+        )
+    if np.shape(result.range) != case.shape:
+        raise ValueError(
+            f"the result's shape {np.shape(result.range)} is not the case's {case.shape}"
+        )
+    missing = [t.name for t in pipe.tap_table(result.config, case.mode)
+               if t.stage is not None and t.name not in result.taps]  # fmt: skip
+    if missing:
+        raise ValueError(f"the result holds no tap {missing[0]} (run it with taps=True)")
+    if config is not None and config != result.config:
+        raise ValueError("the result was run with another config than the one given")
+    if timing is not None and timing != result.timing:
+        raise ValueError("the result was run with another timing than the one given")
 
 
 def write_vectors(directory: str | Path, vectors: VectorSet) -> None:
@@ -488,6 +527,26 @@ class CheckReport:
     def ok(self) -> bool:
         return not self.problems
 
+    def to_dict(self) -> dict:
+        """The report as JSON-able values (``rangefx vectors check --json``)."""
+        return {**asdict(self), "ok": self.ok}
+
+    def write(self, directory: str | Path) -> Path:
+        """Write ``check.json`` (:meth:`to_dict`) into ``directory`` (created if needed)."""
+        return write_report(directory, "check.json", self.to_dict())
+
+
+def write_report(directory: str | Path, name: str, data: Mapping) -> Path:
+    """Write ``data`` as ``directory/name`` (JSON): to a temporary file beside it, then
+    renamed, so a reader never sees half a report. Returns the path."""
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    path = d / name
+    tmp = d / f".{name}.tmp-{os.getpid()}"
+    tmp.write_text(json.dumps(data, indent=1) + "\n")
+    os.replace(tmp, path)
+    return path
+
 
 _MARKER = ".rangefx-output"  # rangefx.tools.report.outdir.MARKER_NAME (vectors sits below tools)
 _IGNORED = {MANIFEST_NAME, _MARKER}
@@ -585,6 +644,14 @@ class DiffReport:
 
     def as_dict(self) -> dict:
         return {**asdict(self), "ok": self.ok}
+
+    def to_dict(self) -> dict:
+        """The report as JSON-able values (``rangefx vectors diff --json``)."""
+        return self.as_dict()
+
+    def write(self, directory: str | Path) -> Path:
+        """Write ``diff.json`` (:meth:`to_dict`) into ``directory`` (created if needed)."""
+        return write_report(directory, "diff.json", self.to_dict())
 
     def text(self) -> str:
         head = f"{self.tap} ({self.signal}, {self.format}, {self.describe})"

@@ -21,7 +21,8 @@ or near the nominal path (:mod:`rangefx.guidance.stress`), and writes ``stress.j
 and ``stress_worst.png``. When no path to the touch-down keeps the clearance the
 avoiding law takes a safe manoeuvre (hover and hold, climb over, turn away) and says so.
 
-Writes Figs 4-10 look-alikes (extents, clearance and true vehicles drawn),
+One call of :func:`rangefx.api.guide` (:mod:`rangefx.tools.studies.flights`). Writes
+Figs 4-10 look-alikes (extents, clearance and true vehicles drawn),
 ``trajectory.csv``, ``obstacles.csv``, ``extents.csv`` and ``summary.json`` to ``--out``
 (default ``rangefx-out/guide``); ``--json`` prints the summary as one JSON object.
 """
@@ -29,56 +30,32 @@ Writes Figs 4-10 look-alikes (extents, clearance and true vehicles drawn),
 from __future__ import annotations
 
 import argparse
-import io
 import json
 import math
 import sys
-from pathlib import Path
-
-import numpy as np
 
 from rangefx.rtl_model.registry import PIPELINES
 
-from ..errors import UserError
-from ..report import atomic_output_dir, atomic_write_text, json_safe
+from ..studies.flights import stress_table
 from .options import out_path
 
-__all__ = ["add_parser", "cmd_guide", "guide_into", "stress_into", "stress_table"]
-
-_HEADLINE = (
-    "flight_time_s",
-    "min_true_obstacle_distance_ft",
-    "min_obstacle_distance",
-    "max_load_factor",
-    "max_abs_theta_deg",
-    "max_abs_phi_deg",
-    "max_abs_phi_deg_excluding_final_0_5s",
-)
-
-
-def _csv(header: str, rows: np.ndarray) -> str:
-    buf = io.StringIO()
-    np.savetxt(buf, rows, delimiter=",", header=header, comments="", fmt="%.6f")
-    return buf.getvalue()
+__all__ = ["add_parser", "cmd_guide"]
 
 
 def cmd_guide(args: argparse.Namespace) -> int:
-    if not all(math.isfinite(v) for v in args.shift):
-        raise UserError(f"--shift must be finite numbers, not {args.shift}")
-    if not (math.isfinite(args.clearance) and args.clearance > 0):
-        raise UserError(f"--clearance must be a positive number of feet, not {args.clearance}")
-    out = Path(args.out)
-    if args.stress is not None:
-        return _cmd_stress(args, out)
-    if args.layout_sweep is not None:
-        if args.layout_sweep < 0:
-            raise UserError(f"--layout-sweep must be >= 0, not {args.layout_sweep}")
-        with atomic_output_dir(out) as tmp:
-            summary = sweep_into(
-                tmp, args.layout_sweep, args.clearance, args.guidance_interval,
-                args.replan_interval,
-            )  # fmt: skip
-        s = summary["summary"]
+    from rangefx import api
+
+    result = api.guide(
+        args.obstacles, law=args.law, clearance_ft=args.clearance, shift=tuple(args.shift),
+        guidance_interval=args.guidance_interval, replan_interval=args.replan_interval,
+        layout_sweep=args.layout_sweep, stress=args.stress, pipeline=args.pipeline,
+        seed=args.seed,
+    )  # fmt: skip
+    out = result.write(args.out)
+    if result.programme == "stress":
+        print(json.dumps(result.to_dict()) if args.json else stress_table(result.summary))
+    elif result.programme == "layout-sweep":
+        s = result.summary["summary"]
         for row in s["infeasible"]:
             print(
                 f"rangefx: warning: layout {row['layout']}: no trajectory keeps "
@@ -87,7 +64,7 @@ def cmd_guide(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         if args.json:
-            print(json.dumps(json_safe(summary)))
+            print(json.dumps(result.to_dict()))
         else:
             print(
                 f"layout sweep: {s['layouts']} layouts, {s['feasible']} feasible, "
@@ -96,75 +73,18 @@ def cmd_guide(args: argparse.Namespace) -> int:
                 f"(feasible: {s['worst_true_clearance_feasible_ft']:.2f} ft); infeasible: "
                 f"{', '.join(r['layout'] for r in s['infeasible']) or 'none'}"
             )
-            print(f"results written to {out}/")
-        return 0
-    with atomic_output_dir(out) as tmp:
-        summary, notes, metrics = guide_into(
-            tmp,
-            args.obstacles,
-            law=args.law,
-            clearance_ft=args.clearance,
-            shift=tuple(args.shift),
-            guidance_interval=args.guidance_interval,
-            replan_interval=args.replan_interval,
-        )
-    for note in notes:
-        print(f"rangefx: warning: {note}", file=sys.stderr)
-    if args.json:
-        print(json.dumps(json_safe(summary)))
     else:
-        print(_line(f"guide ({args.obstacles}, law {args.law})", metrics))
-        if "report_law" in summary:
-            print(_line("  report law on the same obstacles", summary["report_law"]))
+        for note in result.warnings:
+            print(f"rangefx: warning: {note}", file=sys.stderr)
+        if args.json:
+            print(json.dumps(result.to_dict()))
+        else:
+            print(_line(f"guide ({args.obstacles}, law {args.law})", result.metrics))
+            if "report_law" in result.summary:
+                print(_line("  report law on the same obstacles", result.summary["report_law"]))
+    if not args.json:
         print(f"results written to {out}/")
     return 0
-
-
-def _cmd_stress(args: argparse.Namespace, out: Path) -> int:
-    if args.stress < 0:
-        raise UserError(f"--stress must be >= 0, not {args.stress}")
-    if args.layout_sweep is not None:
-        raise UserError("--stress and --layout-sweep are separate programmes: give one")
-    with atomic_output_dir(out) as tmp:
-        res = stress_into(
-            tmp, args.stress, args.pipeline, seed=args.seed, clearance_ft=args.clearance,
-            guidance_interval=args.guidance_interval, replan_interval=args.replan_interval,
-        )  # fmt: skip
-    data = res.to_dict()
-    if args.json:
-        print(json.dumps(json_safe(data)))
-    else:
-        print(stress_table(data))
-        print(f"results written to {out}/")
-    return 0
-
-
-def stress_table(data: dict) -> str:
-    """The stress programme's per-layout table and summary as text."""
-    head = (
-        f"{'layout':<12} {'vehicle':<10} {'t (s)':>6} {'off':>6} {'outcome':<10} "
-        f"{'manoeuvre':<10} {'true':>7} {'extent':>7} {'time':>6} {'n':>6} {'|θ|':>5} "
-        f"{'|φ|':>5} {'report':>7}"
-    )
-    lines = [head]
-    for r in data["layouts"]:
-        lines.append(
-            f"{r['name']:<12} {r['vehicle']:<10} {r['path_time_s']:6.1f} {r['offset_ft']:+6.1f} "
-            f"{r['outcome']:<10} {r['manoeuvre'] or '-':<10} {r['min_true_distance_ft']:7.2f} "
-            f"{r['min_extent_distance_ft']:7.2f} {r['flight_time_ratio']:6.3f} "
-            f"{r['max_load_factor']:6.3f} {r['max_abs_theta_deg']:5.1f} "
-            f"{r['max_abs_phi_deg']:5.1f} {r['report_law_min_true_distance_ft']:7.2f}"
-        )
-    s = data["summary"]
-    lines.append(
-        f"stress ({data['source']}, {s['layouts']} layouts, clearance {data['clearance_ft']:g} "
-        f"ft): outcomes {s['outcomes']}, collisions {s['collisions']} (report law "
-        f"{s['report_law_collisions']}), crashes {s['crashes']}, landings keeping the "
-        f"clearance {s['landings_keeping_clearance']} of {s['outcomes']['landing']}, min true "
-        f"distance {s['min_true_distance_ft']:.2f} ft, max load factor "
-        f"{s['max_load_factor']:.3f}"
-    )
-    return "\n".join(lines)
 
 
 def _line(prefix: str, m: dict) -> str:
@@ -178,242 +98,6 @@ def _line(prefix: str, m: dict) -> str:
         f"({m.get('max_abs_phi_deg_excluding_final_0_5s', math.nan):.1f} before the last 0.5 s)"
         + ("" if m.get("feasible", True) else " -- INFEASIBLE clearance")
     )
-
-
-def _case(obstacles: str):
-    from rangefx.guidance.cases import synthetic_case
-
-    if obstacles == "runway":
-        return _runway_case(None)
-    if obstacles == "runway-p1":
-        return _runway_case("p1")
-    return synthetic_case()
-
-
-def _runway_case(pipeline: str | None):
-    """The ``runway`` scene end to end, ranged by golden ``g4_consistent`` (``None``) or
-    by the bit-accurate ``pipeline`` in the scene's mode (motion)."""
-    from rangefx.guidance.cases import runway_case
-    from rangefx.rtl_model.registry import get_pipeline
-
-    from ..studies.runner import range_source
-
-    source = None
-    label = f"--pipeline {pipeline}" if pipeline else "--obstacles runway"
-    if pipeline is not None:
-        pipe = get_pipeline(pipeline)
-        if "motion" not in pipe.modes:
-            raise UserError(
-                f"--pipeline {pipeline}: {pipeline.upper()} models "
-                f"{' and '.join(pipe.modes)} mode only; the runway scene is a motion pair"
-            )
-        if pipeline == "p1":  # the consistent variant, as the documented figures
-            from rangefx.rtl_model.p1 import P1Config
-
-            config = P1Config.default(variant="consistent")
-        else:
-            config = pipe.default_config()
-        source = range_source(pipe, config)
-    try:
-        case = runway_case(source)
-    except ValueError as exc:
-        raise UserError(f"{label}: {exc}") from None
-    case.info["method"] = (
-        f"{pipeline.upper()} fixed point, motion mode, default config"
-        + (", consistent" if pipeline == "p1" else "")
-        if pipeline
-        else "golden g4_consistent"
-    )
-    case.info["reduction"] = "voxel"
-    return case
-
-
-def stress_into(
-    tmp: Path,
-    count: int,
-    pipeline: str,
-    *,
-    seed: int = 0,
-    clearance_ft: float = 20.0,
-    guidance_interval: float = 0.1,
-    replan_interval: float = 0.5,
-):
-    """The stress programme (:func:`rangefx.guidance.stress.stress_programme`) on the
-    ``runway`` scene ranged by ``pipeline``, into ``tmp``: ``stress.json`` and
-    ``stress_worst.png`` (the closest layouts). Returns the
-    :class:`~rangefx.guidance.stress.StressResult`."""
-    from tqdm import tqdm
-
-    from rangefx.guidance.avoid import AvoidConfig
-    from rangefx.guidance.plots import save_stress_figure
-    from rangefx.guidance.simulate import SimulationConfig
-    from rangefx.guidance.stress import stress_programme
-
-    try:
-        config = SimulationConfig(
-            guidance_interval=guidance_interval, sample_interval=min(0.02, guidance_interval)
-        )
-    except ValueError as exc:
-        raise UserError(f"--guidance-interval: {exc}") from None
-    try:
-        avoid = AvoidConfig(clearance_ft=clearance_ft, replan_interval=replan_interval)
-    except ValueError as exc:
-        raise UserError(f"--clearance / --replan-interval: {exc}") from None
-    case = _runway_case(pipeline)
-    bar = tqdm(total=count, desc="stress", disable=not sys.stderr.isatty())
-    try:
-        res = stress_programme(
-            case, count, seed=seed, source=f"runway-{pipeline}", clearance_ft=clearance_ft,
-            config=config, avoid=avoid, progress=lambda _n: bar.update(),
-        )  # fmt: skip
-    finally:
-        bar.close()
-    atomic_write_text(tmp / "stress.json", json.dumps(json_safe(res.to_dict()), indent=2) + "\n")
-    if res.rows:
-        save_stress_figure(res, tmp / "stress_worst.png")
-    return res
-
-
-def guide_into(
-    tmp: Path,
-    obstacles: str,
-    *,
-    law: str = "avoid",
-    clearance_ft: float = 20.0,
-    shift: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    guidance_interval: float = 0.1,
-    replan_interval: float = 0.5,
-) -> tuple[dict, list[str], dict]:
-    """Fly the chosen law on the chosen obstacle set; write figures, CSVs and
-    ``summary.json`` into the existing directory ``tmp``; return (summary, warnings,
-    metrics). With ``law="avoid"`` the report's law is flown beside it."""
-    from rangefx.guidance.avoid import AvoidConfig
-    from rangefx.guidance.cases import fly
-    from rangefx.guidance.example import REPORT_FIGURES
-    from rangefx.guidance.plots import FIGURES, save_figures
-    from rangefx.guidance.simulate import SimulationConfig
-
-    try:
-        config = SimulationConfig(
-            guidance_interval=guidance_interval,
-            sample_interval=min(0.02, guidance_interval),
-        )
-    except ValueError as exc:
-        raise UserError(f"--guidance-interval: {exc}") from None
-    try:
-        avoid = AvoidConfig(clearance_ft=clearance_ft, replan_interval=replan_interval)
-    except ValueError as exc:
-        raise UserError(f"--clearance / --replan-interval: {exc}") from None
-    case = _case(obstacles).shifted(shift)
-    runs = {}
-    for which in (law, "report") if law == "avoid" else (law,):
-        try:
-            runs[which] = fly(case, which, clearance_ft=clearance_ft, config=config, avoid=avoid)
-        except (ValueError, RuntimeError) as exc:
-            raise UserError(f"guidance ({which} law) failed: {exc}") from None
-    run = runs[law]
-    notes = list(run.warnings)
-    kw = {}
-    if case.scene is not None:
-        kw = {
-            "image": case.scene.image1,
-            "view": (case.scene.camera, case.scene.motion),
-            "to_ned": case.frame_map.to_scene,
-        }
-    compare = runs["report"].result if law == "avoid" else None
-    save_figures(
-        run.result, tmp, title=f"rangefx guide ({obstacles}, {law})", extents=case.boxes,
-        truth=case.truth, clearance_ft=clearance_ft, compare=compare,
-        labels=(f"{law} law", "report law"), **kw,
-    )  # fmt: skip
-    res = run.result
-    d_true = np.min([b.signed_distance(res.positions) for b in case.truth], axis=0)
-    traj = np.column_stack(
-        [
-            res.t,
-            res.states[:, :3],
-            res.states[:, 3],
-            np.degrees(res.states[:, 4]),
-            np.degrees(res.states[:, 5]),
-            res.closest_obstacle_distance(),
-            d_true,
-        ]
-    )
-    atomic_write_text(
-        tmp / "trajectory.csv",
-        _csv(
-            "t_s,x_ft,y_ft,z_ft,airspeed_ft_s,gamma_deg,chi_deg,closest_obstacle_ft,"
-            "closest_true_vehicle_ft",
-            traj,
-        ),
-    )
-    atomic_write_text(tmp / "obstacles.csv", _csv("x_ft,y_ft,z_ft", res.obstacles))
-    ext = np.array(
-        [
-            [*b.centre, math.degrees(b.heading), 2 * b.half_u, 2 * b.half_v, b.top]
-            for b in case.boxes
-        ]
-    ).reshape(-1, 6)
-    atomic_write_text(
-        tmp / "extents.csv", _csv("x_ft,y_ft,heading_deg,length_ft,width_ft,height_ft", ext)
-    )
-    summary = {
-        **run.metrics,
-        "obstacles": {"source": obstacles, **case.info},
-        "extraction": {**case.extraction.as_dict(), "scores": case.scores},
-        "shift_ft": list(shift),
-        "guidance_interval_s": config.guidance_interval,
-        "replan_interval_s": replan_interval,
-        "report": REPORT_FIGURES,
-        "warnings": notes,
-        "figures": sorted(FIGURES),
-    }
-    if law == "avoid":
-        rep = runs["report"]
-        summary["report_law"] = {**rep.metrics, "warnings": rep.warnings}
-        t_rep = rep.metrics["flight_time_s"]
-        summary["flight_time_ratio_to_report_law"] = run.metrics["flight_time_s"] / t_rep
-    atomic_write_text(tmp / "summary.json", json.dumps(json_safe(summary), indent=2) + "\n")
-    return summary, notes, run.metrics
-
-
-def sweep_into(
-    tmp: Path, n_random: int, clearance_ft: float, guidance_interval: float,
-    replan_interval: float = 0.5,
-) -> dict:  # fmt: skip
-    """The layout sweep (:func:`rangefx.guidance.cases.layout_sweep`) into ``tmp``."""
-    from tqdm import tqdm
-
-    from rangefx.guidance.cases import layout_sweep, random_layouts, shift_grid_layouts
-    from rangefx.guidance.simulate import SimulationConfig
-
-    try:
-        config = SimulationConfig(
-            guidance_interval=guidance_interval, sample_interval=min(0.02, guidance_interval)
-        )
-    except ValueError as exc:
-        raise UserError(f"--guidance-interval: {exc}") from None
-    from rangefx.guidance.avoid import AvoidConfig
-
-    try:
-        # The same programme as a single flight: the sweep measures what `guide` flies.
-        avoid = AvoidConfig(clearance_ft=clearance_ft, replan_interval=replan_interval)
-    except ValueError as exc:
-        raise UserError(f"--clearance / --replan-interval: {exc}") from None
-    layouts = shift_grid_layouts() + random_layouts(n_random)
-    bar = tqdm(total=len(layouts), desc="layout sweep", disable=not sys.stderr.isatty())
-    try:
-        out = layout_sweep(
-            layouts,
-            clearance_ft=clearance_ft,
-            config=config,
-            avoid=avoid,
-            progress=lambda _n: bar.update(),
-        )
-    finally:
-        bar.close()
-    atomic_write_text(tmp / "sweep.json", json.dumps(json_safe(out), indent=2) + "\n")
-    return out
 
 
 def add_parser(sub) -> None:

@@ -18,17 +18,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
-import tempfile
-import time
-from pathlib import Path
 
 from rangefx.rtl_model.registry import get_pipeline
-from rangefx.vectors.generate import case_from_manifest, load_manifest
-from rangefx.vectors.replay import SIMULATORS, SimulatorMissing, compare, simulate
+from rangefx.vectors.replay import SIMULATORS
 
 from ..errors import UserError
-from ..report import atomic_output_dir
 from ..studies.runner import load_config
 from ..studies.synth import AREA_KEYS, STAGES, TARGETS, synth_p1
 from ..studies.timing import DEVICES, TimingResult, time_p1
@@ -72,58 +66,14 @@ def add_replay_parser(hs) -> None:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    vec = Path(args.dir)
-    try:
-        manifest = load_manifest(vec)
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    if manifest.get("pipeline") != "p1":
-        raise UserError(
-            f"{vec}: the RTL implements P1; these are {manifest.get('pipeline')} vectors"
-        )
-    with tempfile.TemporaryDirectory(prefix="rangefx-hdl-") as tmp:
-        try:
-            run = simulate(vec, tmp, args.sim)
-        except SimulatorMissing as exc:
-            raise UserError(str(exc)) from None
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
-        try:
-            report = compare(vec, run["dump"])
-        except (ValueError, OSError) as exc:
-            raise UserError(f"comparing the RTL's dump with {vec}: {exc}") from None
-        if args.dump:
-            with atomic_output_dir(args.dump) as out:
-                for f in sorted(run["dump"].iterdir()):
-                    shutil.copy2(f, out / f.name)
-    m, n = manifest["shape"]
-    frames = 2 if manifest["mode"] == "motion" else 1
-    cycles = int(run["status"]["cycles"])
-    result = {
-        "dir": str(vec),
-        "sim": args.sim,
-        "mode": manifest["mode"],
-        "shape": [m, n],
-        **report.as_dict(),
-        "cycles": cycles,
-        "build_s": round(run["build_s"], 3),
-        "sim_s": round(run["sim_s"], 3),
-        "mcycles_per_s": round(cycles / run["sim_s"] / 1e6, 4),
-    }
-    if args.time_model:
-        again = case_from_manifest(vec, manifest)
-        pipe = again["pipeline"]
-        pipe.run(again["case"], again["config"], again["timing"], taps=True)  # compiled
-        t0 = time.perf_counter()
-        pipe.run(again["case"], again["config"], again["timing"], taps=True)
-        model_s = time.perf_counter() - t0
-        result["model_s"] = round(model_s, 3)
-        result["model_mpix_s"] = round(frames * m * n / model_s / 1e6, 4)
+    from rangefx import api
+
+    result = api.replay(args.dir, args.sim, dump=args.dump, time_model=args.time_model)
     if args.json:
-        print(json.dumps(result, indent=1))
+        print(json.dumps(result.figures, indent=1))
     else:
-        print(_text(result))
-    return 0 if report.ok else 1
+        print(_text(result.figures))
+    return 0 if result.ok else 1
 
 
 def _text(r: dict) -> str:

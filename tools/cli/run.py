@@ -12,30 +12,18 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import warnings
-from pathlib import Path
 
-import numpy as np
-
-from rangefx.golden.estimator import EstimatorConfig, validate_image
-from rangefx.golden.geometry import MotionIncrement, PinholeCamera
-from rangefx.golden.methods import METHODS, run_method
-from rangefx.golden.scenes import SCENE_NAMES, render_scene
+from rangefx.golden.estimator import EstimatorConfig
+from rangefx.golden.methods import METHODS
+from rangefx.golden.scenes import SCENE_NAMES
 from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
 
 from .. import report
 from ..errors import UserError
-from ..report import atomic_output_dir, atomic_write_text, json_safe
-from ..studies.cases import case_from_scene, integer_case, with_thresholds
-from ..studies.runner import (
-    check_input_levels,
-    golden_case,
-    load_config,
-    pipeline_figures,
-    require_run_memory,
-    run_case,
-)
+from ..report import json_safe
+from ..studies.cases import image_pixels, load_image
+from ..studies.runner import load_config, require_run_memory
 from .options import (
     TIMING_OPTIONS,
     add_design_args,
@@ -77,48 +65,6 @@ METHOD_FLAGS = {
 }
 
 
-def load_image(path: str) -> np.ndarray:
-    """A grey-level image from ``.npy`` or an image file; one clear error otherwise."""
-    p = Path(path)
-    if not p.is_file():
-        raise UserError(f"image file not found: {path}")
-    try:
-        if p.suffix == ".npy":
-            arr = np.load(p, allow_pickle=False)
-        else:
-            from skimage.io import imread
-
-            with warnings.catch_warnings():  # imageio's plugin search warns about plugins
-                warnings.simplefilter("ignore")
-                arr = imread(p)
-    except Exception:  # any decoder failure is the user's file
-        # one line, without the decoder's text: it runs to several lines of plugin hints
-        reason = "the file is empty" if p.stat().st_size == 0 else "not a readable image file"
-        raise UserError(f"cannot read image {path}: {reason}") from None
-    try:
-        return validate_image(arr, name=f"image {path}")
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-
-
-def image_pixels(path: str) -> int | None:
-    """Pixels of an image file from its header alone (``.npy`` memory-mapped, others
-    through Pillow's lazy open), so that a huge image is refused before it is decoded;
-    ``None`` when the header does not say (then :func:`load_image` reports the file)."""
-    try:
-        if Path(path).suffix == ".npy":
-            shape = np.load(path, mmap_mode="r", allow_pickle=False).shape
-        else:
-            from PIL import Image
-
-            with warnings.catch_warnings(), Image.open(path) as im:
-                warnings.simplefilter("ignore")  # Pillow's decompression-bomb warning
-                shape = im.size
-        return int(np.prod(shape[:2], dtype=object))
-    except Exception:  # any header the readers cannot parse: load_image says why
-        return None
-
-
 def estimator_from_args(args: argparse.Namespace) -> EstimatorConfig:
     """The golden estimator with ``--pole``/``--bias`` where given."""
     changes = {k: getattr(args, k) for k in ("pole", "bias") if getattr(args, k, None) is not None}
@@ -129,6 +75,8 @@ def estimator_from_args(args: argparse.Namespace) -> EstimatorConfig:
 
 
 def _case(args: argparse.Namespace) -> Case:
+    from rangefx import api
+
     if args.scene is not None and (args.left or args.right):  # which one would be run?
         raise UserError(
             f"--scene {args.scene} and --left/--right name two inputs; give one of them"
@@ -140,26 +88,14 @@ def _case(args: argparse.Namespace) -> Case:
             pixels = image_pixels(path)
             if pixels is not None:
                 require_run_memory(f"run on {path} ({pixels} pixels)", pixels)
-        e1, e2 = load_image(args.left), load_image(args.right)
-        if e1.shape != e2.shape:
-            raise UserError(
-                f"image pair shapes differ: {args.left} {e1.shape} vs {args.right} {e2.shape}"
-            )
-        if args.f_px is None or args.baseline is None:
-            raise UserError("an image pair needs --f-px and --baseline")
-        try:
-            camera = PinholeCamera(e1.shape[1], e1.shape[0], args.f_px)
-            motion = MotionIncrement.stereo(args.baseline)
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
-        return Case(e1, e2, camera, motion, label=f"{args.left} + {args.right}")
-    try:
-        return case_from_scene(render_scene(args.scene or "lab", seed=args.seed))
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
+        return api.image_case(args.left, args.right, f_px=args.f_px, baseline=args.baseline)
+    return api.scene_case(args.scene or "lab", seed=args.seed)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from rangefx import api
+    from rangefx.tools.studies.cases import with_thresholds
+
     case = _case(args)
     if args.pipeline != "golden":
         if args.method is not None:
@@ -175,29 +111,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     case = with_thresholds(
         case, threshold_e=args.threshold_e, threshold_g=args.threshold_g, range_max=args.range_max
     )
-    try:
-        result = run_method(
-            method, case.image1, case.image2, case.camera, case.motion,
-            estimator=estimator_from_args(args), ranging=case.ranging,
-        )  # fmt: skip
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    scene = case.scene
-    figures: dict = {"method": method, "valid_fraction": result.valid_fraction}
-    if scene is not None:
-        rows = report.object_table(
-            result.range, result.valid, scene.labels1, scene.objects, scene.depth1
-        )
-        overall = report.overall_metrics(result.range, result.valid, scene.depth1)
-        figures.update(scene=scene.name, unit=scene.unit, table=rows, **overall)
+    run = api.run(case, pipeline="golden", method=method, estimator=estimator_from_args(args))
     if args.out:
-        with atomic_output_dir(Path(args.out)) as tmp:
-            np.save(tmp / "range.npy", result.range)
-            np.save(tmp / "valid.npy", result.valid)
-            report.save_range_map_png(
-                tmp / "range.png", result.range, result.valid, case.ranging.range_max, method
-            )
-            atomic_write_text(tmp / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
+        run.write(args.out)
+    figures, scene = run.figures, case.scene
     if args.json:
         print(json.dumps(json_safe(figures)))
     else:
@@ -205,26 +122,22 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(
                 report.table_markdown(figures["table"], scene.unit, title=f"{scene.name}: {method}")
             )
-        print(f"valid-pixel fraction {result.valid_fraction:.3f}")
+        print(f"valid-pixel fraction {run.result.valid_fraction:.3f}")
     return 0
 
 
 def run_pipeline(pipeline: Pipeline, case: Case, args: argparse.Namespace) -> int:
     """``rangefx run --pipeline NAME``: range map + taps + report, beside its golden."""
+    from rangefx import api
+
     case = apply_case_options(pipeline, case, args)
-    if case.scene is None:
-        case = integer_case(case, (args.left, args.right))
     config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
-    signal = config.signals()[0]
-    check_input_levels(
-        {args.left or "image1": case.image1, args.right or "image2": case.image2},
-        config.fmt(signal), signal, allow=args.allow_saturated_input,
+    run = api.run(
+        case, config, pipeline=pipeline, timing=timing_from_args(args), taps=bool(args.out),
+        allow_saturated_input=args.allow_saturated_input,
+        input_names=(args.left or "image1", args.right or "image2"),
     )  # fmt: skip
-    timing = timing_from_args(args)
-    result = run_case(pipeline, case, config, timing, taps=bool(args.out))
-    golden = golden_case(pipeline, case, config).result
-    figures = pipeline_figures(result, golden, case.scene)
-    name = pipeline.name
+    result, figures, name = run.result, run.figures, pipeline.name
     for reg in result.saturated_registers:
         requested, held = result.registers[reg]
         print(
@@ -233,16 +146,7 @@ def run_pipeline(pipeline: Pipeline, case: Case, args: argparse.Namespace) -> in
             file=sys.stderr,
         )
     if args.out:
-        with atomic_output_dir(Path(args.out)) as tmp:
-            np.save(tmp / "range.npy", result.range)
-            np.save(tmp / "valid.npy", result.valid)
-            np.savez_compressed(tmp / "taps.npz", **result.taps)
-            report.save_range_map_png(
-                tmp / "range.png", result.range, result.valid, pipeline.range_max(case),
-                f"{name.upper()} range",
-            )  # fmt: skip
-            atomic_write_text(tmp / "config.toml", config.to_toml())
-            atomic_write_text(tmp / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
+        run.write(args.out)
     if args.json:
         print(json.dumps(json_safe(figures)))
         return 0

@@ -37,27 +37,17 @@ one-line error), and a design option the pipeline has no field for (``--variant`
 from __future__ import annotations
 
 import argparse
-import contextlib
-import dataclasses
-import hashlib
 import json
 import sys
-from collections.abc import Callable
-from pathlib import Path
-from typing import Any
 
-from rangefx.golden.scenes import SCENE_NAMES
-from rangefx.rtl_model.config import WordLengthConfig, loads_json
-from rangefx.rtl_model.pipeline import Case, Pipeline
 from rangefx.rtl_model.registry import PIPELINES
 
-from ..errors import UserError, require_memory
-from ..interrupts import raise_if_interrupted
-from ..report import atomic_output_dir, atomic_write_text, json_safe
-from ..report.outdir import refuse_links
-from ..studies.cases import HELD_OUT_SCENES, REAL_PAIRS, held_out_case, real_pair_case
+from ..errors import UserError
+from ..report import json_safe
 from ..studies.runner import load_config
-from ..studies.sweep import MAX_POINTS, RESULTS_NAME
+from ..studies.sweep import MAX_POINTS
+from ..studies.sweepdir import example_path
+from ..studies.tuning import DEFAULT_MARGIN, TUNING_SCENES, VERIFY_SCENES
 from .options import (
     add_design_args,
     add_pipeline_arg,
@@ -79,430 +69,72 @@ __all__ = [
     "example_path",
 ]
 
-#: ``rangefx optimise``'s guard band (``--margin``): the smallest measured margin at which
-#: the median on the real pair held out of lab + runway tuning stays within a 1 % budget
-#: (docs/wordlength.md, "Guard band"). :func:`rangefx.tools.studies.optimiser.optimise`
-#: defaults to 0.
-DEFAULT_MARGIN = 0.5
-
-#: Scenes ``--scene`` accepts: the synthetic presets and the real pairs.
-TUNING_SCENES: tuple[str, ...] = (*SCENE_NAMES, *REAL_PAIRS)
-#: Scenes ``--verify`` accepts: the tuning scenes and the held-out synthetic ones.
-VERIFY_SCENES: tuple[str, ...] = (*TUNING_SCENES, *HELD_OUT_SCENES)
-
-
-def example_path() -> Path:
-    """Path of the example sweep definition: the first registered pipeline's first."""
-    return next(p for pipe in PIPELINES.values() for p in pipe.sweep_example_paths())
-
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from ..studies.sweep import load_sweep, run_sweep, write_outputs
+    from rangefx import api
 
     if args.example:
         print(example_path())
         return 0
     if not args.definition or not args.out:
         raise UserError("sweep needs a definition file and --out DIR (or --example)")
-    defn = load_sweep(args.definition)
-    if args.cost == "synth" and "synth" not in defn.metrics:
-        try:
-            defn = dataclasses.replace(defn, metrics=(*defn.metrics, "synth"))
-        except ValueError as exc:
-            raise UserError(f"--cost synth: {exc}") from None
-    if "synth" in defn.metrics:
-        from ..studies.synth import yosys_version
-
-        yosys_version()  # one error line now if yosys is missing, not one per point
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"output path {str(out)!r} exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()) and not (out / "results.jsonl").exists():
-        raise UserError(
-            f"output directory {str(out)!r} is not empty and holds no sweep results; "
-            "choose a new directory"
-        )
-    m, n = defn.size or (512, 512)  # the presets' default size
-    _check_point_count(defn, m * n, args.max_points, 1 if args.scheduler else args.workers)
-    require_memory(
-        f"sweep {defn.name!r}: size [{m}, {n}] with --workers {args.workers}",
-        m * n * SWEEP_BYTES_PER_PIXEL * (1 if args.scheduler else args.workers),
-    )
-    identity, keys = _sweep_identity(defn, args.definition, args.max_points)
-    fresh = not out.exists()
-    try:
-        refuse_links(out, (RESULTS_NAME, SWEEP_STATE_NAME))
-        state = _claim_sweep_dir(out, identity, keys, restart=args.restart)
-        # a resumed sweep is incomplete until it finishes: the derived files of the earlier
-        # run (rangefx's own, listed in sweep.json) go, the user's files stay
-        for name in state.get("outputs", []):
-            if _own_plain_file(out, name):
-                with contextlib.suppress(FileNotFoundError):
-                    (out / name).unlink()
-        _write_state(out, {**identity, "outputs": []})
-        outcome = run_sweep(
-            defn, out, workers=args.workers, scheduler=args.scheduler, progress=not args.json,
-            max_points=args.max_points,
-        )  # fmt: skip
-    except BaseException:
-        if fresh:
-            _remove_if_no_results(out)
-        raise
-    raise_if_interrupted()  # an interrupt a finaliser swallowed: no summary "complete"
-    before = _file_stamps(out)
-    try:
-        summary = write_outputs(defn, outcome, out)
-    except OSError as exc:  # each is written whole or not at all; summary.json comes last
-        raise UserError(
-            f"cannot write the sweep's outputs in {str(out)!r}: {exc.strerror}; its "
-            f"{len(outcome.records)} results are saved: free space, then re-run the same "
-            "command to write them"
-        ) from None
-    # rangefx's derived files: those write_outputs created or replaced (each is written
-    # to a temporary file and renamed, so it has a new inode); the user's are unchanged
-    written = sorted(
-        name for name, stamp in _file_stamps(out).items()
-        if before.get(name) != stamp and name not in (RESULTS_NAME, SWEEP_STATE_NAME)
+    result = api.sweep(
+        args.definition, args.out, workers=args.workers, scheduler=args.scheduler,
+        max_points=args.max_points, restart=args.restart, cost=args.cost,
+        progress=not args.json,
     )  # fmt: skip
-    _write_state(out, {**identity, "outputs": written})
+    summary = result.summary
     if args.json:
         print(json.dumps(json_safe(summary)))
     else:
         print(
-            f"sweep {defn.name!r}: {summary['n_points']} points ({summary['n_ok']} ran, "
-            f"{summary['n_invalid']} invalid configs), {summary['computed_this_run']} computed "
-            f"now in {summary['wall_seconds_this_run']:.1f} s; results in {out}"
+            f"sweep {result.definition.name!r}: {summary['n_points']} points ({summary['n_ok']} "
+            f"ran, {summary['n_invalid']} invalid configs), {summary['computed_this_run']} "
+            f"computed now in {summary['wall_seconds_this_run']:.1f} s; results in {result.out}"
         )
         for scene, front in summary["pareto"].items():
             print(f"Pareto front on {scene}: {len(front)} configs")
     return 0
 
 
-#: Peak bytes per pixel of one point in flight (scene, golden and fixed-point taps with the
-#: sqnr metrics; about 1.2 KiB measured on lab, doubled for headroom).
-SWEEP_BYTES_PER_PIXEL = 2048
-#: Seconds of one point per pixel: P1 with the golden metrics on lab at 256x256, median
-#: of 6 points 0.057 s (AMD EPYC, 2 cores; ``rangefx sweep`` of row_state.frac 6..11).
-SWEEP_SECONDS_PER_PIXEL = 0.9e-6
-
-
-def _check_point_count(defn, pixels: int, max_points: int, workers: int) -> None:
-    """Refuse, before a point is listed or a scene rendered, a sweep of more than
-    ``max_points`` points, with its count and estimated time."""
-    from ..studies.sweep import point_count
-
-    count = point_count(defn)
-    if count > max_points:
-        hours = count * pixels * SWEEP_SECONDS_PER_PIXEL / workers / 3600
-        raise UserError(
-            f"sweep {defn.name!r}: {count} points (about {hours:.3g} hours at "
-            f"{pixels * SWEEP_SECONDS_PER_PIXEL:.2g} s a point with {workers} workers), more "
-            f"than --max-points {max_points}; narrow the axes or raise --max-points"
-        )
-
-
-#: The sweep directory's own record: which definition it holds and which files rangefx
-#: derived from the results (so a resumed or restarted run removes only those).
-SWEEP_STATE_NAME = "sweep.json"
-
-
-def _sweep_identity(
-    defn, source: str, max_points: int = MAX_POINTS
-) -> tuple[dict[str, Any], set[str]]:
-    """What sweep.json records of a definition (its hash: of its name and the keys of
-    all its points, i.e. of everything that decides the results) and those point keys."""
-    from ..studies.sweep import expand
-
-    keys = {p.key for p in expand(defn, max_points)}
-    digest = hashlib.sha256(json.dumps([defn.name, sorted(keys)]).encode()).hexdigest()
-    return {"name": defn.name, "definition_sha256": digest, "definition": str(source)}, keys
-
-
-def _file_stamps(out: Path) -> dict[str, tuple[int, int]]:
-    return {
-        p.name: (p.stat().st_ino, p.stat().st_mtime_ns)
-        for p in out.iterdir()
-        if p.is_file() and not p.name.startswith(".")
-    }
-
-
-def _own_plain_file(out: Path, name: object) -> bool:
-    """``name`` (from sweep.json) is a derived file rangefx may delete: a plain name in
-    ``out``, not the results or the state, and not a link the user put there."""
-    return (
-        isinstance(name, str)
-        and name not in ("", ".", "..", RESULTS_NAME, SWEEP_STATE_NAME)
-        and Path(name).name == name
-        and not (out / name).is_symlink()
-    )
-
-
-def _remove_if_no_results(out: Path) -> None:
-    """Undo the creation of sweep directory ``out`` by a run that failed or was stopped
-    before its first point (an unreachable ``--scheduler`` left an empty directory):
-    only if it holds nothing but an empty ``results.jsonl`` and ``sweep.json``."""
-    try:
-        names = {p.name for p in out.iterdir()}
-        if not names <= {RESULTS_NAME, SWEEP_STATE_NAME}:
-            return
-        results = out / RESULTS_NAME
-        if results.exists() and (results.is_symlink() or results.stat().st_size):
-            return
-        for name in names:
-            (out / name).unlink()
-        out.rmdir()
-    except OSError:
-        pass
-
-
-def _write_state(out: Path, state: dict[str, Any]) -> None:
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(out / SWEEP_STATE_NAME, json.dumps(state, indent=1) + "\n")
-    except OSError as exc:
-        raise UserError(f"cannot write sweep directory {str(out)!r}: {exc.strerror}") from None
-
-
-def _claim_sweep_dir(
-    out: Path, identity: dict[str, Any], keys: set[str], *, restart: bool
-) -> dict[str, Any]:
-    """The earlier state of sweep directory ``out``, after checking that it holds this
-    sweep (or nothing); ``restart`` deletes the earlier results and derived files first.
-
-    Raises
-    ------
-    UserError
-        ``out`` holds the results of another sweep definition, and ``restart`` is off.
-    """
-    from ..studies.sweep import load_results
-
-    path = out / SWEEP_STATE_NAME
-    state: dict[str, Any] = {}
-    if path.is_file():
-        try:
-            state = loads_json(path.read_bytes())
-            if not isinstance(state, dict):
-                raise ValueError
-        except (ValueError, UnicodeDecodeError):
-            raise UserError(f"{path} is not a rangefx sweep state file") from None
-    results = out / RESULTS_NAME
-    if not results.exists() and not state:
-        return {}
-    if results.exists() and not results.is_file():  # not ours: --restart must not delete it
-        raise UserError(
-            f"{results} is not a file (rangefx writes its sweep results there); move it "
-            "away or choose another --out"
-        )
-    if restart:
-        for name in [RESULTS_NAME, *state.get("outputs", [])]:
-            if name == RESULTS_NAME or _own_plain_file(out, name):
-                with contextlib.suppress(FileNotFoundError):
-                    (out / name).unlink()
-        return {}
-    if state:
-        same = state.get("definition_sha256") == identity["definition_sha256"]
-    else:  # a directory from before sweep.json: its records must be this sweep's points
-        same = set(load_results(results)) <= keys
-    if not same:
-        raise UserError(
-            f"sweep directory {str(out)!r} holds results of another sweep definition "
-            f"({state.get('name', 'unknown')!r}, from {state.get('definition', 'unknown')}); "
-            "choose another --out, or add --restart to delete those results and start over"
-        )
-    return state
-
-
-def _case(pipe: Pipeline, name: str, size: list[int] | None, flag: str) -> Case:
-    """A synthetic scene preset or held-out scene (rendered at ``size``) or a real pair
-    (its own size); a scene of a mode ``pipe`` does not model is a :class:`UserError`
-    naming ``flag``."""
-    from ..studies.cases import scene_case
-
-    if name in REAL_PAIRS:
-        case = real_pair_case(name)
-    elif name in HELD_OUT_SCENES:
-        case = held_out_case(name, tuple(size) if size else None)
-    else:
-        case = scene_case(name, size)
-    try:
-        pipe.check_mode(case)
-    except ValueError as exc:
-        raise UserError(f"{flag} {name}: {exc}") from None
-    return case
-
-
-def _default_for(pipe: Pipeline, start: WordLengthConfig) -> WordLengthConfig:
-    """The shipped default formats under ``start``'s design fields (so that the cost
-    difference is the word lengths alone); the shipped default itself if those design
-    fields do not validate with its formats."""
-    try:
-        return pipe.default_config(**start.design())
-    except ValueError:
-        return pipe.default_config()
-
-
-def _figures(figs: dict[str, Any]) -> dict[str, Any]:
-    keys = ("median_rel_range_diff", "p95_rel_range_diff", "valid_agreement", "saturated_registers")
-    return {k: figs[k] for k in keys}
-
-
-def _synth_cost(pipe: Pipeline, args: argparse.Namespace, case: Case) -> Callable[[Any], float]:
-    """``--cost synth``: the Yosys LUT + FF of the whole P1 on the first tuning scene's
-    shape and mode (:func:`rangefx.tools.studies.synth.synth_p1`, cached per stage)."""
-    from ..studies.synth import synth_p1, yosys_version
-
-    if pipe.name != "p1":
-        raise UserError(f"--cost synth: only P1 has RTL in hdl/, not {pipe.name}")
-    yosys_version()  # a one-line error when yosys is missing, before any run
-
-    def cost(config) -> float:
-        area = synth_p1(config, args.synth_target, case.shape, case.mode)
-        return float(area["lut"] + area["ff"])
-
-    return cost
-
-
 def cmd_optimise(args: argparse.Namespace) -> int:
-    from ..studies.optimiser import Budget, evaluate, optimise
+    from rangefx import api
 
-    try:
-        budget = Budget(args.budget, args.agreement)
-    except ValueError as exc:
-        raise UserError(f"--budget/--agreement: {exc}") from None
-    tuning = budget.tightened(args.margin)  # a one-line UserError for a bad --margin
     pipe = pipeline_from_args(args)
     start = load_config(pipe, args.config, **design_from_args(pipe, args))
-    if args.signals:
-        from ..studies.sweep import check_signals
-
-        try:
-            check_signals(args.signals, start)
-        except ValueError as exc:
-            raise UserError(f"--signals: {exc}") from None
-    scenes: list[str] = list(args.scene)
-    held = [s for s in scenes if s in HELD_OUT_SCENES]
-    if held:
-        raise UserError(
-            f"--scene {held[0]}: it is held out of tuning, for --verify only; tune on "
-            f"{', '.join(TUNING_SCENES)}"
-        )
-    if len(set(scenes)) != len(scenes):
-        raise UserError(f"--scene: a scene is named twice in {scenes}")
-    if args.verify in scenes:
-        raise UserError(
-            f"--verify {args.verify}: it is a tuning scene; verify on one the optimiser did "
-            f"not see ({', '.join(s for s in VERIFY_SCENES if s not in scenes)})"
-        )
-    m, n = args.size or (512, 512)  # the presets' default size
-    require_memory(
-        f"optimise --size {m} {n} with --workers {args.workers}",
-        m * n * SWEEP_BYTES_PER_PIXEL * args.workers,
-    )
-    default = _default_for(pipe, start)
-    cases = [_case(pipe, name, args.size, "--scene") for name in scenes]
-    vcase = _case(pipe, args.verify, args.size, "--verify") if args.verify else None
-    synth_cost = _synth_cost(pipe, args, cases[0]) if args.cost == "synth" else None
-    res = optimise(
-        cases, start, budget, pipeline=pipe, margin=args.margin, signals=args.signals,
-        tune_registers=args.tune_registers, workers=args.workers, progress=not args.json,
-        cost_fn=synth_cost,
+    report = api.optimise(
+        pipe, args.scene, config=start,
+        budget=args.budget, agreement=args.agreement, margin=args.margin, verify=args.verify,
+        size=args.size, signals=args.signals, tune_registers=args.tune_registers,
+        workers=args.workers, cost=args.cost, synth_target=args.synth_target,
+        progress=not args.json,
     )  # fmt: skip
-    case = cases[0]
-    shape, mode = case.shape, case.mode
-    cost = pipe.cost(res.config, shape, mode)
-    dcost = pipe.cost(default, shape, mode)
-    per_scene: dict[str, Any] = {}
-    for name, c, figs, sfigs, runs in zip(
-        scenes, cases, res.scene_figures, res.start_scene_figures, res.scene_runs, strict=True
-    ):
-        per_scene[name] = {
-            "mode": c.mode,
-            "size": list(c.shape),
-            **_figures(figs),
-            "start_median_rel_range_diff": sfigs["median_rel_range_diff"],
-            "start_valid_agreement": sfigs["valid_agreement"],
-            "cost_bits": pipe.cost(res.config, c.shape, c.mode).cost_bits,
-            "default_cost_bits": pipe.cost(default, c.shape, c.mode).cost_bits,
-            "runs": runs,
-        }
-    figures: dict[str, Any] = {
-        "pipeline": pipe.name,
-        "golden": pipe.golden_label(start),
-        "scene": scenes[0],
-        "tuning_scenes": scenes,
-        "mode": mode,
-        "size": list(shape),
-        **({"variant": start.variant} if "variant" in start.design_fields() else {}),
-        "design": start.design(),
-        "budget": {"median_rel_range_diff": budget.median, "valid_agreement": budget.agreement},
-        "margin": args.margin,
-        "tuning_budget": {
-            "median_rel_range_diff": tuning.median,
-            "valid_agreement": tuning.agreement,
-        },
-        "tune_registers": args.tune_registers,
-        "config_toml": res.config.to_toml(),
-        "cost_scene": scenes[0],
-        "cost_bits": cost.cost_bits,
-        "default_cost_bits": dcost.cost_bits,
-        "bits_saved": dcost.cost_bits - cost.cost_bits,
-        "cost": cost.as_dict(),
-        "default_cost": dcost.as_dict(),
-        "median_rel_range_diff": res.figures["median_rel_range_diff"],
-        "p95_rel_range_diff": res.figures["p95_rel_range_diff"],
-        "valid_agreement": res.figures["valid_agreement"],
-        "start_median_rel_range_diff": res.start_figures["median_rel_range_diff"],
-        "start_valid_agreement": res.start_figures["valid_agreement"],
-        "scenes": per_scene,
-        "evaluations": res.evaluations,
-        "seconds": res.seconds,
-        "steps": res.steps,
-    }
-    if synth_cost is not None:
-        figures["synth_cost"] = {
-            "cost": "lut + ff",
-            "target": args.synth_target,
-            **{k: synth_cost(c) for k, c in (("start", start), ("default", default),
-                                             ("optimised", res.config))},
-        }  # fmt: skip
-    if vcase is not None:
-        golden = pipe.golden(vcase, res.config).result
-        fig_opt = evaluate(vcase, res.config, golden, pipeline=pipe)
-        fig_def = evaluate(vcase, default, golden, pipeline=pipe)
-        if fig_opt is None:
-            raise UserError(f"the optimised config cannot run on {args.verify!r}")
-        figures["verify"] = {
-            "scene": args.verify,
-            "mode": vcase.mode,
-            "size": list(vcase.shape),
-            **_figures(fig_opt),
-            "meets_budget": budget.met(fig_opt),
-            "default_median_rel_range_diff": fig_def["median_rel_range_diff"] if fig_def else None,
-            "default_valid_agreement": fig_def["valid_agreement"] if fig_def else None,
-            "default_saturated_registers": fig_def["saturated_registers"] if fig_def else None,
-            "cost_bits": pipe.cost(res.config, vcase.shape, vcase.mode).cost_bits,
-            "default_cost_bits": pipe.cost(default, vcase.shape, vcase.mode).cost_bits,
-        }
     if args.out:
-        _write_optimise_out(Path(args.out), pipe, res, figures, case)
+        report.write(args.out)
+    figures = report.figures
     if args.json:
-        print(json.dumps(json_safe(figures)))
+        print(json.dumps(report.to_dict()))
         return 0
+    res, name = report.result, figures["pipeline"]
+    cost, dcost = figures["cost"], figures["default_cost"]
     sys.stdout.write(res.config.to_toml())
     print(
-        f"# {pipe.name} cost_bits on {scenes[0]} {cost.cost_bits} (default {dcost.cost_bits}, "
-        f"saved {figures['bits_saved']}); DSP {cost.dsp} (default {dcost.dsp}); BRAM18 "
-        f"{cost.bram18} (default {dcost.bram18}); {res.evaluations} runs, {res.seconds:.1f} s"
+        f"# {name} cost_bits on {figures['scene']} {cost['cost_bits']} (default "
+        f"{dcost['cost_bits']}, saved {figures['bits_saved']}); DSP {cost['dsp']} (default "
+        f"{dcost['dsp']}); BRAM18 {cost['bram18']} (default {dcost['bram18']}); "
+        f"{res.evaluations} runs, {res.seconds:.1f} s"
     )
     if args.margin:
+        tuning, budget = figures["tuning_budget"], figures["budget"]
         print(
-            f"# tuned with margin {args.margin}: median_rel_range_diff <= {tuning.median:.4g}, "
-            f"valid_agreement >= {tuning.agreement:.6g} on every tuning scene (budget "
-            f"{budget.median:.4g}, {budget.agreement:.6g})"
+            f"# tuned with margin {args.margin}: median_rel_range_diff <= "
+            f"{tuning['median_rel_range_diff']:.4g}, valid_agreement >= "
+            f"{tuning['valid_agreement']:.6g} on every tuning scene (budget "
+            f"{budget['median_rel_range_diff']:.4g}, {budget['valid_agreement']:.6g})"
         )
-    for name, sf in per_scene.items():
+    for scene, sf in figures["scenes"].items():
         print(
-            f"# {name} ({sf['mode']}): median_rel_range_diff {sf['median_rel_range_diff']:.3e}, "
+            f"# {scene} ({sf['mode']}): median_rel_range_diff {sf['median_rel_range_diff']:.3e}, "
             f"valid_agreement {sf['valid_agreement']:.5f}, cost_bits {sf['cost_bits']} "
             f"(default {sf['default_cost_bits']})"
         )
@@ -514,23 +146,6 @@ def cmd_optimise(args: argparse.Namespace) -> int:
             f"meets budget: {v['meets_budget']}"
         )
     return 0
-
-
-def _write_optimise_out(
-    out: Path, pipe: Pipeline, res: Any, figures: dict[str, Any], case: Case
-) -> None:
-    """optimised.toml, the build-up plots of the result and of the start on the first
-    tuning scene (:func:`rangefx.tools.studies.buildup.buildup_for`), summary.json."""
-    from ..report.wlplots import save_buildup
-    from ..studies.buildup import buildup_for
-
-    # as every other command: filled aside, then put in place; the user's files are kept
-    with atomic_output_dir(out) as tmp:
-        atomic_write_text(tmp / "optimised.toml", res.config.to_toml())
-        for stem, cfg in (("buildup_optimised", res.config), ("buildup_start", res.start)):
-            title = f"{pipe.name} " + stem.replace("_", " ").replace("buildup", "build-up,")
-            save_buildup(tmp, stem, buildup_for(pipe, case, cfg), title, xlabels=pipe.buildup_axes)
-        atomic_write_text(tmp / "summary.json", json.dumps(json_safe(figures), indent=2) + "\n")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

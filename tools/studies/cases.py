@@ -10,11 +10,14 @@ from __future__ import annotations
 
 import functools
 import threading
+import warnings
 from collections.abc import Sequence
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
+from rangefx.golden.estimator import validate_image
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.methods import SCENE_RANGING, SCENE_RICCATI
 from rangefx.golden.ranging import RangingConfig
@@ -29,8 +32,12 @@ __all__ = [
     "HELD_OUT_SCENES",
     "REAL_PAIRS",
     "case_from_scene",
+    "crop_case",
     "held_out_case",
+    "image_case",
+    "image_pixels",
     "integer_case",
+    "load_image",
     "real_pair_case",
     "scene_case",
     "with_thresholds",
@@ -175,3 +182,124 @@ def integer_case(case: Case, names: tuple[str, str] = ("left", "right")) -> Case
             raise UserError(f"{name} must hold integer grey levels for the fixed-point pipeline")
         images.append(a.astype(np.int64))
     return replace(case, image1=images[0], image2=images[1])
+
+
+def crop_case(case: Case, crop: Sequence[int] | None) -> Case:
+    """Crop both images to rows ``r0:r1``, columns ``c0:c1``; shift the principal point.
+
+    The cropped camera keeps the focal length and moves the principal point by
+    ``(-c0, -r0)`` so that the range stage's pixel coordinates ``xp, yp`` of every pixel
+    are those of the full image; a scene's truth (depth, labels) is cropped alike. ``None``
+    returns ``case`` itself.
+    """
+    if crop is None:
+        return case
+    r0, r1, c0, c1 = crop
+    m, n = case.image1.shape
+    if not (0 <= r0 < r1 <= m and 0 <= c0 < c1 <= n) or r1 - r0 < 2 or c1 - c0 < 2:
+        raise UserError(
+            f"--crop {r0} {r1} {c0} {c1}: need 0 <= R0 < R1 <= {m}, 0 <= C0 < C1 <= {n} "
+            "and at least 2x2 pixels"
+        )
+    cx, cy = case.camera.principal_point
+    cam = PinholeCamera(c1 - c0, r1 - r0, case.camera.f_px, cx - c0, cy - r0)
+    window = np.s_[r0:r1, c0:c1]
+    scene = case.scene
+    if scene is not None:  # its truth cropped alike: reports compare range and truth per pixel
+        scene = replace(
+            scene, camera=cam, image1=scene.image1[window], image2=scene.image2[window],
+            depth1=scene.depth1[window], labels1=scene.labels1[window],
+        )  # fmt: skip
+    return replace(
+        case, image1=case.image1[window], image2=case.image2[window], camera=cam, scene=scene
+    )
+
+
+def load_image(path: str | Path) -> np.ndarray:
+    """A grey-level image from ``.npy`` or an image file; one clear error otherwise."""
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"image file not found: {path}")
+    try:
+        if p.suffix == ".npy":
+            arr = np.load(p, allow_pickle=False)
+        else:
+            from skimage.io import imread
+
+            with warnings.catch_warnings():  # imageio's plugin search warns about plugins
+                warnings.simplefilter("ignore")
+                arr = imread(p)
+    except Exception:  # any decoder failure is the user's file
+        # one line, without the decoder's text: it runs to several lines of plugin hints
+        reason = "the file is empty" if p.stat().st_size == 0 else "not a readable image file"
+        raise UserError(f"cannot read image {path}: {reason}") from None
+    try:
+        return validate_image(arr, name=f"image {path}")
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def image_pixels(path: str | Path) -> int | None:
+    """Pixels of an image file from its header alone (``.npy`` memory-mapped, others
+    through Pillow's lazy open), so that a huge image is refused before it is decoded;
+    ``None`` when the header does not say (then :func:`load_image` reports the file)."""
+    try:
+        if Path(path).suffix == ".npy":
+            shape = np.load(path, mmap_mode="r", allow_pickle=False).shape
+        else:
+            from PIL import Image
+
+            with warnings.catch_warnings(), Image.open(path) as im:
+                warnings.simplefilter("ignore")  # Pillow's decompression-bomb warning
+                shape = im.size
+        return int(np.prod(shape[:2], dtype=object))
+    except Exception:  # any header the readers cannot parse: load_image says why
+        return None
+
+
+def image_case(
+    left: np.ndarray | str | Path,
+    right: np.ndarray | str | Path,
+    *,
+    f_px: float | None = None,
+    baseline: float | None = None,
+    camera: PinholeCamera | None = None,
+    motion: MotionIncrement | None = None,
+    label: str | None = None,
+) -> Case:
+    """A stereo case from a user's image pair: arrays, or paths of ``.npy`` or image files.
+
+    The camera is ``camera``, or a pinhole of the images' size with focal length ``f_px``
+    (pixels, principal point at the centre); the motion is ``motion``, or the stereo
+    baseline ``baseline`` along the camera's ``+y_c`` (E2 is the right camera). The
+    pipelines' settings are the defaults (:func:`with_thresholds` changes them).
+
+    Raises
+    ------
+    UserError
+        A file that cannot be read, images of different shapes, or neither a camera nor
+        ``f_px``, neither a motion nor ``baseline``.
+    """
+    named = [
+        str(x) if isinstance(x, (str, Path)) else n for x, n in ((left, "left"), (right, "right"))
+    ]
+    images = []
+    for image, name in zip((left, right), named, strict=True):
+        if isinstance(image, (str, Path)):
+            images.append(load_image(image))
+        else:
+            try:
+                images.append(validate_image(np.asarray(image), name=name))
+            except ValueError as exc:
+                raise UserError(str(exc)) from None
+    e1, e2 = images
+    if e1.shape != e2.shape:
+        raise UserError(f"image pair shapes differ: {named[0]} {e1.shape} vs {named[1]} {e2.shape}")
+    if (camera is None and f_px is None) or (motion is None and baseline is None):
+        raise UserError("an image pair needs --f-px and --baseline")
+    try:
+        camera = camera or PinholeCamera(e1.shape[1], e1.shape[0], f_px)
+        motion = motion or MotionIncrement.stereo(baseline)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    return Case(e1, e2, camera, motion, label=label or f"{named[0]} + {named[1]}")
