@@ -299,6 +299,26 @@ def test_a_render_stops_at_once_on_a_signal():
         restore()
 
 
+def test_a_signal_inside_numbas_compiler_waits_for_it():
+    """A stop signal while the main thread holds numba's compiler lock (compiling, or
+    loading a kernel from the cache, as an import does) is raised once the lock is let
+    go, not inside numba (one sweep of 50 ended by SIGSEGV on SIGHUP before)."""
+    from numba.core.compiler_lock import global_compiler_lock
+
+    restore = handle_stop_signals()
+    try:
+        with pytest.raises(Interrupted) as info:
+            with global_compiler_lock:  # as numba holds it while it compiles
+                signal.raise_signal(signal.SIGHUP)
+                time.sleep(0.2)  # the signal's exception would come here
+                left = time.monotonic()
+            time.sleep(1.0)  # it comes here: redelivered within COMPILE_POLL_S
+        assert info.value.signum == signal.SIGHUP
+        assert time.monotonic() - left < 0.5
+    finally:
+        restore()
+
+
 class _SwallowsASignal:
     def __del__(self) -> None:
         # the handler's exception is raised inside this finaliser, which Python reports

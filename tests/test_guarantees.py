@@ -10,12 +10,14 @@
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import functools
 import json
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -562,8 +564,45 @@ def test_issue40_contradictory_and_empty_options(tmp_path, capsys):
     for argv in (["vectors", "gen", *CROP], ["run"], ["config", "show"], ["demo"]):
         with pytest.raises(SystemExit) as exc:
             main([*argv, "--out", ""])
-        assert exc.value.code == 2
-        assert "argument --out: an empty path" in capsys.readouterr().err
+        assert exc.value.code == 2  # one line, no usage block above it
+        assert "argument --out: an empty path" in _one_line_error(capsys)
+
+
+def test_issue40_the_command_line_imports_only_the_named_command():
+    """``rangefx --help`` imports no command module (and so no numba); ``rangefx config``
+    imports its own module and no other (the --help figures of docs/guarantees.md)."""
+    from rangefx.tools.cli.main import COMMANDS
+
+    probe = (
+        "import sys\n"
+        "from rangefx.tools.cli.main import main\n"
+        "try:\n"
+        "    main(sys.argv[1:])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "mods = {m.rsplit('.', 1)[-1] for m in sys.modules if m.startswith('rangefx.tools.cli.')}\n"
+        "print(sorted(mods), 'numba' in sys.modules)\n"
+    )
+    modules = {module for module, _ in COMMANDS.values()}
+    for argv, own in ((["--help"], set()), (["config", "--help"], {"config"})):
+        out = subprocess.run([sys.executable, "-c", probe, *argv], capture_output=True,
+                             text=True, check=True).stdout.splitlines()[-1]  # fmt: skip
+        imported = set(eval(out.rsplit(" ", 1)[0])) & modules
+        assert imported == own, (argv, imported)
+        if not own:
+            assert out.endswith("False"), "rangefx --help imported numba"
+
+
+def test_issue40_the_command_table_matches_every_command_module():
+    """Each command's help line in ``main.COMMANDS`` (what ``rangefx --help`` lists
+    without importing the modules) is the module's own, and no command is missing."""
+    from rangefx.tools.cli.main import COMMANDS, build_parser
+
+    parser = build_parser()  # every module imported: their own add_parser lines
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    own = {c.dest: c.help for c in sub._choices_actions}
+    assert own == {name: text for name, (_, text) in COMMANDS.items()}
+    assert list(sub.choices) == list(COMMANDS)
 
 
 @pytest.fixture

@@ -17,7 +17,6 @@ writes its summary) and the command line at its end raise it again.
 
 from __future__ import annotations
 
-import _thread
 import contextlib
 import os
 import signal
@@ -35,6 +34,7 @@ __all__ = [
     "deferred_signals",
     "exit_now",
     "handle_stop_signals",
+    "numba_compiling",
     "pending_signal",
     "raise_if_interrupted",
     "set_stop_line",
@@ -113,6 +113,25 @@ def _end_if_stuck(signum: int, install: int) -> None:
     exit_now(128 + signum)
 
 
+def numba_compiling() -> bool:
+    """Whether the calling thread holds numba's compiler lock: it is compiling a kernel or
+    loading one from the cache (an ``@njit`` with a signature does so on import). An
+    exception raised in there can leave numba's and LLVM's state half-made, and a later
+    kernel call crash the process (numba issue #2324: "sometimes gives a segmentation
+    fault"; one ``sweep`` of 50 ended by SIGSEGV on SIGHUP); False if numba is not loaded."""
+    compiler_lock = sys.modules.get("numba.core.compiler_lock")
+    if compiler_lock is None:
+        return False
+    try:
+        return bool(compiler_lock.global_compiler_lock.is_locked())
+    except Exception:  # another numba's internals: act on the signal as before
+        return False
+
+
+#: Seconds between looks at whether the main thread has left numba's compiler.
+COMPILE_POLL_S = 0.02
+
+
 def _on_signal(signum: int, frame: FrameType | None) -> None:
     if not _pending:
         _pending.append(signum)
@@ -123,6 +142,12 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
             ).start()  # fmt: skip
     if _deferring:
         _deferred.append(signum)
+        return
+    if numba_compiling():  # raised once the compile or cache load is over (the watchdog
+        # still ends the command 1.5 s after the signal if it is not)
+        timer = threading.Timer(COMPILE_POLL_S, _redeliver, (signum, _installs[0]))
+        timer.daemon = True
+        timer.start()
         return
     raise Interrupted(signum)
 
@@ -148,8 +173,11 @@ _installs = [0]  # counts handle_stop_signals() calls and restores
 
 
 def _redeliver(signum: int, install: int) -> None:
+    """The signal again, to the main thread: a real one (``pthread_kill``), which also
+    wakes a main thread asleep in a wait, as the first did (``_thread.interrupt_main``
+    only flags it for the next bytecode)."""
     if _installs[0] == install:
-        _thread.interrupt_main(signum)
+        signal.pthread_kill(threading.main_thread().ident, signum)
 
 
 def handle_stop_signals(watchdog: bool = False) -> Callable[[], None]:

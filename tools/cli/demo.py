@@ -13,7 +13,6 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +31,7 @@ from ..report import atomic_output_dir, atomic_write_text, json_safe
 from ..studies.cases import case_from_scene
 from ..studies.runner import golden_case, load_config, pipeline_figures, run_case
 from . import guide
+from .main import package_version
 from .options import add_pipelines_arg, design_from_args, out_path
 from .run import estimator_from_args
 
@@ -40,14 +40,6 @@ __all__ = ["DEMO_METHODS", "add_parser", "cmd_demo", "demo_pipelines", "package_
 #: The report's methods and G6 (beyond the report, SPEC §12): G6 adds about 0.2 s to the
 #: demo's 20 s on ``lab`` (docs/multiscale.md, measured).
 DEMO_METHODS = ("g3_paper", "g3_consistent", "g2_central", "g5_riccati", "g6_multiscale")
-
-
-def package_version() -> str:
-    """The installed rangefx version (``0+unknown`` from a source tree)."""
-    try:
-        return version("rangefx")
-    except PackageNotFoundError:
-        return "0+unknown"
 
 
 def _render(name: str, seed: int) -> Scene:
