@@ -32,7 +32,7 @@ from rangefx.golden.scenes import render_scene
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.tools.cli import demo as cli_demo
 from rangefx.tools.cli import main
-from rangefx.tools.interrupts import Interrupted, handle_stop_signals
+from rangefx.tools.interrupts import STUCK_DUMP_ENV, Interrupted, handle_stop_signals
 from rangefx.tools.report.lock import lock_path
 from rangefx.tools.report.outdir import MARKER_NAME, atomic_output_dir
 from rangefx.tools.studies import sweep as sweep_mod
@@ -448,9 +448,11 @@ def test_stop_signals_at_random_times(tmp_path, command):
     env = dict(os.environ)
     times: list[float] = []
     wrong: list[str] = []
+    stuck: list[str] = []  # runs the watchdog ended, with every thread's stack
     for k in range(n):
         parent = tmp_path / f"run{k}"
         parent.mkdir()
+        env[STUCK_DUMP_ENV] = str(tmp_path / f"stuck{k}.txt")
         sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
         at = rng.uniform(0.0, 5.0)  # after rangefx's handlers are in place
         proc = subprocess.Popen(
@@ -478,10 +480,14 @@ def test_stop_signals_at_random_times(tmp_path, command):
             wrong.append(f"{what}: exited {took:.2f} s after it")
         elif _hidden(parent):
             wrong.append(f"{what}: left {_hidden(parent)}")
+        if Path(env[STUCK_DUMP_ENV]).exists():
+            stuck.append(f"{what}:\n{Path(env[STUCK_DUMP_ENV]).read_text()}")
     if times:  # shown with -s: the figures of docs/guarantees.md
         print(f"\n{command}: {len(times)} of {n} signals met a running command; exit "
               f"{np.median(times):.2f} s after it (median), {max(times):.2f} s (max), "
-              f"{len(wrong)} wrong")  # fmt: skip
+              f"{len(wrong)} wrong, {len(stuck)} ended by the watchdog")  # fmt: skip
+        for dump in stuck:
+            print(dump)
     assert not wrong, wrong
 
 

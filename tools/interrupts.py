@@ -18,6 +18,7 @@ writes its summary) and the command line at its end raise it again.
 from __future__ import annotations
 
 import contextlib
+import faulthandler
 import os
 import signal
 import sys
@@ -28,6 +29,7 @@ from types import FrameType
 
 __all__ = [
     "STOP_SIGNALS",
+    "STUCK_DUMP_ENV",
     "WATCHDOG_S",
     "Interrupted",
     "cleanup_if_stuck",
@@ -74,6 +76,8 @@ def raise_if_interrupted() -> None:
 #: Seconds after a stop signal at which the watchdog ends a command that is still running
 #: (the issue's bound is 2 s; cleanup normally takes well under 0.1 s).
 WATCHDOG_S = 1.5
+#: A file the watchdog appends every thread's stack to before it ends a stuck command.
+STUCK_DUMP_ENV = "RANGEFX_STUCK_DUMP"
 _watchdog: list[bool] = [False]  # armed by handle_stop_signals(watchdog=True)
 _stop_line: list[str] = ["interrupted; no output was written (an earlier output is left as it was)"]
 _cleanups: dict[int, Callable[[], None]] = {}
@@ -105,6 +109,10 @@ def _end_if_stuck(signum: int, install: int) -> None:
     time.sleep(WATCHDOG_S)
     if _installs[0] != install:
         return  # the command ended (or, in-process, returned) meanwhile
+    dump = os.environ.get(STUCK_DUMP_ENV)
+    if dump:  # where every thread waits, for the cause (tests/test_confinement.py sets it)
+        with contextlib.suppress(Exception), open(dump, "a") as fh:
+            faulthandler.dump_traceback(fh, all_threads=True)
     for cleanup in list(_cleanups.values()):
         with contextlib.suppress(Exception):
             cleanup()
