@@ -32,6 +32,7 @@ __all__ = [
     "STUCK_DUMP_ENV",
     "WATCHDOG_S",
     "Interrupted",
+    "claim_the_end",
     "cleanup_if_stuck",
     "deferred_signals",
     "exit_now",
@@ -107,8 +108,8 @@ def _end_if_stuck(signum: int, install: int) -> None:
     directories are removed, the line is printed, and the process ends with 128 + the
     signal; its lock dies with it (``flock``)."""
     time.sleep(WATCHDOG_S)
-    if _installs[0] != install:
-        return  # the command ended (or, in-process, returned) meanwhile
+    if _installs[0] != install or not claim_the_end():
+        return  # the command ended (or, in-process, returned) or is printing its line
     dump = os.environ.get(STUCK_DUMP_ENV)
     if dump:  # where every thread waits, for the cause (tests/test_confinement.py sets it)
         with contextlib.suppress(Exception), open(dump, "a") as fh:
@@ -138,6 +139,16 @@ def numba_compiling() -> bool:
 
 #: Seconds between looks at whether the main thread has left numba's compiler.
 COMPILE_POLL_S = 0.02
+
+
+_ending: list[threading.Lock] = [threading.Lock()]  # renewed by handle_stop_signals()
+
+
+def claim_the_end() -> bool:
+    """True for the first caller since :func:`handle_stop_signals` only: the one that
+    prints the stop line and ends the command, the command's own report or the watchdog
+    (both printed it once, a command reporting just as the watchdog woke up)."""
+    return _ending[0].acquire(blocking=False)
 
 
 def _on_signal(signum: int, frame: FrameType | None) -> None:
@@ -196,6 +207,7 @@ def handle_stop_signals(watchdog: bool = False) -> Callable[[], None]:
     _pending.clear()
     _deferred.clear()
     _installs[0] += 1
+    _ending[0] = threading.Lock()
     _watchdog[0] = watchdog
     if threading.current_thread() is not threading.main_thread():
         return lambda: None

@@ -16,6 +16,7 @@ import gc
 import importlib
 import signal
 import sys
+import threading
 from collections.abc import Iterator, Sequence
 from importlib.metadata import PackageNotFoundError, version
 from typing import NoReturn
@@ -23,6 +24,7 @@ from typing import NoReturn
 from ..errors import UserError
 from ..interrupts import (
     Interrupted,
+    claim_the_end,
     exit_now,
     handle_stop_signals,
     pending_signal,
@@ -196,6 +198,8 @@ def _report_interrupt(args: argparse.Namespace | None, exc: BaseException, as_pr
     """Print the one line; as the program (not called from Python with ``argv``) end the
     process now (:func:`~rangefx.tools.interrupts.exit_now`): the cleanup is done."""
     signum = exc.signum if isinstance(exc, Interrupted) else (pending_signal() or signal.SIGINT)
+    if not claim_the_end():  # the watchdog woke up first: it prints the line and ends
+        threading.Event().wait()
     with contextlib.suppress(OSError):  # SIGHUP: the terminal may be gone
         print(f"\nrangefx: {_interrupted_message(args, exc)}", file=sys.stderr)
     if as_program:
