@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from guarantee_tables import SWEEP, write_pair
 
 from rangefx.golden.scenes import render_scene
 from rangefx.rtl_model.registry import PIPELINES
@@ -39,19 +40,6 @@ from rangefx.tools.studies import sweep as sweep_mod
 
 PY = sys.executable
 RANGEFX = [str(Path(PY).parent / "rangefx")]
-SWEEP = """
-[sweep]
-name = "{name}"
-scenes = ["lab"]
-size = [24, 32]
-combine = "one_at_a_time"
-metrics = ["golden", "overflows"]
-
-[[axis]]
-signals = "row_state"
-param = "frac"
-values = {values}
-"""
 #: ``rangefx`` with every sweep point slowed by $RANGEFX_TEST_SLOW seconds, so that a
 #: second run surely starts while the first still writes (the points' results are real)
 SLOW_RANGEFX = [
@@ -71,15 +59,6 @@ SLOW_RANGEFX = [
 
 def _sha(p: Path) -> str:
     return hashlib.sha256(p.read_bytes()).hexdigest()
-
-
-def _pair(tmp_path: Path) -> list[str]:
-    rng = np.random.default_rng(0)
-    left = rng.integers(0, 256, (24, 32)).astype(np.float64)
-    np.save(tmp_path / "l.npy", left)
-    np.save(tmp_path / "r.npy", np.roll(left, 1, axis=1))
-    return ["--left", str(tmp_path / "l.npy"), "--right", str(tmp_path / "r.npy"),
-            "--f-px", "40", "--baseline", "0.1"]  # fmt: skip
 
 
 def _fake_demo(args) -> int:
@@ -103,7 +82,7 @@ def test_marker_entries_outside_the_directory_touch_nothing(tmp_path, capsys, en
     precious.write_bytes(b"the user's thesis\n")
     before = _sha(precious)
     out = tmp_path / "o"
-    argv = ["run", *_pair(tmp_path), "--out", str(out)]
+    argv = ["run", *write_pair(tmp_path), "--out", str(out)]
     assert main(argv) == 0
     with open(out / MARKER_NAME, "a", encoding="utf-8") as f:
         f.write(f"file: {str(precious) if entry == 'ABS' else entry}\n")
@@ -188,7 +167,7 @@ def _start_holder(directory: Path) -> subprocess.Popen:
 
 def test_a_second_writer_is_refused_and_a_killed_holders_lock_taken_over(tmp_path, capsys):
     out = tmp_path / "o"
-    argv = ["run", *_pair(tmp_path), "--out", str(out)]
+    argv = ["run", *write_pair(tmp_path), "--out", str(out)]
     holder = _start_holder(out)
     try:
         assert main(argv) == 2
@@ -317,6 +296,21 @@ def test_a_signal_inside_numbas_compiler_waits_for_it():
         assert time.monotonic() - left < 0.5
     finally:
         restore()
+
+
+def test_the_stop_line_is_printed_by_one_of_the_command_and_the_watchdog():
+    """The command's own report and the watchdog each claim the end; only the first
+    prints (a vectors gen under load printed the line twice, reporting just as the
+    watchdog woke up); every run of a command starts unclaimed."""
+    from rangefx.tools.interrupts import claim_the_end
+
+    for _ in range(2):
+        restore = handle_stop_signals()
+        try:
+            assert claim_the_end()
+            assert not claim_the_end()
+        finally:
+            restore()
 
 
 class _SwallowsASignal:
@@ -547,7 +541,7 @@ def test_vectors_diff_refuses_a_device_as_the_dump(capsys, vector_dir):
 # -- smaller items ---------------------------------------------------------------------------
 def test_a_255_character_out_name_is_accepted(tmp_path):
     out = tmp_path / ("r" * 255)  # the longest name a file may have
-    argv = ["run", *_pair(tmp_path), "--out", str(out)]
+    argv = ["run", *write_pair(tmp_path), "--out", str(out)]
     assert main(argv) == 0 and main(argv) == 0  # new, then merged into
     assert (out / MARKER_NAME).is_file() and _hidden(tmp_path) == []
 
