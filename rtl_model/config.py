@@ -288,15 +288,25 @@ class WordLengthConfig:
                 f"({self.recip_lut_bits}) by at least 2"
             )
 
-    def check_design_registers(self) -> None:
-        """Every design field of :attr:`DESIGN_REGISTERS` lies in its register's range."""
+    def design_register_values(self) -> Iterable[tuple[str, str, float, str]]:
+        """(design field, how it is shown, value, register signal) of every value the host
+        writes into a register from the design fields alone: those of
+        :attr:`DESIGN_REGISTERS` as they are; a pipeline adds those it derives (P3's
+        ``T_g^2``). Registers that also depend on the case (camera, scene weights) are
+        checked at run time, where a value outside its format is a warning."""
         for key, signal in self.DESIGN_REGISTERS.items():
-            v, fmt = getattr(self, key), self.formats[signal]
+            v = getattr(self, key)
+            yield key, f"{key} = {v!r}", v, signal
+
+    def check_design_registers(self) -> None:
+        """Every value of :meth:`design_register_values` lies in its register's range."""
+        for key, shown, v, signal in self.design_register_values():
+            fmt = self.formats[signal]
             lo, hi = fmt.to_float(fmt.raw_min), fmt.to_float(fmt.raw_max)
             if not lo <= v <= hi:
                 raise ValueError(
-                    f"{key} = {v!r} does not fit its register {signal!r} ({fmt}: {lo:g}..{hi:g}); "
-                    f"choose a value in that range or widen {signal!r}"
+                    f"{shown} does not fit its register {signal!r} ({fmt}: {lo:g}..{hi:g}); "
+                    f"choose another {key} or widen {signal!r}"
                 )
 
     def check_saturating(self, *names: str) -> None:

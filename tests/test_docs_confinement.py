@@ -9,23 +9,26 @@ print as ``DIR``, process ids as ``PID``, host names as ``HOST``, times as ``TIM
 from __future__ import annotations
 
 import contextlib
-import io
 import os
 import re
 import shutil
 import socket
 import subprocess
 import sys
-import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from guarantee_tables import (
+    DOC,
+    check_rows_one_line,
+    replace_table,
+    run_rows,
+    table_markdown,
+)
 
 from rangefx.tools.cli import main
 from rangefx.tools.report.outdir import MARKER_NAME
 
-DOC = Path(__file__).resolve().parent.parent / "docs" / "guarantees.md"
 BEGIN, END = "<!-- table 41: begin (generated) -->", "<!-- table 41: end -->"
 CROP = ["--crop", "240", "256", "100", "124"]
 PAIR = ["--left", "{d}/left.npy", "--right", "{d}/right.npy", "--f-px", "40", "--baseline", "0.1"]
@@ -105,54 +108,40 @@ def _holder(directory: Path):
         proc.wait()
 
 
-def run_cases(run: Callable[[list[str]], int] = main) -> list[tuple[str, str, str, int]]:
-    """(case, command, what rangefx printed, exit code) of every case."""
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        d = Path(tmp)
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            _setup(d)
-        with _holder(d / "held") as holder:
-            for what, argv in CASES:
-                args = [a.replace("{d}", str(d)) for a in argv]
-                out, err = io.StringIO(), io.StringIO()
-                with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-                    code = run(args)
-                said = [
-                    line for line in out.getvalue().splitlines()
-                    if line.startswith(("problem:", "results written")) or "FAILED" in line
-                ]  # fmt: skip
-                printed = err.getvalue() or " ".join(said) or "(its usual report on stdout)"
-                command = "rangefx " + " ".join(_normalise(a, d, holder) for a in args)
-                rows.append((what, f"`{command}`", _normalise(printed, d, holder), code))
-        assert (d / "precious.txt").read_text() == "the user's\n"
+def _printed(out: str, err: str) -> str:
+    said = [line for line in out.splitlines()
+            if line.startswith(("problem:", "results written")) or "FAILED" in line]  # fmt: skip
+    return err or " ".join(said) or "(its usual report on stdout)"
+
+
+def run_cases() -> list[tuple[str, str, str, int]]:
+    """(case, command, what rangefx printed, exit code) of every case; the user's file
+    outside every output directory is as it was."""
+    precious: list[str] = []
+
+    @contextlib.contextmanager
+    def holding(d: Path):
+        with _holder(d / "held") as pid:
+            yield pid
+        precious.append((d / "precious.txt").read_text())
+
+    rows = run_rows(_setup, CASES, _normalise, printed=_printed, during=holding)
+    assert precious == ["the user's\n"]
     return rows
-
-
-def table_markdown(rows: list[tuple[str, str, str, int]]) -> str:
-    lines = ["| case | command | what rangefx prints | exit |", "|---|---|---|---|"]
-    lines += [f"| {w} | {c} | {m} | {code} |" for w, c, m, code in rows]
-    return "\n".join(lines) + "\n"
-
-
-def _replace_table(text: str, table: str) -> str:
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    return f"{head}{BEGIN}\n{table}{END}{tail}"
 
 
 def test_every_row_is_one_line_and_the_page_is_current():
     rows = run_cases()
-    for what, _, message, _ in rows:
-        assert "<br>" not in message and "Traceback" not in message, (what, message)
+    check_rows_one_line(rows)
     assert [code for *_, code in rows] == [0, 2, 2, 0, 2, 2, 2, 1]
     text = DOC.read_text(encoding="utf-8")
-    assert text == _replace_table(text, table_markdown(rows)), (
+    assert text == replace_table(text, table_markdown(rows, "case"), BEGIN, END), (
         "docs/guarantees.md is stale: run python tests/test_docs_confinement.py"
     )
 
 
 if __name__ == "__main__":
     page = DOC.read_text(encoding="utf-8")
-    DOC.write_text(_replace_table(page, table_markdown(run_cases())), encoding="utf-8")
+    DOC.write_text(replace_table(page, table_markdown(run_cases(), "case"), BEGIN, END),
+                   encoding="utf-8")  # fmt: skip
     sys.exit(0)

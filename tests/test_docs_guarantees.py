@@ -7,21 +7,23 @@ table in place. Temporary paths print as ``DIR``, this machine's free memory as 
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import re
 import shutil
 import sys
-import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from guarantee_tables import (
+    DOC,
+    check_rows_one_line,
+    replace_table,
+    run_rows,
+    table_markdown,
+)
 
 from rangefx.tools.cli import main
 
-DOC = Path(__file__).resolve().parent.parent / "docs" / "guarantees.md"
 BEGIN, END = "<!-- table: begin (generated) -->", "<!-- table: end -->"
 CROP = ["--crop", "240", "256", "100", "124"]
 SWEEP = """[sweep]
@@ -99,50 +101,25 @@ CASES: tuple[tuple[str, list[str]], ...] = (
 )  # fmt: skip
 
 
-def _normalise(text: str, d: Path) -> str:
+def _normalise(text: str, d: Path, _: object = None) -> str:
     text = text.replace(str(d), "DIR")
     text = re.sub(r"more than the [\d.]+ ([GM]iB) available", r"more than the N \1 available", text)
     return text.strip().replace("|", "\\|").replace("\n", "<br>")
 
 
-def run_cases(run: Callable[[list[str]], int] = main) -> list[tuple[str, str, str, int]]:
+def run_cases() -> list[tuple[str, str, str, int]]:
     """(bad input, command, what rangefx printed, exit code) of every case."""
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        d = Path(tmp)
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            _setup(d)
-        for what, argv in CASES:
-            args = [a.replace("{d}", str(d)) for a in argv]
-            out, err = io.StringIO(), io.StringIO()
-            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-                code = run(args)
-            printed = err.getvalue() or " ".join(out.getvalue().splitlines())
-            command = "rangefx " + " ".join(a.replace(str(d), "DIR") for a in args)
-            rows.append((what, f"`{command}`", _normalise(printed, d), code))
-    return rows
-
-
-def table_markdown(rows: list[tuple[str, str, str, int]]) -> str:
-    lines = ["| bad input | command | what rangefx prints | exit |", "|---|---|---|---|"]
-    lines += [f"| {w} | {c} | {m} | {code} |" for w, c, m, code in rows]
-    return "\n".join(lines) + "\n"
-
-
-def _replace_table(text: str, table: str) -> str:
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    return f"{head}{BEGIN}\n{table}{END}{tail}"
+    return run_rows(_setup, CASES, _normalise)
 
 
 def test_every_row_is_one_line_with_its_exit_code():
     rows = run_cases()
+    check_rows_one_line(rows)
     for what, _, message, code in rows:
-        assert "<br>" not in message and "Traceback" not in message, (what, message)
         assert code == (1 if "wider" in what else 2), (what, code)
         assert message.startswith("rangefx: error: ") or code == 1, (what, message)
     text = DOC.read_text(encoding="utf-8")
-    assert text == _replace_table(text, table_markdown(rows)), (
+    assert text == replace_table(text, table_markdown(rows, "bad input"), BEGIN, END), (
         "docs/guarantees.md is stale: run python tests/test_docs_guarantees.py"
     )
 
@@ -180,6 +157,9 @@ def _setup_40(d: Path) -> None:
     (d / "p2frac.toml").write_text(text.replace('format = "s9.0"', 'format = "s9.1000"', 1))
     text = (d / "p1.toml").read_text()
     (d / "bias.toml").write_text(text.replace("bias = 16.0", "bias = 1e300"))
+    assert main(["config", "show", "--pipeline", "p3", "--out", str(d / "p3.toml")]) == 0
+    text = (d / "p3.toml").read_text()
+    (d / "tg.toml").write_text(text.replace("threshold_g = 2.0", "threshold_g = 1e300"))
     (d / "int64.toml").write_text(
         SWEEP.format(name="i", size="[24, 32]", value=6).replace(
             "values = [6]", "range = [0, 9223372036854775807]"
@@ -218,6 +198,8 @@ CASES_40: tuple[tuple[str, list[str], int], ...] = (
     ("`s9.1000` in a P2 config",
      ["config", "show", "--pipeline", "p2", "--config", "{d}/p2frac.toml"], 2),
     ("`bias = 1e300` in a P1 config", ["config", "show", "--config", "{d}/bias.toml"], 2),
+    ("`threshold_g = 1e300` in a P3 config (was an OverflowError traceback in `run`)",
+     ["config", "show", "--pipeline", "p3", "--config", "{d}/tg.toml"], 2),
     ("sweep axis `range = [0, 2**63 - 1]`", ["sweep", "{d}/int64.toml", "--out", "{d}/s3"], 2),
     ("sweep grid of 10^8 points", ["sweep", "{d}/grid.toml", "--out", "{d}/s4"], 2),
     ("resumed sweep whose results.jsonl has a binary tail",
@@ -227,6 +209,7 @@ CASES_40: tuple[tuple[str, list[str], int], ...] = (
     ("`--scene` with image files",
      ["run", "--scene", "lab", "--left", "{d}/left.npy", "--right", "{d}/right.npy", *PAIR], 2),
     ("empty `--formats`", ["vectors", "gen", "--formats", "", "--out", "{d}/v3"], 2),
+    ("empty `--out`", ["run", "--out", ""], 2),
     ("`--size 100000`", ["bench", "--size", "100000"], 2),
     ("a 12000x12000 image pair",
      ["run", "--pipeline", "p1", "--left", "{d}/l12k.npy", "--right", "{d}/r12k.npy", *PAIR], 2),
@@ -236,43 +219,25 @@ CASES_40: tuple[tuple[str, list[str], int], ...] = (
 )  # fmt: skip
 
 
-def run_cases_40(run: Callable[[list[str]], int] = main) -> list[tuple[str, str, str, int]]:
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        d = Path(tmp)
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            _setup_40(d)
-        for what, argv, _ in CASES_40:
-            args = [a.replace("{d}", str(d)) for a in argv]
-            out, err = io.StringIO(), io.StringIO()
-            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-                code = run(args)
-            printed = err.getvalue() or " ".join(out.getvalue().splitlines())
-            command = "rangefx " + " ".join(a.replace(str(d), "DIR") for a in args)
-            rows.append((what, f"`{command}`", _normalise(printed, d), code))
-    return rows
-
-
-def _replace_table_40(text: str, table: str) -> str:
-    head, rest = text.split(BEGIN_40, 1)
-    _, tail = rest.split(END_40, 1)
-    return f"{head}{BEGIN_40}\n{table}{END_40}{tail}"
+def run_cases_40() -> list[tuple[str, str, str, int]]:
+    return run_rows(_setup_40, [(what, argv) for what, argv, _ in CASES_40], _normalise)
 
 
 def test_issue40_rows_print_one_line_with_their_exit_code():
     rows = run_cases_40()
+    check_rows_one_line(rows)
     for (what, _, message, code), (_, _, want) in zip(rows, CASES_40, strict=True):
-        assert "<br>" not in message and "Traceback" not in message, (what, message)
         assert code == want, (what, code, message)
         assert code != 2 or message.startswith("rangefx: error: "), (what, message)
     text = DOC.read_text(encoding="utf-8")
-    assert text == _replace_table_40(text, table_markdown(rows)), (
+    assert text == replace_table(text, table_markdown(rows, "bad input"), BEGIN_40, END_40), (
         "docs/guarantees.md is stale: run python tests/test_docs_guarantees.py"
     )
 
 
 if __name__ == "__main__":
     page = DOC.read_text(encoding="utf-8")
-    page = _replace_table(page, table_markdown(run_cases()))
-    DOC.write_text(_replace_table_40(page, table_markdown(run_cases_40())), encoding="utf-8")
+    page = replace_table(page, table_markdown(run_cases(), "bad input"), BEGIN, END)
+    page = replace_table(page, table_markdown(run_cases_40(), "bad input"), BEGIN_40, END_40)
+    DOC.write_text(page, encoding="utf-8")
     sys.exit(0)

@@ -10,16 +10,19 @@
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import functools
 import json
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from guarantee_tables import SWEEP, write_pair
 
 from rangefx import api
 from rangefx.rtl_model.config import MAX_NESTING
@@ -32,19 +35,6 @@ from rangefx.tools.studies import sweep as sweep_mod
 from rangefx.tools.studies.cases import scene_case
 
 CROP = ["--crop", "240", "256", "100", "124"]
-SWEEP = """
-[sweep]
-name = "{name}"
-scenes = ["lab"]
-size = [24, 32]
-combine = "one_at_a_time"
-metrics = ["golden", "overflows"]
-
-[[axis]]
-signals = "row_state"
-param = "frac"
-values = {values}
-"""
 
 
 @functools.cache
@@ -57,15 +47,6 @@ def small_scene(monkeypatch):
     _lab()  # rendered once per process (scene_case caches it)
 
 
-def _pair(tmp_path: Path) -> list[str]:
-    rng = np.random.default_rng(0)
-    left = rng.integers(0, 256, (24, 32)).astype(np.float64)
-    np.save(tmp_path / "l.npy", left)
-    np.save(tmp_path / "r.npy", np.roll(left, 1, axis=1))
-    return ["--left", str(tmp_path / "l.npy"), "--right", str(tmp_path / "r.npy"),
-            "--f-px", "40", "--baseline", "0.1"]  # fmt: skip
-
-
 def _write_sweep(tmp_path: Path, name: str = "a", values: str = "[6, 8]") -> Path:
     p = tmp_path / f"{name}.toml"
     p.write_text(SWEEP.format(name=name, values=values))
@@ -73,10 +54,10 @@ def _write_sweep(tmp_path: Path, name: str = "a", values: str = "[6, 8]") -> Pat
 
 
 COMMANDS = {
-    "run": lambda t, out: ["run", *_pair(t), "--out", out],
+    "run": lambda t, out: ["run", *write_pair(t), "--out", out],
     **{
         f"run_{name}": lambda t, out, name=name: [
-            *("run", *_pair(t)),
+            *("run", *write_pair(t)),
             *("--pipeline", name, "--out", out),
         ]
         for name in PIPELINES
@@ -398,7 +379,7 @@ def test_misspelt_signal_and_binary_toml_name_the_file(tmp_path, capsys):
 
 
 def test_no_pixel_valid_in_both_prints_no_nan(tmp_path, capsys):
-    argv = ["run", *_pair(tmp_path), "--pipeline", "p1", "--threshold-e", "1000"]
+    argv = ["run", *write_pair(tmp_path), "--pipeline", "p1", "--threshold-e", "1000"]
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "nan" not in out and "no pixel valid in both" in out
@@ -481,7 +462,7 @@ def test_issue40_accepted_fraction_bits_run_without_a_traceback(tmp_path, capsys
         )
         (tmp_path / "c.toml").write_text(text)
         scene = [] if "stereo" in pipe.modes else ["--scene", "runway"]
-        pair = _pair(tmp_path) if "stereo" in pipe.modes else []
+        pair = write_pair(tmp_path) if "stereo" in pipe.modes else []
         argv = ["run", "--pipeline", pipeline, "--config", str(tmp_path / "c.toml"), *pair]
         code = main([*argv, *scene])
         captured = capsys.readouterr()
@@ -490,13 +471,38 @@ def test_issue40_accepted_fraction_bits_run_without_a_traceback(tmp_path, capsys
             assert captured.err.startswith("rangefx: error: ") and captured.err.count("\n") == 1
 
 
+def _register_fields() -> list[tuple[str, str]]:
+    """(pipeline, design field) of every register value a config derives by itself."""
+    return [(name, key) for name, pipe in PIPELINES.items()
+            for key, *_ in pipe.default_config().design_register_values()]  # fmt: skip
+
+
+@pytest.mark.parametrize(("pipeline", "key"), _register_fields())
+def test_issue40_absurd_register_values_are_one_line_at_config_load(
+    tmp_path, capsys, pipeline, key
+):
+    """``1e300`` in any design field the host writes into a register, for every pipeline:
+    one line from ``config show`` (P3's ``threshold_g = 1e300`` was an OverflowError
+    traceback at run time)."""
+    pipe = PIPELINES[pipeline]
+    text = pipe.default_config().to_toml()
+    lines = [f"{key} = 1e300" if line.startswith(f"{key} = ") else line
+             for line in text.splitlines()]  # fmt: skip
+    assert lines != text.splitlines()
+    (tmp_path / "c.toml").write_text("\n".join(lines) + "\n")
+    argv = ["config", "show", "--pipeline", pipeline, "--config", str(tmp_path / "c.toml")]
+    assert main(argv) == 2
+    err = _one_line_error(capsys)
+    assert key in err and "1e+300" in err
+
+
 def test_issue40_register_value_outside_its_format_is_refused(tmp_path, capsys):
     """``bias = 1e300`` does not fit ``bias_reg``: refused at load (it would saturate)."""
     text = PIPELINES["p1"].default_config().to_toml().replace("bias = 16.0", "bias = 1e300")
     (tmp_path / "c.toml").write_text(text)
     assert main(["config", "show", "--config", str(tmp_path / "c.toml")]) == 2
     assert "'bias_reg'" in _one_line_error(capsys)
-    assert main(["run", "--pipeline", "p1", *_pair(tmp_path), "--bias", "1e300"]) == 2
+    assert main(["run", "--pipeline", "p1", *write_pair(tmp_path), "--bias", "1e300"]) == 2
     assert "bias = 1e+300 does not fit its register 'bias_reg'" in _one_line_error(capsys)
 
 
@@ -513,22 +519,30 @@ def test_issue40_int64_range_sweep_axes_are_one_line(tmp_path, capsys, axis):
     assert not (tmp_path / "s").exists()
 
 
-def test_issue40_a_sweep_of_10_to_the_8_points_is_refused_at_once(tmp_path, capsys):
-    """A grid of 100^4 points: the count and an estimated time, refused before a point
-    is listed (well under a second here, after the import)."""
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_issue40_a_sweep_of_10_to_the_8_points_is_refused_at_once(tmp_path, capsys, pipeline):
+    """A grid of 100^4 points of any pipeline: the count and an estimated time from that
+    pipeline's own measured cost a point, refused before a point is listed (well under
+    a second here, after the import)."""
     import time
 
+    from rangefx.tools.cli.sweep import SWEEP_SECONDS_PER_PIXEL
+
+    signals = PIPELINES[pipeline].default_config().signals()[1:5]
     axes = "".join(
-        f'[[axis]]\nsignals = "{s}"\nparam = "frac"\nrange = [-50, 49]\n'
-        for s in ("row_state", "col_s1", "row_r1", "row_r2")
+        f'[[axis]]\nsignals = "{s}"\nparam = "frac"\nrange = [-50, 49]\n' for s in signals
     )
     p = tmp_path / "grid.toml"
-    p.write_text('[sweep]\nname = "grid"\nscenes = ["lab"]\ncombine = "grid"\n' + axes)
+    p.write_text(
+        f'[sweep]\nname = "grid"\npipeline = "{pipeline}"\nscenes = ["lab"]\n'
+        'combine = "grid"\n' + axes
+    )
     t0 = time.perf_counter()
     assert main(["sweep", str(p), "--out", str(tmp_path / "s")]) == 2
     assert time.perf_counter() - t0 < 2.0
     err = _one_line_error(capsys)
     assert "100000000 points (about" in err and "--max-points 100000" in err
+    assert f"at {512 * 512 * SWEEP_SECONDS_PER_PIXEL[pipeline]:.2g} s a point" in err
     assert not (tmp_path / "s").exists()
 
 
@@ -559,7 +573,7 @@ def test_issue40_results_file_that_is_a_directory_is_left_alone(tmp_path, capsys
 
 
 def test_issue40_contradictory_and_empty_options(tmp_path, capsys):
-    assert main(["run", "--scene", "lab", *_pair(tmp_path)]) == 2
+    assert main(["run", "--scene", "lab", *write_pair(tmp_path)]) == 2
     assert "--scene lab and --left/--right" in _one_line_error(capsys)
     for formats in ("", " , "):
         argv = ["vectors", "gen", *CROP, "--formats", formats, "--out", str(tmp_path / "v")]
@@ -569,8 +583,45 @@ def test_issue40_contradictory_and_empty_options(tmp_path, capsys):
     for argv in (["vectors", "gen", *CROP], ["run"], ["config", "show"], ["demo"]):
         with pytest.raises(SystemExit) as exc:
             main([*argv, "--out", ""])
-        assert exc.value.code == 2
-        assert "argument --out: an empty path" in capsys.readouterr().err
+        assert exc.value.code == 2  # one line, no usage block above it
+        assert "argument --out: an empty path" in _one_line_error(capsys)
+
+
+def test_issue40_the_command_line_imports_only_the_named_command():
+    """``rangefx --help`` imports no command module (and so no numba); ``rangefx config``
+    imports its own module and no other (the --help figures of docs/guarantees.md)."""
+    from rangefx.tools.cli.main import COMMANDS
+
+    probe = (
+        "import sys\n"
+        "from rangefx.tools.cli.main import main\n"
+        "try:\n"
+        "    main(sys.argv[1:])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "mods = {m.rsplit('.', 1)[-1] for m in sys.modules if m.startswith('rangefx.tools.cli.')}\n"
+        "print(sorted(mods), 'numba' in sys.modules)\n"
+    )
+    modules = {module for module, _ in COMMANDS.values()}
+    for argv, own in ((["--help"], set()), (["config", "--help"], {"config"})):
+        out = subprocess.run([sys.executable, "-c", probe, *argv], capture_output=True,
+                             text=True, check=True).stdout.splitlines()[-1]  # fmt: skip
+        imported = set(eval(out.rsplit(" ", 1)[0])) & modules
+        assert imported == own, (argv, imported)
+        if not own:
+            assert out.endswith("False"), "rangefx --help imported numba"
+
+
+def test_issue40_the_command_table_matches_every_command_module():
+    """Each command's help line in ``main.COMMANDS`` (what ``rangefx --help`` lists
+    without importing the modules) is the module's own, and no command is missing."""
+    from rangefx.tools.cli.main import COMMANDS, build_parser
+
+    parser = build_parser()  # every module imported: their own add_parser lines
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    own = {c.dest: c.help for c in sub._choices_actions}
+    assert own == {name: text for name, (_, text) in COMMANDS.items()}
+    assert list(sub.choices) == list(COMMANDS)
 
 
 @pytest.fixture

@@ -17,8 +17,8 @@ writes its summary) and the command line at its end raise it again.
 
 from __future__ import annotations
 
-import _thread
 import contextlib
+import faulthandler
 import os
 import signal
 import sys
@@ -29,12 +29,15 @@ from types import FrameType
 
 __all__ = [
     "STOP_SIGNALS",
+    "STUCK_DUMP_ENV",
     "WATCHDOG_S",
     "Interrupted",
+    "claim_the_end",
     "cleanup_if_stuck",
     "deferred_signals",
     "exit_now",
     "handle_stop_signals",
+    "numba_compiling",
     "pending_signal",
     "raise_if_interrupted",
     "set_stop_line",
@@ -74,6 +77,8 @@ def raise_if_interrupted() -> None:
 #: Seconds after a stop signal at which the watchdog ends a command that is still running
 #: (the issue's bound is 2 s; cleanup normally takes well under 0.1 s).
 WATCHDOG_S = 1.5
+#: A file the watchdog appends every thread's stack to before it ends a stuck command.
+STUCK_DUMP_ENV = "RANGEFX_STUCK_DUMP"
 _watchdog: list[bool] = [False]  # armed by handle_stop_signals(watchdog=True)
 _stop_line: list[str] = ["interrupted; no output was written (an earlier output is left as it was)"]
 _cleanups: dict[int, Callable[[], None]] = {}
@@ -103,14 +108,47 @@ def _end_if_stuck(signum: int, install: int) -> None:
     directories are removed, the line is printed, and the process ends with 128 + the
     signal; its lock dies with it (``flock``)."""
     time.sleep(WATCHDOG_S)
-    if _installs[0] != install:
-        return  # the command ended (or, in-process, returned) meanwhile
+    if _installs[0] != install or not claim_the_end():
+        return  # the command ended (or, in-process, returned) or is printing its line
+    dump = os.environ.get(STUCK_DUMP_ENV)
+    if dump:  # where every thread waits, for the cause (tests/test_confinement.py sets it)
+        with contextlib.suppress(Exception), open(dump, "a") as fh:
+            faulthandler.dump_traceback(fh, all_threads=True)
     for cleanup in list(_cleanups.values()):
         with contextlib.suppress(Exception):
             cleanup()
     with contextlib.suppress(Exception):
         print(f"\nrangefx: {_stop_line[0]}", file=sys.stderr)
     exit_now(128 + signum)
+
+
+def numba_compiling() -> bool:
+    """Whether the calling thread holds numba's compiler lock: it is compiling a kernel or
+    loading one from the cache (an ``@njit`` with a signature does so on import). An
+    exception raised in there can leave numba's and LLVM's state half-made, and a later
+    kernel call crash the process (numba issue #2324: "sometimes gives a segmentation
+    fault"; one ``sweep`` of 50 ended by SIGSEGV on SIGHUP); False if numba is not loaded."""
+    compiler_lock = sys.modules.get("numba.core.compiler_lock")
+    if compiler_lock is None:
+        return False
+    try:
+        return bool(compiler_lock.global_compiler_lock.is_locked())
+    except Exception:  # another numba's internals: act on the signal as before
+        return False
+
+
+#: Seconds between looks at whether the main thread has left numba's compiler.
+COMPILE_POLL_S = 0.02
+
+
+_ending: list[threading.Lock] = [threading.Lock()]  # renewed by handle_stop_signals()
+
+
+def claim_the_end() -> bool:
+    """True for the first caller since :func:`handle_stop_signals` only: the one that
+    prints the stop line and ends the command, the command's own report or the watchdog
+    (both printed it once, a command reporting just as the watchdog woke up)."""
+    return _ending[0].acquire(blocking=False)
 
 
 def _on_signal(signum: int, frame: FrameType | None) -> None:
@@ -123,6 +161,12 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
             ).start()  # fmt: skip
     if _deferring:
         _deferred.append(signum)
+        return
+    if numba_compiling():  # raised once the compile or cache load is over (the watchdog
+        # still ends the command 1.5 s after the signal if it is not)
+        timer = threading.Timer(COMPILE_POLL_S, _redeliver, (signum, _installs[0]))
+        timer.daemon = True
+        timer.start()
         return
     raise Interrupted(signum)
 
@@ -148,8 +192,11 @@ _installs = [0]  # counts handle_stop_signals() calls and restores
 
 
 def _redeliver(signum: int, install: int) -> None:
+    """The signal again, to the main thread: a real one (``pthread_kill``), which also
+    wakes a main thread asleep in a wait, as the first did (``_thread.interrupt_main``
+    only flags it for the next bytecode)."""
     if _installs[0] == install:
-        _thread.interrupt_main(signum)
+        signal.pthread_kill(threading.main_thread().ident, signum)
 
 
 def handle_stop_signals(watchdog: bool = False) -> Callable[[], None]:
@@ -160,6 +207,7 @@ def handle_stop_signals(watchdog: bool = False) -> Callable[[], None]:
     _pending.clear()
     _deferred.clear()
     _installs[0] += 1
+    _ending[0] = threading.Lock()
     _watchdog[0] = watchdog
     if threading.current_thread() is not threading.main_thread():
         return lambda: None

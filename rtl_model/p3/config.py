@@ -124,8 +124,24 @@ class P3Config(WordLengthConfig):
         for name in ("p3_u", "p3_keys", "p3_win", "p3_sgg"):
             if not 0 <= self.formats[name].frac <= 40:
                 raise ValueError(f"signal {name!r} must have 0..40 fraction bits")
+        if not math.isfinite(float(self.threshold_r) * float(self.threshold_r)):
+            raise ValueError(
+                f"threshold_r = {self.threshold_r!r}: its square T_r^2 is not a finite number"
+            )
         if not self.formats["p3_keys"].signed:
             raise ValueError("signal 'p3_keys' must be signed (Keys weights are negative)")
+
+    def design_register_values(self) -> Iterable[tuple[str, str, float, str]]:
+        """Besides the base class's: ``T_g^2`` (``p3_sgg``) and, when set, the disparity
+        limit ``u_max`` of level 0 (``max_disparity``, ``p3_u``), as
+        :class:`~rangefx.rtl_model.p3.model.P3Registers` writes them. ``T_r^2`` is held at
+        its format's limit by design (no residual test above it)."""
+        yield from super().design_register_values()
+        tg2 = float(self.threshold_g) * float(self.threshold_g)  # inf, not OverflowError
+        yield "threshold_g", f"threshold_g = {self.threshold_g!r} (T_g^2 = {tg2:g})", tg2, "p3_sgg"
+        if self.max_disparity:
+            md = float(self.max_disparity)
+            yield "max_disparity", f"max_disparity = {md!r} (u_max)", md, "p3_u"
 
     def multiscale(self) -> MultiscaleConfig:
         """The golden G6 settings of this config."""

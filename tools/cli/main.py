@@ -13,14 +13,18 @@ from __future__ import annotations
 import argparse
 import contextlib
 import gc
+import importlib
 import signal
 import sys
+import threading
 from collections.abc import Iterator, Sequence
-from types import ModuleType
+from typing import NoReturn
 
 from ..errors import UserError
+from ..version import package_version
 from ..interrupts import (
     Interrupted,
+    claim_the_end,
     exit_now,
     handle_stop_signals,
     pending_signal,
@@ -28,30 +32,83 @@ from ..interrupts import (
     set_stop_line,
 )
 
-__all__ = ["DIR_OUTPUT_COMMANDS", "EXIT_INTERRUPTED", "build_parser", "main"]
+__all__ = [
+    "COMMANDS",
+    "DIR_OUTPUT_COMMANDS",
+    "EXIT_INTERRUPTED",
+    "build_parser",
+    "command_of",
+    "main",
+    "package_version",
+]
 
 
-def _commands() -> tuple[ModuleType, ...]:
-    """Subcommand modules, in ``--help`` order; each has ``add_parser(sub)``. Imported
-    when needed, after the signal handlers are in place: the imports (numba, matplotlib)
-    take about a second, and a Ctrl-C or ``kill`` then is handled as at any other time."""
-    from . import bench, config, demo, eval, guide, hdl, run, sweep, track, vectors
+#: Every subcommand: its module (``rangefx.tools.cli.<module>``, whose ``add_parser(sub)``
+#: adds it) and its one-line help, in ``--help`` order. The help is here so that
+#: ``rangefx --help`` and a command's own run import no other command's module: those
+#: import numba, SciPy and matplotlib (about a second), and a refusal (a sweep of 10^8
+#: points) should not wait for them. ``tests/test_guarantees.py`` checks each line against
+#: the module's own.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("demo", "the main job on the lab scene: golden, P1, P2, P3, guidance"),
+    "run": ("run", "one golden method, or a fixed-point pipeline beside golden"),
+    "config": ("config", "a pipeline's word-length config: show, or propose"),
+    "bench": ("bench", "throughput of every pipeline (Mpixel/s) beside golden"),
+    "vectors": ("vectors", "hardware test vectors: gen, check, diff (SPEC §5)"),
+    "hdl": ("hdl", "the Verilog of P1: vector replay, synthesis area, timing"),
+    "sweep": ("sweep", "word-length sweep of any pipeline (resumable, local or dask)"),
+    "optimise": ("sweep", "cheapest word lengths meeting an accuracy budget"),
+    "eval": (
+        "eval",
+        "score G2, G3, G5, G6 (and OpenCV peers) on real stereo data with ground truth",
+    ),
+    "track": ("track", "G1: range by irradiance tracking on the ch. 2 scene"),
+    "degrees": ("track", "G3 ranging polynomial of degree 1..4 on a scene"),
+    "guide": ("guide", "fly the ch. 6 guidance: the avoiding law (default) or the report's"),
+}
 
-    return (demo, run, config, bench, vectors, hdl, sweep, eval, track, guide)
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one ``rangefx: error: ...`` line for a bad argument (docs/guarantees.md),
+    not its usage block and a second error line; still ``SystemExit(2)``."""
+
+    def error(self, message: str) -> NoReturn:
+        where = self.prog.removeprefix("rangefx").strip()
+        hint = f"; see rangefx {where} --help".replace("  ", " ") if where else ""
+        self.exit(2, f"rangefx: error: {where + ': ' if where else ''}{message}{hint}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from .demo import package_version
+def command_of(argv: Sequence[str]) -> str | None:
+    """The subcommand ``argv`` names: its first word that is not an option (the top level
+    has only ``--help`` and ``--version``, which take no value); None if there is none or
+    it names no command (argparse then says so)."""
+    word = next((a for a in argv if not a.startswith("-")), None)
+    return word if word in COMMANDS else None
 
-    parser = argparse.ArgumentParser(
+
+def build_parser(command: str | None = None, *, full: bool = True) -> argparse.ArgumentParser:
+    """The ``rangefx`` parser. ``full``: every subcommand with all its options (imports
+    every command module, as the docs' reference does); else only ``command``'s module is
+    imported and the other subcommands are listed with their help line alone."""
+    parser = _Parser(
         prog="rangefx",
         description="Bit-accurate, cycle-faithful models of FPGA ranging pipelines "
         "(NASA 1991 report), their golden models, test vectors and word-length studies",
     )
     parser.add_argument("--version", action="version", version=f"rangefx {package_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
-    for module in _commands():
-        module.add_parser(sub)
+    if full:
+        wanted = {module for module, _ in COMMANDS.values()}
+    else:
+        wanted = {COMMANDS[command][0]} if command else set()
+    added: set[str] = set()
+    for name, (module, text) in COMMANDS.items():
+        if module in wanted:
+            if module not in added:  # one module adds all its commands, in order
+                importlib.import_module(f"{__package__}.{module}").add_parser(sub)
+                added.add(module)
+        else:
+            sub.add_parser(name, help=text, add_help=False)
     return parser
 
 
@@ -98,8 +155,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     restore = handle_stop_signals(watchdog=argv is None)
     args = None
     try:
-        parser = build_parser()
-        args = parser.parse_args(argv)
+        words = sys.argv[1:] if argv is None else list(argv)
+        # only the named command's module is imported (a refusal does not wait for the
+        # others' numba, SciPy and matplotlib), after the handlers are in place
+        args = build_parser(command_of(words), full=False).parse_args(words)
         set_stop_line(_interrupted_message(args, KeyboardInterrupt()))
         # the ~175,000 objects of the imports (numba's most of them) are permanent: kept
         # out of the collector, whose passes over them took ~5 % of a model run
@@ -131,6 +190,8 @@ def _report_interrupt(args: argparse.Namespace | None, exc: BaseException, as_pr
     """Print the one line; as the program (not called from Python with ``argv``) end the
     process now (:func:`~rangefx.tools.interrupts.exit_now`): the cleanup is done."""
     signum = exc.signum if isinstance(exc, Interrupted) else (pending_signal() or signal.SIGINT)
+    if not claim_the_end():  # the watchdog woke up first: it prints the line and ends
+        threading.Event().wait()
     with contextlib.suppress(OSError):  # SIGHUP: the terminal may be gone
         print(f"\nrangefx: {_interrupted_message(args, exc)}", file=sys.stderr)
     if as_program:

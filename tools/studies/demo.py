@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Sequence
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +24,7 @@ from rangefx.rtl_model.registry import PIPELINES
 
 from .. import report
 from ..errors import UserError
+from ..version import package_version
 from ..report import atomic_write_text, json_safe
 from .cases import case_from_scene
 from .flights import guide_flight
@@ -37,14 +37,6 @@ __all__ = ["DEMO_METHODS", "DEMO_STEPS", "demo_into", "demo_pipelines", "package
 DEMO_METHODS = ("g3_paper", "g3_consistent", "g2_central", "g5_riccati", "g6_multiscale")
 #: The steps :func:`demo_into` reports, in order.
 DEMO_STEPS = ("render lab", *DEMO_METHODS, "fixed point", "end to end", "figures")
-
-
-def package_version() -> str:
-    """The installed rangefx version (``0+unknown`` from a source tree)."""
-    try:
-        return version("rangefx")
-    except PackageNotFoundError:
-        return "0+unknown"
 
 
 def _render(name: str, seed: int) -> Scene:
