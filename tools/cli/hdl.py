@@ -58,7 +58,9 @@ def add_parser(sub) -> None:
 
 def add_replay_parser(hs) -> None:
     """``rangefx hdl replay DIR [--sim S] [--dump OUT] [--time-model] [--json]``."""
-    r = hs.add_parser("replay", help="replay a P1 vector directory through hdl/p1_top.v")
+    r = hs.add_parser(
+        "replay", help="replay a P1 or P2 vector directory through hdl/p1_top.v or p2_top.v"
+    )
     r.add_argument("dir", help="P1 vector directory (rangefx vectors gen)")
     r.add_argument("--sim", choices=tuple(SIMULATORS), default="icarus", help="HDL simulator")
     r.add_argument("--dump", help="keep the RTL dumps (<tap>.mem, taps.npz, status.json) here")
@@ -77,9 +79,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
         manifest = load_manifest(vec)
     except ValueError as exc:
         raise UserError(str(exc)) from None
-    if manifest.get("pipeline") != "p1":
+    if manifest.get("pipeline") not in ("p1", "p2"):  # hdl/p1_top.v, hdl/p2_top.v
         raise UserError(
-            f"{vec}: the RTL implements P1; these are {manifest.get('pipeline')} vectors"
+            f"{vec}: the RTL implements P1 and P2; these are {manifest.get('pipeline')} vectors"
         )
     with tempfile.TemporaryDirectory(prefix="rangefx-hdl-") as tmp:
         try:
