@@ -608,9 +608,9 @@ def replay(
         manifest = load_manifest(vec)
     except ValueError as exc:
         raise UserError(str(exc)) from None
-    if manifest.get("pipeline") != "p1":
+    if manifest.get("pipeline") not in ("p1", "p2"):  # hdl/p1_top.v, hdl/p2_top.v
         raise UserError(
-            f"{vec}: the RTL implements P1; these are {manifest.get('pipeline')} vectors"
+            f"{vec}: the RTL implements P1 and P2; these are {manifest.get('pipeline')} vectors"
         )
     with tempfile.TemporaryDirectory(prefix="rangefx-hdl-") as tmp:
         try:

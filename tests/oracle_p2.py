@@ -33,8 +33,9 @@ from oracle_p1 import (
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.riccati import RiccatiConfig
 from rangefx.rtl_model.p2.config import P2_SIGNALS, P2Config
+from rangefx.rtl_model.runtime import divider_latency
 
-__all__ = ["TAPS", "oracle_p2"]
+__all__ = ["TAPS", "oracle_p2", "oracle_p2_cycles"]
 
 TAPS = (
     "d", "g_hat", "a", "c", "den", "r", "s", "h", "q", "w", "lam", "z", "e", "valid", "range",
@@ -167,3 +168,52 @@ def oracle_p2(
             taps["d"][j, i], taps["g_hat"][j, i] = d[i].raw, g[i].raw
     minmax = {k: (float(ctx.lo[k]), float(ctx.hi[k])) for k in P2_SIGNALS if k in ctx.lo}
     return OracleResult(taps=taps, overflows=dict(ctx.overflows), minmax=minmax)
+
+
+def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.ndarray]:
+    """The cycle of every sample of every tap, restated from docs/p2_datapath.md
+    ("Hardware") unit by unit: the input stage, the sweep engine's slots (line-buffer read,
+    A, c, then the loop: den, the divider, S~ and Q~ written back), the forward engine's
+    slots (sweep-buffer read, e operand, w, λ/β, z, threshold, output register) and the
+    controllers that start each group's sweep and forward pass. Raises ``ValueError`` where
+    a group's input would overwrite a line buffer its sweep still reads."""
+    m, n = in_cycles.shape
+    lanes = config.lanes or (1 + divider_latency(config.divider, config.fmt("p2_r").word) + 2)
+    t_div = divider_latency(config.divider, config.fmt("p2_r").word)
+    t_b = 1 + t_div + 2  # den (1), the divider, r S~ then + M (2)
+    p_b, p_f = max(lanes, t_b), max(lanes, 4)  # periods per column: one slot per lane
+    sweep_len, fwd_len = n * p_b, n * p_f  # n slots per lane (the first loads S~_end)
+    out = {k: np.zeros((m, n), dtype=np.int64) for k in ("pix_in", *TAPS)}
+    sweep_end = fwd_end = -(10**18)  # the engines are free from these cycles on
+    last_reads: list[int] = []  # per group: its sweep's last line-buffer read
+    fwd_starts: list[int] = []  # per group: its forward pass's first read
+    for g in range(-(-m // lanes)):
+        lines = range(g * lanes, min(m, (g + 1) * lanes))
+        # the line buffer bank of group g is that of group g - 2: its sweep must be done
+        if g >= 2 and int(in_cycles[lines[0], 0]) + 2 <= last_reads[g - 2]:
+            raise ValueError(f"group {g} overwrites the line buffer of group {g - 2}")
+        d_written = int(in_cycles[lines[-1], n - 1]) + 2  # cast, then the d/Ĝ adders
+        sweep = max(d_written + 1, sweep_end)  # the read after the last write
+        if g >= 2:  # each sweep-buffer write (column i <= n - 2, lane l, at the slot's
+            # write-back) no earlier than group g - 2's forward read of the same entry
+            for i in range(n - 1):
+                write = sweep + (n - 1 - i) * p_b + 3 + t_b
+                sweep += max(0, fwd_starts[g - 2] + i * p_f - write)
+        sweep_end = sweep + sweep_len
+        fwd = max(sweep_end + t_b, fwd_end)
+        fwd_end = fwd + fwd_len
+        last_reads.append(sweep + (n - 1) * p_b + lanes - 1)  # lane L - 1, column 0
+        fwd_starts.append(fwd)
+        for lane, j in enumerate(lines):
+            for i in range(n):
+                out["pix_in"][j, i] = in_cycles[j, i]
+                out["d"][j, i] = out["g_hat"][j, i] = in_cycles[j, i] + 2
+                slot = sweep + (n - 1 - i) * p_b + lane  # column i's line-buffer read
+                write_back = slot + 1 + 1 + 1 + t_b  # read, A, c, then the loop
+                for k in ("a", "c", "den", "r", "s", "h", "q"):
+                    out[k][j, i] = write_back
+                read = fwd + i * p_f + lane  # column i's sweep-buffer read
+                out["e"][j, i] = read + 1
+                out["w"][j, i], out["lam"][j, i], out["z"][j, i] = read + 2, read + 3, read + 4
+                out["valid"][j, i] = out["range"][j, i] = read + 6  # threshold, register
+    return out

@@ -219,14 +219,14 @@ def test_replay_a_p1_directory_in_a_simulator(tmp_path, monkeypatch):
     assert result.ok and result.to_dict()["value_mismatches"] == 0
     assert (tmp_path / "dump" / "status.json").is_file()
     assert json.loads(result.write(tmp_path / "rep").read_text()) == result.to_dict()
-    p2 = api.generate_vectors("lab", tmp_path / "p2", crop=CROP, pipeline="p2").out
+    p3 = api.generate_vectors("lab", tmp_path / "p3", crop=CROP, pipeline="p3").out
 
     def no_build(*args, **kwargs):
-        raise AssertionError("the simulator was built for P2 vectors")
+        raise AssertionError("the simulator was built for P3 vectors")
 
     monkeypatch.setattr("rangefx.vectors.replay.simulate", no_build)
-    with pytest.raises(UserError, match="the RTL implements P1; these are p2 vectors"):
-        api.replay(p2)  # refused before any build
+    with pytest.raises(UserError, match="the RTL implements P1 and P2; these are p3 vectors"):
+        api.replay(p3)  # refused before any build
 
 
 # -- word-length studies --------------------------------------------------------------------

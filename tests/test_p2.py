@@ -19,6 +19,7 @@ from rangefx.rtl_model.p2.model import (
     FWD_LOOP,
     IN_LATENCY,
     OUT_LATENCY,
+    SWEEP_READ,
     group_starts,
     p2_schedule,
     run_p2,
@@ -113,7 +114,7 @@ def test_cycle_stamps_closed_form(hblank):
     grp, lane = j // lanes, j % lanes
     tb = loop_latency(cfg)
     ready = ((grp + 1) * lanes - 1) * (n + hblank) + n + IN_LATENCY
-    want = ready + (n - 1) * max(lanes, tb) + tb + k * lanes + lane + OUT_LATENCY
+    want = ready + n * max(lanes, tb) + tb + k * lanes + lane + OUT_LATENCY
     assert np.array_equal(res.out_cycles, want)
     assert res.latency == int((want - tin).max())
     # one pixel per clock out: every output cycle distinct, one line per line time
@@ -144,11 +145,12 @@ def test_band_cycle_maps_equal_the_whole_frame_schedule(threads, gap_prob):
     assert res.latency == int((want - tin).max()) and res.schedule == info
 
 
-def _group_starts_by_hand(firsts, lasts, lanes, back, fwd, tb):
+def _group_starts_by_hand(firsts, lasts, lanes, back, fwd, tb, reads, hold):
     """The group recurrence of docs/p2_datapath.md (Timing) on Python ints: a group's
     sweep starts when its last line is in and the previous sweep is done (and the sweep
-    buffer of group g - 2 is read out), its forward pass after its sweep and the previous
-    forward pass; None where group g would overwrite the line buffer of group g - 2."""
+    buffer of group g - 2 is read out in time), its forward pass after its sweep and the
+    previous forward pass; None where group g would overwrite the line buffer of group g - 2
+    before its sweep's last read."""
     m, starts = len(firsts), []
     for gi in range(-(-m // lanes)):
         first, last = gi * lanes, min(m, (gi + 1) * lanes) - 1
@@ -156,8 +158,8 @@ def _group_starts_by_hand(firsts, lasts, lanes, back, fwd, tb):
         if gi >= 1:
             b0 = max(b0, starts[gi - 1][0] + back)
         if gi >= 2:
-            b0 = max(b0, starts[gi - 2][1] + fwd)
-            if starts[gi - 2][0] + back > firsts[first]:
+            b0 = max(b0, starts[gi - 2][1] + hold)
+            if starts[gi - 2][0] + reads > firsts[first] + IN_LATENCY:
                 return None, gi
         f0 = b0 + back + tb
         if gi >= 1:
@@ -181,7 +183,9 @@ def test_group_starts_follow_the_recurrence(seed, arrival):
     lanes, tb = config.effective_lanes(), loop_latency(config)
     n, hblank = int(rng.integers(4, 40)), int(rng.integers(0, 30))
     m = int(rng.integers(3 * lanes, 7 * lanes))
-    back, fwd = (n - 1) * max(lanes, tb), n * max(lanes, FWD_LOOP)
+    pb, pf = max(lanes, tb), max(lanes, FWD_LOOP)
+    back, fwd = n * pb, n * pf
+    reads, hold = (n - 1) * pb + lanes, (n - 2) * pf - pb - SWEEP_READ - tb
     if arrival == "tight":
         hblank, m = 0, 4 * lanes - 3
         firsts = np.arange(m) * n
@@ -190,7 +194,8 @@ def test_group_starts_follow_the_recurrence(seed, arrival):
         step = (0, 3) if arrival == "early" else (n + hblank, 3 * (n + hblank))
         firsts = np.cumsum(rng.integers(*step, m))
         lasts = firsts + n - 1 + rng.integers(0, 5 * n, m) * (rng.random(m) < 0.2)
-    want, bad = _group_starts_by_hand(firsts.tolist(), lasts.tolist(), lanes, back, fwd, tb)
+    want, bad = _group_starts_by_hand(firsts.tolist(), lasts.tolist(), lanes, back, fwd, tb,
+                                      reads, hold)  # fmt: skip
     assert (bad >= 0) == (arrival == "early")  # each outcome is reached
     if arrival == "early":
         with pytest.raises(ValueError, match=f"group {bad} .*group {bad - 2}'s sweep"):
@@ -200,6 +205,37 @@ def test_group_starts_follow_the_recurrence(seed, arrival):
         starts, info = group_starts(cycles[:, 0], cycles[:, 1], n, config, hblank)
         assert starts.tolist() == [list(s) for s in want]
         assert info["backward_cycles"] == back and info["forward_cycles"] == fwd
+
+
+@pytest.mark.parametrize(
+    ("divider", "lanes", "hblank", "gap_prob"),
+    [("reciprocal", 0, 0, 0.0), ("reciprocal", 0, 7, 0.2), ("reciprocal", 14, 0, 0.0),
+     ("restoring", 0, 0, 0.0), ("restoring", 36, 5, 0.3), ("reciprocal", 3, 270, 0.0)],
+)  # fmt: skip
+def test_tap_cycles_are_the_oracles_one_sample_per_cycle(divider, lanes, hblank, gap_prob):
+    """Every tap's cycles (the schedule, :mod:`rangefx.rtl_model.p2.taps`) equal the
+    oracle's unit-by-unit restatement (``oracle_p2_cycles``), and no tap has two samples on
+    one cycle (one register's output per cycle: the 100x64 case where ``e`` had 63 such
+    cycles and the backward taps one), with a short last group."""
+    from oracle_p2 import oracle_p2_cycles
+
+    from rangefx.rtl_model.p2 import taps as p2_taps
+
+    cfg = P2Config.default().with_(divider=divider, lanes=lanes)
+    m, n = 64, 100
+    rng = np.random.default_rng(3)
+    im1 = rng.integers(0, 256, (m, n))
+    timing = TimingConfig(hblank=hblank, gap_prob=gap_prob)
+    res = run_p2(im1, np.roll(im1, 1, axis=1), PinholeCamera(n, m, 600.0),
+                 MotionIncrement.stereo(0.1), cfg, SCENE_RICCATI["lab"], timing=timing,
+                 taps=False)  # fmt: skip
+    _, info, rows = p2_schedule(res.in_cycles, cfg, hblank)
+    want = oracle_p2_cycles(res.in_cycles, cfg)
+    assert np.array_equal(res.out_cycles, want["range"])
+    for tap in p2_taps.tap_names():
+        got = p2_taps.tap_cycles(tap, cfg, res.in_cycles, rows, info)
+        assert np.array_equal(got, want[tap.rpartition(".")[2]]), tap
+        assert np.unique(got).size == m * n, f"{tap}: two samples on one cycle"
 
 
 def test_throughput_assertion():
@@ -212,7 +248,7 @@ def test_throughput_assertion():
     with pytest.raises(ValueError, match="one pixel per clock"):
         run_p2(*args, SCENE_RICCATI["lab"], taps=False)
     tb = loop_latency(cfg)
-    hblank = -(-((n - 1) * tb) // 2) - n
+    hblank = -(-(n * tb) // 2) - n
     res = run_p2(*args, SCENE_RICCATI["lab"], timing=TimingConfig(hblank=hblank), taps=False)
     assert res.schedule["backward_cycles"] <= res.schedule["group_period"]
 

@@ -525,3 +525,118 @@ def write_recip_rom(config: P1Config, path: str | Path) -> Path:
     p = Path(path)
     p.write_text("".join(f"{int(w):0{digits}x}\n" for w in words))
     return p
+
+
+# -- P2 (hdl/p2_top.v) -------------------------------------------------------------------
+P2_SOURCES = ("fx_cast_sized.v", "fx_pipe.v", "fx_divide.v", "p2_top.v")
+P2_TOPLEVEL = "p2_top"
+
+#: Verilog parameter prefix of each P2 signal (``hdl/p2_params.vh``).
+P2_PREFIX = {
+    "p2_pix": "PIX", "p2_d": "D", "p2_ghat": "G", "p2_ka_reg": "KA", "p2_a": "A", "p2_c": "C",
+    "p2_m_reg": "MR", "p2_st": "ST", "p2_den": "DEN", "p2_r": "R", "p2_h": "H", "p2_q": "Q",
+    "p2_w": "W", "p2_lam": "LAM", "p2_z": "Z", "p2_e": "E",
+}  # fmt: skip
+
+#: Tap -> (register of ``p2_top``, its valid strobe): every tap is one register's output.
+P2_TAP_PORTS: Mapping[str, tuple[str, str]] = {
+    "d": ("d2", "v2"),
+    "g_hat": ("g2", "v2"),
+    "a": ("wb_a", "wb_v"),
+    "c": ("wb_c", "wb_v"),
+    "den": ("wb_den", "wb_v"),
+    "r": ("wb_r", "wb_v"),
+    "s": ("s_wb", "wb_v"),
+    "h": ("wb_h", "wb_v"),
+    "q": ("q_wb", "wb_v"),
+    "e": ("e_op", "tap_e_v"),
+    "w": ("w2", "tap_w_v"),
+    "lam": ("lam3", "tap_lam_v"),
+    "z": ("z4", "tap_z_v"),
+    "valid": ("m_axis_tdata[Z_W]", "m_axis_tvalid"),
+    "range": ("m_axis_tdata[Z_W-1:0]", "m_axis_tvalid"),
+}
+
+#: Overflow counter of ``p2_top`` -> the signal it counts.
+P2_OVERFLOW_PORTS = {f"ovf_{s.removeprefix('p2_')}": s
+                     for s in P2_PREFIX if s not in ("p2_ka_reg", "p2_m_reg")}  # fmt: skip
+
+#: Host register port of ``p2_top`` -> the manifest's register name.
+P2_REGISTER_PORTS = {"ka_raw": "KA", "m_raw": "M", "cmin_raw": "c_min", "send_raw": "S_end",
+                     "td_raw": "T_D", "rmax_raw": "range_max"}  # fmt: skip
+
+#: The flags ``p2_top`` raises (sticky).
+P2_FLAGS = ("line_too_long", "align_error", "overrun")
+
+
+def p2_parameters(manifest: Mapping, rom_file: str | Path | None = None) -> dict[str, int | str]:
+    """Verilog parameters of ``p2_top`` for a P2 vector directory's ``manifest``: the
+    frame size, the lanes, the divider and its latency (``rtl_model/runtime.py
+    divider_latency``, the one place the model reads it from) and every signal's format
+    and modes."""
+    from rangefx.rtl_model.runtime import divider_latency
+
+    if manifest.get("pipeline") != "p2":
+        raise ValueError(f"p2_top implements P2, not {manifest.get('pipeline')!r}")
+    parsed = manifest["config"]["parsed"]
+    design, signals = parsed["design"], parsed["signals"]
+    m, n = manifest["shape"]
+    r_word = _format(signals["p2_r"]["format"])[0]
+    t_div = divider_latency(design["divider"], r_word)
+    lanes = int(design.get("lanes", 0)) or 1 + t_div + 2
+    params: dict[str, int | str] = {
+        "WIDTH": int(n), "HEIGHT": int(m), "LANES": lanes, "T_DIV": t_div,
+        "DIVIDER": int(design["divider"] == "reciprocal"),
+        "RECIP_L": int(design["recip_lut_bits"]), "RECIP_R": int(design["recip_bits"]),
+    }  # fmt: skip
+    for signal, p in P2_PREFIX.items():
+        spec = signals[signal]
+        word, frac, signed = _format(spec["format"])
+        params |= {f"{p}_W": word, f"{p}_F": frac, f"{p}_S": signed,
+                   f"{p}_Q": QUANT_CODES[spec.get("quant", "TRN")],
+                   f"{p}_O": OVERFLOW_CODES[spec.get("overflow", "WRAP")]}  # fmt: skip
+    if rom_file is not None:
+        params["ROM_FILE"] = f'"{Path(rom_file).resolve()}"'
+    return params
+
+
+def p2_register_codes(manifest: Mapping, params: Mapping[str, int | str]) -> dict[str, tuple]:
+    """Port -> (bits, unsigned code) of every host register of ``p2_top`` from the
+    manifest's ``registers`` (``T_D`` is compared with |d_k + d_k+1|: two bits wider
+    than ``p2_d``)."""
+    widths = {"ka_raw": params["KA_W"], "m_raw": params["MR_W"], "cmin_raw": params["C_W"],
+              "send_raw": params["ST_W"], "td_raw": int(params["D_W"]) + 2,
+              "rmax_raw": params["Z_W"]}  # fmt: skip
+    regs = manifest["registers"]
+    return {port: (int(widths[port]), int(regs[name]["raw"]) & ((1 << int(widths[port])) - 1))
+            for port, name in P2_REGISTER_PORTS.items()}  # fmt: skip
+
+
+def p2_bench_header(
+    manifest: Mapping, rom_file: str | Path | None, lead: int, overrides: Mapping[str, int] = {}
+) -> str:
+    """``p2_bench.vh`` of the Verilog bench ``hdl/tb_p2_top.v`` for a P2 vector directory
+    (``overrides`` replace parameters)."""
+    params = p2_parameters(manifest, rom_file) | dict(overrides)
+    regs = p2_register_codes(manifest, params)
+    depth = max(int(e["count"]) for e in stream_entries(manifest))
+    taps = [f'if (dut.{valid}) $fwrite(fd, "T R {tap} %0d %h\\n", cycle, dut.{port});'
+            for tap, (port, valid) in P2_TAP_PORTS.items()]  # fmt: skip
+    taps = [t.replace("[Z_W]", f"[{params['Z_W']}]").replace("[Z_W-1:0]",
+            f"[{int(params['Z_W']) - 1}:0]") for t in taps]  # fmt: skip
+    counts = [f'$fwrite(fd, "O R {sig} %0d\\n", dut.{port});'
+              for port, sig in P2_OVERFLOW_PORTS.items()]  # fmt: skip
+    ports = ", ".join(f".{p}({w}'h{v:x})" for p, (w, v) in regs.items())
+    body = [
+        "// generated by rangefx (rangefx.vectors.hdl.p2_bench_header) from a vector directory",
+        "`define P2_PARAMS " + ", ".join(f".{k}({v})" for k, v in params.items()),
+        f"`define P2_PIX_W {params['PIX_W']}",
+        f"`define P2_OUT_W {int(params['Z_W']) + 1}",
+        f"`define P2_STREAM_DEPTH {depth}",
+        f"`define P2_CYCLES {int(manifest['total_cycles']) + 16}",
+        f"`define P2_LEAD {int(lead)}",
+        f"`define P2_REGISTERS {ports}",
+        "`define P2_TAPS " + " ".join(taps),
+        "`define P2_COUNTS " + " ".join(counts),
+    ]
+    return "\n".join(body) + "\n"

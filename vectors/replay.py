@@ -39,10 +39,14 @@ from .hdl import (
     HDL_DIR,
     HDL_SOURCES,
     OVERFLOW_SIGNALS,
+    P2_FLAGS,
+    P2_SOURCES,
     RANGE_TAP_GROUPS,
     TOPLEVEL,
     bench_header,
     frontend_instances,
+    p2_bench_header,
+    p2_parameters,
     stream_entries,
     top_parameters,
     write_dump,
@@ -148,7 +152,9 @@ def simulate(
     rom_file = _rom_file(vec, manifest)
     work = Path(work).resolve()
     dump = work / "dump"
-    if sim == "verilator":
+    if manifest.get("pipeline") == "p2":
+        timings = _run_p2_bench(vec, manifest, rom_file, work, dump, sim, overrides)
+    elif sim == "verilator":
         timings = _run_verilator(vec, manifest, rom_file, work, dump, overrides)
     else:
         timings = _run_cocotb(vec, manifest, rom_file, work, dump, sim, overrides)
@@ -295,6 +301,74 @@ def _dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None
     write_dump(dump, vec, manifest, samples, inputs, beats, overflows, flags, cycles)
 
 
+def _run_p2_bench(
+    vec: Path, manifest: Mapping, rom_file: Path | None, work: Path, dump: Path, sim: str,
+    overrides: Mapping[str, int],
+) -> dict:  # fmt: skip
+    """P2's plain Verilog bench ``hdl/tb_p2_top.v`` under Icarus (``iverilog -g2005``,
+    ``vvp``) or Verilator (``--binary``); its text output parsed into the dump."""
+    build = work / f"build_{sim}"
+    build.mkdir(parents=True, exist_ok=True)
+    (build / "p2_bench.vh").write_text(p2_bench_header(manifest, rom_file, _LEAD, overrides))
+    sources = [str(HDL_DIR / s) for s in (*P2_SOURCES, "tb_p2_top.v")]
+    exe = build / ("obj" if sim == "verilator" else ".") / "tb"
+    if sim == "verilator":
+        cmd = ["verilator", "--binary", "-O3", "-j", "2", "-Wno-fatal", "-Wno-lint",
+               "-Wno-style", "--top-module", "tb_p2_top", f"-I{build}", f"-I{HDL_DIR}",
+               "--Mdir", str(build / "obj"), "-o", "tb", *sources]  # fmt: skip
+    else:
+        cmd = ["iverilog", "-g2005", "-o", str(exe), f"-I{build}", f"-I{HDL_DIR}", *sources]
+    t0 = time.perf_counter()
+    with open(work / "build.log", "w") as log:
+        rc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=build).returncode
+    if rc != 0:
+        raise ValueError(f"building the RTL with {sim} failed: {_log_tail(work / 'build.log')}")
+    t1 = time.perf_counter()
+    streams = stream_entries(manifest)
+    out = work / "tb_out.txt"
+    args = [f"+STREAM{k}={vec / e['path']}" for k, e in enumerate(streams)] + [f"+OUT={out}"]
+    run = [str(exe), *args] if sim == "verilator" else ["vvp", "-n", str(exe), *args]
+    with open(work / "sim.log", "w") as log:
+        rc = subprocess.run(run, stdout=log, stderr=subprocess.STDOUT, cwd=build).returncode
+    t2 = time.perf_counter()
+    if rc != 0 or not out.exists():
+        raise ValueError(f"the {sim} simulation failed: {_log_tail(work / 'sim.log')}")
+    dump.mkdir(parents=True, exist_ok=True)
+    try:
+        _p2_dump_from_text(out, vec, manifest, dump)
+    except AssertionError as exc:
+        raise ValueError(f"the {sim} bench: {exc}") from None
+    return {"build_s": t1 - t0, "sim_s": t2 - t1}
+
+
+def _p2_dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None:
+    """Parse ``hdl/tb_p2_top.v``'s lines into the dump (x/z values: ``None``)."""
+    samples: dict[str, list[tuple[int, int | None]]] = {}
+    inputs: list[int] = []
+    beats: list[tuple[int, int | None, int, int]] = []
+    overflows: dict[str, int | None] = {}
+    flags: dict[str, int | None] = {}
+    cycles = 0
+    with open(out) as f:
+        for text in f:
+            part = text.split()
+            kind = part[0]
+            if kind == "T":
+                samples.setdefault(part[2], []).append((int(part[3]), _number(part[4], 16)))
+                cycles = max(cycles, int(part[3]) + 1)
+            elif kind == "I":
+                inputs.append(int(part[1]))
+            elif kind == "M":
+                tuser, tlast = _number(part[3], 10), _number(part[4], 10)
+                user = -1 if tuser is None else tuser
+                beats.append((int(part[1]), _number(part[2], 16), user, tlast is None or tlast))
+            elif kind == "O":
+                overflows[part[2]] = _number(part[3], 10)
+            elif kind == "F":
+                flags[part[1]] = _number(part[2], 10)
+    write_dump(dump, vec, manifest, samples, inputs, beats, overflows, flags, cycles)
+
+
 @dataclass
 class ReplayReport:
     """Outcome of :func:`compare`: per-tap counts, the first mismatch, the totals."""
@@ -355,6 +429,10 @@ def compare(directory: str | Path, dump: str | Path) -> ReplayReport:
         word = int(entry["word"])
         exp_v = fmt_io.to_unsigned(read_tap(vec, tap, manifest), word).astype(np.int64)
         exp_c = tap_cycles(vec, manifest, tap, int(entry["first_valid_cycle"]))
+        # the RTL emits a tap's samples in cycle order: P2's interleaved lanes are not in
+        # scan order (one sample per cycle, so the order is unique)
+        order = np.argsort(exp_c, kind="stable")
+        exp_v, exp_c = exp_v[order], exp_c[order]
         g_v = got[f"{tap}.value"] if f"{tap}.value" in got else np.zeros(0, np.int64)
         g_c = got[f"{tap}.cycle"] if f"{tap}.cycle" in got else np.zeros(0, np.int64)
         k = min(exp_v.size, g_v.size)
@@ -371,11 +449,12 @@ def compare(directory: str | Path, dump: str | Path) -> ReplayReport:
         bad = np.flatnonzero(bad_v | bad_c)
         if bad.size or extra:
             i = int(bad[0]) if bad.size else k
+            at = int(order[i]) if i < order.size else i
             first = {
                 "tap": tap,
                 "index": i,
-                "row": (i // n) % m,
-                "col": i % n,
+                "row": (at // n) % m,
+                "col": at % n,
                 "cycle": int(exp_c[i]) if i < exp_c.size else None,
                 "got_cycle": int(g_c[i]) if i < g_c.size else None,
                 "expected": _signed(exp_v, i, word, entry["signed"]),
@@ -391,7 +470,9 @@ def compare(directory: str | Path, dump: str | Path) -> ReplayReport:
         rtl = int(status["overflows"].get(signal, 0))
         report.overflows[signal] = {"rtl": rtl, "model": int(model.get(signal, 0))}
     report.m_axis = _check_m_axis(vec, manifest, dump)
-    report.flags = {k: int(status[k]) for k in ("line_too_long", "align_error", "frame_too_big")}
+    names = P2_FLAGS if manifest["pipeline"] == "p2" else (
+        "line_too_long", "align_error", "frame_too_big")  # fmt: skip
+    report.flags = {k: int(status[k]) for k in names}
     return report
 
 
@@ -415,18 +496,26 @@ def _check_m_axis(vec: Path, manifest: Mapping, dump: Path) -> dict:
     valid = read_tap(vec, "valid", manifest)
     expected = [(int(v) << int(entry["word"])) | int(r) for v, r in zip(valid, rng, strict=True)]
     exp_c = tap_cycles(vec, manifest, "range", int(entry["first_valid_cycle"]))
+    order = np.argsort(exp_c, kind="stable")  # P2: the interleaved order of its lanes
+    expected, exp_c = [expected[i] for i in order], exp_c[order]
     k = min(len(words), len(expected))
     bad_v = [i for i in range(k) if words[i] != expected[i]]
     bad_c = [i for i in range(k) if int(cycles[i]) != int(exp_c[i])]
     extra = abs(len(words) - len(expected))
     lines = out["line_lengths"].tolist()
     tuser = out["first_tuser"].tolist()
-    framing = lines == [n] * m and tuser == [1] + [0] * (m - 1)
+    if manifest["pipeline"] == "p2":  # one TLAST per lane group (docs/p2_datapath.md)
+        lanes = int(p2_parameters(manifest)["LANES"])
+        want = [min(lanes, m - g) * n for g in range(0, m, lanes)]
+    else:
+        want = [n] * m
+    framing = lines == want and tuser == [1] + [0] * (len(want) - 1)
     first = min(bad_v + bad_c, default=k if extra else None)
     where = None
     if first is not None:
         got = words[first] if first < len(words) else -1
-        where = {"index": first, "row": first // n % m, "col": first % n,
+        at = int(order[first]) if first < order.size else first
+        where = {"index": first, "row": at // n % m, "col": at % n,
                  "cycle": int(exp_c[first]) if first < len(exp_c) else None,
                  "got_cycle": int(cycles[first]) if first < len(words) else None,
                  "expected": expected[first] if first < len(expected) else None,

@@ -53,8 +53,13 @@ from ..stream import input_cycles, line_starts
 from .config import P2_SIGNALS, P2Config, loop_latency
 
 __all__ = [
+    "FWD_LOOP",
+    "FWD_READ",
+    "IN_LATENCY",
     "N_SITES",
+    "OUT_LATENCY",
     "P2_TAPS",
+    "SWEEP_READ",
     "P2Registers",
     "buffer_bits",
     "group_starts",
@@ -78,8 +83,10 @@ P2_TAPS = (
 #: Cast sites in the kernel (each logs its own raw min/max).
 N_SITES = 16
 IN_LATENCY = 2  # input cast + d/Ĝ adder, then the line-buffer write
+SWEEP_READ = 3  # a sweep slot's line-buffer read, then A, then c: the loop entry
 FWD_LOOP = 4  # forward recurrence e_k -> w -> λ/β -> z -> e_k+1
-OUT_LATENCY = 5  # forward pass: w, λ/β, z, threshold/valid, output register
+FWD_READ = 1  # a forward slot's sweep-buffer read: the e operand register
+OUT_LATENCY = FWD_READ + 5  # read, e operand, w, λ/β, z, threshold/valid, output register
 
 
 @njit(cache=True, nogil=True)
@@ -514,9 +521,11 @@ def stage_latencies(config: P2Config) -> dict[str, int]:
     """Declared latencies (cycles) of the P2 stages (docs/p2_datapath.md, Timing)."""
     return {
         "input": IN_LATENCY,
+        "sweep_read": SWEEP_READ,
         "divider": runtime.divider_latency(config.divider, config.formats["p2_r"].word),
         "backward_loop": loop_latency(config),
         "forward_loop": FWD_LOOP,
+        "forward_read": FWD_READ,
         "output": OUT_LATENCY,
     }
 
@@ -526,10 +535,12 @@ def p2_schedule(
 ) -> tuple[np.ndarray, dict[str, int], dict[str, np.ndarray]]:
     """Output cycle of every pixel from the input cycles (docs/p2_datapath.md, Timing).
 
-    Lines are taken in groups of ``L`` lanes; a group's backward sweep issues one step per
-    clock round-robin over its lanes (``P_b = max(L, T_b)`` cycles per column) and starts
-    when its last pixel is in the line buffer and the previous group's sweep is done; the
-    forward pass of a group follows its sweep likewise. Raises ``ValueError`` when the
+    Lines are taken in groups of ``L`` lanes; a group's backward sweep issues one slot per
+    clock round-robin over its lanes (``P_b = max(L, T_b)`` cycles per column, ``n``
+    columns: the first slot of a lane loads ``S~_end``, ``Q~ = 0``) and starts when its
+    last pixel is in the line buffer and the previous group's sweep is done; the forward
+    pass of a group (``n`` slots per lane, ``P_f = max(L, T_f)`` cycles per column) follows
+    its sweep likewise. Raises ``ValueError`` when the
     sweep or the forward pass of a group needs more cycles than the group's lines take to
     arrive, or when group ``g + 2`` would overwrite the ping-pong line buffer before group
     ``g``'s sweep has read it: one pixel per clock could not be sustained. A sweep waits
@@ -556,7 +567,7 @@ def group_starts(
     tb, tf = loop_latency(config), FWD_LOOP
     pb, pf = max(lanes, tb), max(lanes, tf)
     period = lanes * (n + hblank)
-    back, fwd = (n - 1) * pb, n * pf
+    back, fwd = n * pb, n * pf
     if back > period or fwd > period:
         raise ValueError(
             f"P2 cannot sustain one pixel per clock: a group of {lanes} lines arrives in "
@@ -565,7 +576,14 @@ def group_starts(
         )
     firsts = np.ascontiguousarray(line_first, dtype=np.int64)
     lasts = np.ascontiguousarray(line_last, dtype=np.int64)
-    starts, bad = _group_recurrence(firsts, lasts, lanes, back, fwd, tb)
+    # the sweep's last line-buffer read (lane L - 1, column 0) must come before the
+    # write of the first pixel of group g + 2 into the same bank
+    reads = (n - 1) * pb + lanes
+    # the sweep of group g + 2 writes column i of the sweep-buffer bank of group g no
+    # earlier than g's forward pass reads it (the tightest: column n - 2; column n - 1 is
+    # neither written nor read)
+    hold = (n - 2) * pf - pb - SWEEP_READ - tb
+    starts, bad = _group_recurrence(firsts, lasts, lanes, back, fwd, tb, reads, hold)
     if bad >= 0:
         raise ValueError(
             f"P2 cannot sustain one pixel per clock: group {bad} (lines {bad * lanes}..) "
@@ -585,13 +603,16 @@ def group_starts(
 @njit(
     types.Tuple((runtime.KERNEL_PLANE, types.int64))(
         runtime.KERNEL_ROW, runtime.KERNEL_ROW, types.int64, types.int64, types.int64,
-        types.int64),
+        types.int64, types.int64, types.int64),
     cache=True, nogil=True,
 )  # fmt: skip
-def _group_recurrence(firsts, lasts, lanes, back, fwd, tb):
+def _group_recurrence(firsts, lasts, lanes, back, fwd, tb, reads, hold):
     """:func:`group_starts`' serial recurrence over the groups (the input cycles of each
     line's first and last pixel in, each group's sweep and forward start out), and the
-    first group that would overwrite the line buffer a sweep still reads (-1: none). In
+    first group that would overwrite the line buffer a sweep still reads (-1: none):
+    ``reads`` cycles after its start a sweep has read its bank, whose next group's first
+    pixel is written ``IN_LATENCY`` cycles after its beat; a sweep starts no earlier than
+    ``hold`` cycles after the forward start of group g - 2 (its sweep-buffer bank). In
     Python, P2's host work around no-op kernels took 0.377 ms a run against 0.338 with
     this (one thread, 47 groups, measured)."""
     m = firsts.shape[0]
@@ -601,11 +622,13 @@ def _group_recurrence(firsts, lasts, lanes, back, fwd, tb):
         first, last = gi * lanes, min(m, (gi + 1) * lanes) - 1
         ready = lasts[last] + 1 + IN_LATENCY
         b0 = ready if gi == 0 else max(ready, starts[gi - 1, 0] + back)
-        if gi >= 2:  # the sweep buffer it writes is free once group gi - 2 is read out
-            b0 = max(b0, starts[gi - 2, 1] + fwd)
+        if gi >= 2:  # the sweep buffer it writes is read out by group gi - 2 in time
+            b0 = max(b0, starts[gi - 2, 1] + hold)
+        # lane l writes its sweep-buffer column 0 at b0 + l + (n - 1) P_b + SWEEP_READ + T_b
+        # and reads it at f0 + l: later, as P_b >= T_b > SWEEP_READ
         f0 = b0 + back + tb
         f0 = f0 if gi == 0 else max(f0, starts[gi - 1, 1] + fwd)
-        if gi >= 2 and starts[gi - 2, 0] + back > firsts[first]:
+        if gi >= 2 and starts[gi - 2, 0] + reads > firsts[first] + IN_LATENCY:
             return starts, gi
         starts[gi, 0] = b0
         starts[gi, 1] = f0

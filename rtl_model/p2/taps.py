@@ -8,13 +8,17 @@ pass after the sweep. The cycle of each sample therefore comes from the schedule
 * ``e1.pix_in``, ``e2.pix_in``: the input beat; ``d``, ``g_hat``: the beat plus
   ``IN_LATENCY`` (cast and adder, written to the line buffer);
 * backward-sweep taps of column ``k`` (``a``, ``c``, ``den``, ``r``, ``s``, ``h``, ``q``):
-  the cycle step ``k`` completes, ``sweep_start + (n - 2 - k) P_b + T_b`` (``P_b`` the
-  sweep's period per column, ``T_b`` its loop latency); column ``n - 1`` holds the
-  start values ``S~_end``, ``Q~ = 0``, ready at ``sweep_start``;
-* forward-pass taps of column ``k``: ``w``, ``lam``, ``z`` at ``forward_start + k P_f``
-  plus 1, 2, 3; ``valid`` and ``range`` (the output register) at ``forward_start + k P_f +
-  OUT_LATENCY``, the output cycle; ``e`` at column ``k + 1`` (``e_k+1``, computed by step
-  ``k``) at ``forward_start + k P_f + FWD_LOOP``, and ``e_0 = 0`` at ``forward_start``.
+  the sweep engine's write-back register of the slot of column ``k``, read from the line
+  buffer at ``sweep_start + (n - 1 - k) P_b`` (``P_b`` the sweep's period per column),
+  plus ``SWEEP_READ + T_b`` (``T_b`` its loop latency); column ``n - 1``'s slot is the
+  lane's first: it writes back the start values ``S~_end``, ``Q~ = 0`` (the other taps 0);
+* forward-pass taps of column ``k``, whose slot reads the sweep buffer at
+  ``forward_start + k P_f``: ``e`` (``e_k``, the e operand register: ``e_0 = 0``) at
+  ``+ FWD_READ``, ``w``, ``lam``, ``z`` at ``+ FWD_READ`` plus 1, 2, 3; ``valid`` and
+  ``range`` (the output register) at ``+ OUT_LATENCY``, the output cycle. Column
+  ``n - 1``'s slot reads a zero entry (``w = lam = z = 0``, invalid, ``range_max``).
+
+Every tap is one register's output, one sample per cycle (docs/p2_datapath.md, Hardware).
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ import numpy as np
 
 from ..pipeline import VALID_FORMAT, TapSpec
 from .config import P2Config, loop_latency
-from .model import FWD_LOOP, IN_LATENCY, OUT_LATENCY, P2_TAPS
+from .model import FWD_READ, IN_LATENCY, OUT_LATENCY, P2_TAPS, SWEEP_READ
 
 __all__ = ["TAP_SIGNALS", "TAP_STAGE", "tap_cycles", "tap_names", "tap_table"]
 
@@ -65,7 +69,14 @@ TAP_STAGE: Mapping[str, str | None] = MappingProxyType(
     }
 )
 #: Cycles after the forward step's start at which each forward tap leaves.
-_FORWARD_OFFSET = {"w": 1, "lam": 2, "z": 3, "valid": OUT_LATENCY, "range": OUT_LATENCY}
+_FORWARD_OFFSET = {
+    "e": FWD_READ,
+    "w": FWD_READ + 1,
+    "lam": FWD_READ + 2,
+    "z": FWD_READ + 3,
+    "valid": OUT_LATENCY,
+    "range": OUT_LATENCY,
+}
 
 
 def tap_names() -> tuple[str, ...]:
@@ -103,13 +114,8 @@ def tap_cycles(
         return in_cycles + IN_LATENCY
     k = np.arange(n, dtype=np.int64)
     if base in _BACKWARD:
-        steps = (n - 2 - k) * info["backward_period"] + loop_latency(config)
-        steps[n - 1] = 0  # the start values
+        steps = (n - 1 - k) * info["backward_period"] + SWEEP_READ + loop_latency(config)
         return rows["sweep_start"][:, None] + steps[None, :]
-    if base == "e":
-        steps = np.maximum(k - 1, 0) * info["forward_period"] + FWD_LOOP
-        steps[0] = 0
-        return rows["forward_start"][:, None] + steps[None, :]
     if base in _FORWARD_OFFSET:
         return (
             rows["forward_start"][:, None]

@@ -52,8 +52,10 @@ def add_parser(sub) -> None:
 
 def add_replay_parser(hs) -> None:
     """``rangefx hdl replay DIR [--sim S] [--dump OUT] [--time-model] [--json]``."""
-    r = hs.add_parser("replay", help="replay a P1 vector directory through hdl/p1_top.v")
-    r.add_argument("dir", help="P1 vector directory (rangefx vectors gen)")
+    r = hs.add_parser(
+        "replay", help="replay a P1 or P2 vector directory through hdl/p1_top.v or p2_top.v"
+    )
+    r.add_argument("dir", help="P1 or P2 vector directory (rangefx vectors gen)")
     r.add_argument("--sim", choices=tuple(SIMULATORS), default="icarus", help="HDL simulator")
     r.add_argument("--dump", help="keep the RTL dumps (<tap>.mem, taps.npz, status.json) here")
     r.add_argument(

@@ -21,7 +21,6 @@ from collections.abc import Iterator, Sequence
 from typing import NoReturn
 
 from ..errors import UserError
-from ..version import package_version
 from ..interrupts import (
     Interrupted,
     claim_the_end,
@@ -31,6 +30,7 @@ from ..interrupts import (
     raise_if_interrupted,
     set_stop_line,
 )
+from ..version import package_version
 
 __all__ = [
     "COMMANDS",

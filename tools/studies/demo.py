@@ -24,8 +24,8 @@ from rangefx.rtl_model.registry import PIPELINES
 
 from .. import report
 from ..errors import UserError
-from ..version import package_version
 from ..report import atomic_write_text, json_safe
+from ..version import package_version
 from .cases import case_from_scene
 from .flights import guide_flight
 from .runner import golden_case, load_config, pipeline_figures, run_case

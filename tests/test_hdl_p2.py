@@ -1,0 +1,222 @@
+"""HDL replay of P2 (``hdl/p2_top.v``, ``rangefx hdl replay``, docs/hdl.md "P2").
+
+Vectors of small lab crops are replayed through ``hdl/p2_top.v`` with its plain Verilog
+bench (``hdl/tb_p2_top.v``) under Icarus (and Verilator when installed): every tap is
+checked value for value and cycle for cycle (in cycle order: the lanes' interleaved
+order), the AXI4-Stream output word for word, cycle for cycle and group for group, the
+overflow counters against the manifest; both dividers, lanes at and above the loop
+latency, blanking and input gaps, short last groups, and a mixed-modes narrowed config
+that overflows on several signals. Two RTL mutants (a rounding mode in the sweep engine,
+a lane's delay in the sweep engine off by one) are reported at the first sample that
+differs, with the count the model of the mutant predicts.
+"""
+
+from __future__ import annotations
+
+import functools
+import shutil
+
+import numpy as np
+import pytest
+
+from rangefx.rtl_model.config import TimingConfig
+from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p2 import P2_TAPS
+from rangefx.rtl_model.p2.config import P2Config
+from rangefx.tools.cli.vectors import crop_case
+from rangefx.tools.studies.cases import scene_case
+from rangefx.vectors import replay
+from rangefx.vectors.generate import build_vectors, write_vectors
+from rangefx.vectors.hdl import HDL_DIR, QUANT_CODES
+
+if shutil.which("iverilog") is None or shutil.which("vvp") is None:
+    pytest.skip("Icarus Verilog (iverilog) is not installed", allow_module_level=True)
+
+CROP = (200, 208, 100, 124)  # 8 x 24 pixels of the lab scene: one short lane group
+TALL = (190, 216, 100, 124)  # 26 x 24: three groups of 11 (the last short) or two of 13
+GAPS = TimingConfig(hblank=3, vblank=5, gap_prob=0.2, seed=4)
+PLAIN = TimingConfig()
+
+
+def _fmt(text: str, quant: Quant, overflow: Overflow = Overflow.SAT) -> FixedFormat:
+    return FixedFormat.from_string(text, quant, overflow)
+
+
+def modes_config() -> P2Config:
+    """A different rounding or overflow mode on most signals (TRN, TRN_ZERO, RND_CONV,
+    RND_ZERO, RND_INF, RND_MIN_INF; WRAP, SAT_SYM, SAT_ZERO) and words narrow enough
+    that ``a``, ``c``, ``h``, ``q``, ``w``, ``lam``, ``z`` and ``e`` overflow on the crop."""
+    return (
+        P2Config.default()
+        .with_formats(
+            p2_a=_fmt("s12.8", Quant.RND_CONV, Overflow.SAT_SYM),
+            p2_c=_fmt("u12.6", Quant.TRN, Overflow.SAT),
+            p2_st=_fmt("u26.8", Quant.RND_INF),
+            p2_den=_fmt("u50.20", Quant.RND_ZERO),
+            p2_r=_fmt("u26.25", Quant.RND_MIN_INF),
+            p2_h=_fmt("s20.2", Quant.TRN_ZERO, Overflow.WRAP),
+            p2_q=_fmt("s16.2", Quant.RND, Overflow.SAT_ZERO),
+            p2_w=_fmt("s22.6", Quant.RND_CONV, Overflow.SAT_SYM),
+            p2_lam=_fmt("s20.11", Quant.TRN, Overflow.WRAP),
+            p2_z=_fmt("s20.12", Quant.RND_ZERO, Overflow.SAT),
+            p2_e=_fmt("s10.5", Quant.RND_INF, Overflow.SAT_SYM),
+        )
+        .with_(name="modes")
+    )
+
+
+@functools.cache
+def _lab():
+    return scene_case("lab")
+
+
+def _vectors(tmp_path, config: P2Config, crop=CROP, timing: TimingConfig = PLAIN,
+             name: str = "vec"):  # fmt: skip
+    case = crop_case(_lab(), list(crop))
+    vs = build_vectors("p2", case, config, timing, description={"scene": "lab", "crop": crop})
+    vec = tmp_path / name
+    vec.mkdir()
+    write_vectors(vec, vs)
+    return vec, vs
+
+
+def _replay(vec, tmp_path, sim: str = "icarus", **overrides) -> replay.ReplayReport:
+    run = replay.simulate(vec, tmp_path / f"work_{sim}", sim, **overrides)
+    return replay.compare(vec, run["dump"])
+
+
+def _check_exact(report: replay.ReplayReport, m: int, n: int, groups: int) -> None:
+    assert set(report.taps) == set(P2_TAPS)
+    for tap, row in report.taps.items():
+        assert (row["samples"], row["got_samples"]) == (m * n, m * n), tap
+    assert report.value_mismatches == 0 and report.cycle_mismatches == 0, report.first_mismatch
+    axis = {k: report.m_axis[k] for k in ("words", "mismatches", "lines", "framing_ok")}
+    assert axis == {"words": m * n, "mismatches": 0, "lines": groups, "framing_ok": True}
+    assert report.ok, report.as_dict()
+
+
+CASES = [  # (id, divider, lanes, crop, timing, groups)
+    ("recip-L11-short", "reciprocal", 0, CROP, PLAIN, 1),
+    ("recip-L13-gaps", "reciprocal", 13, TALL, GAPS, 2),
+    ("recip-L11-gaps-3groups", "reciprocal", 0, TALL, GAPS, 3),
+    ("restoring-L33", "restoring", 0, CROP, TimingConfig(hblank=2), 1),
+]
+
+
+@pytest.mark.parametrize(("divider", "lanes", "crop", "timing", "groups"),
+                         [c[1:] for c in CASES], ids=[c[0] for c in CASES])  # fmt: skip
+def test_p2_replays_value_and_cycle_exact(divider, lanes, crop, timing, groups, tmp_path):
+    config = P2Config.default().with_(divider=divider, lanes=lanes)
+    vec, _vs = _vectors(tmp_path, config, crop, timing)
+    report = _replay(vec, tmp_path)
+    _check_exact(report, crop[1] - crop[0], crop[3] - crop[2], groups)
+
+
+def test_overflow_counts_equal_the_models(tmp_path):
+    """The mixed-modes narrowed config: every tap exact, and the RTL's overflow counters
+    equal the manifest's counts on every signal (several of them non-zero)."""
+    vec, _vs = _vectors(tmp_path, modes_config(), TALL, GAPS)
+    report = _replay(vec, tmp_path)
+    _check_exact(report, TALL[1] - TALL[0], TALL[3] - TALL[2], 3)
+    counted = {s: o["rtl"] for s, o in report.overflows.items() if o["rtl"]}
+    assert len(counted) >= 5, counted
+    assert all(o["rtl"] == o["model"] for o in report.overflows.values()), report.overflows
+
+
+def _first_difference(expected: dict, mutant: dict, cycles: dict) -> tuple[str, int, int]:
+    """The earliest (cycle, tap) sample where two runs' taps differ: (tap, row, col)."""
+    best = None
+    for tap in P2_TAPS:
+        bad = np.argwhere(expected[tap] != mutant[tap])
+        for j, i in bad:
+            key = (int(cycles[tap][j, i]), tap, int(j), int(i))
+            best = key if best is None or key < best else best
+    assert best is not None
+    return best[1], best[2], best[3]
+
+
+def test_rounding_mutant_is_reported_at_the_first_differing_sample(tmp_path):
+    """``ST_Q`` (the S~ cast of the sweep engine) compiled as TRN instead of RND: the
+    replay reports the first sample (by cycle) where the model of that mutant differs,
+    with the number of differing samples of each tap the mutant's model predicts."""
+    config = P2Config.default()
+    vec, vs = _vectors(tmp_path, config, TALL, GAPS)
+    mutant_cfg = config.with_formats(p2_st=_fmt("u26.8", Quant.TRN))
+    _, mvs = _vectors(tmp_path, mutant_cfg, TALL, GAPS, name="mutant")
+    report = _replay(vec, tmp_path, ST_Q=QUANT_CODES["TRN"])
+    assert not report.ok
+    m, n = TALL[1] - TALL[0], TALL[3] - TALL[2]
+    want, got = vs.result.taps, mvs.result.taps
+    cycles = {t: _tap_cycles(vec, t, m, n) for t in P2_TAPS}
+    tap, row, col = _first_difference(want, got, cycles)
+    first = report.first_mismatch
+    assert (first["tap"], first["row"], first["col"]) == (tap, row, col), first
+    assert report.cycle_mismatches == 0
+    for t in P2_TAPS:
+        count = int(np.count_nonzero(want[t] != got[t]))
+        assert report.taps[t]["value_mismatches"] == count, t
+    assert report.taps["s"]["value_mismatches"] > 0
+
+
+def _tap_cycles(vec, tap: str, m: int, n: int) -> np.ndarray:
+    from rangefx.vectors.generate import load_manifest, tap_cycles
+
+    manifest = load_manifest(vec)
+    entry = next(e for e in manifest["files"] if e["tap"] == tap and e["path"].endswith(".mem"))
+    return tap_cycles(vec, manifest, tap, int(entry["first_valid_cycle"])).reshape(m, n)
+
+
+def test_lane_delay_mutant_is_reported_at_the_first_write_back(tmp_path, monkeypatch):
+    """The sweep engine's lane tags delayed one cycle too many beside the divider (the
+    RTL text patched): the write-back of every slot leaves a cycle late, so the first
+    mismatch is the frame's first write-back sample (row 0, column n-1, got one cycle
+    late) and every sample of the write-back taps is a cycle mismatch."""
+    vec, _vs = _vectors(tmp_path, P2Config.default(), CROP)
+    hdl = tmp_path / "hdl"
+    shutil.copytree(HDL_DIR, hdl)
+    text = (hdl / "p2_top.v").read_text()
+    old = "fx_delay #(TAGW, T_DIV) u_tagd"
+    assert text.count(old) == 1
+    (hdl / "p2_top.v").write_text(text.replace(old, "fx_delay #(TAGW, T_DIV + 1) u_tagd"))
+    monkeypatch.setattr(replay, "HDL_DIR", hdl)
+    report = _replay(vec, tmp_path)
+    m, n = CROP[1] - CROP[0], CROP[3] - CROP[2]
+    first = report.first_mismatch
+    assert first["tap"] in ("a", "c", "den", "r", "s", "h", "q"), first
+    assert (first["row"], first["col"]) == (0, n - 1), first
+    assert first["got_cycle"] == first["cycle"] + 1, first
+    for t in ("a", "c", "den", "r", "s", "h", "q"):
+        assert report.taps[t]["cycle_mismatches"] == m * n, t
+    for t in ("d", "g_hat"):
+        assert report.taps[t]["cycle_mismatches"] == 0, t
+
+
+@pytest.mark.skipif(shutil.which("verilator") is None, reason="Verilator is not installed")
+def test_verilator_replays_value_and_cycle_exact(tmp_path):
+    config = P2Config.default().with_(lanes=13)
+    vec, _vs = _vectors(tmp_path, config, TALL, GAPS)
+    report = _replay(vec, tmp_path, "verilator")
+    _check_exact(report, TALL[1] - TALL[0], TALL[3] - TALL[2], 2)
+
+
+def test_cli_replays_a_p2_directory(tmp_path, capsys):
+    """``rangefx hdl replay DIR --json`` on a P2 directory: exit 0, ok."""
+    import json
+
+    from rangefx.tools.cli import main
+
+    vec, _vs = _vectors(tmp_path, P2Config.default(), CROP)
+    assert main(["hdl", "replay", str(vec), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["ok"] and out["value_mismatches"] == 0 and out["cycle_mismatches"] == 0
+
+
+def test_overrun_flag_when_the_lanes_cannot_sustain_the_rate(tmp_path):
+    """Vectors at one pixel per clock with 11 lanes, the RTL compiled with a divider 12
+    cycles slower (loop latency 23 > 11 lanes): the sweep cannot keep up, and the
+    hardware raises ``overrun`` (the model's assertion) instead of sweeping overwritten
+    lines silently."""
+    vec, _vs = _vectors(tmp_path, P2Config.default(), TALL)
+    report = _replay(vec, tmp_path, T_DIV=20)
+    assert report.flags["overrun"] == 1 and not report.ok
+    assert report.flags["align_error"] == 0 and report.flags["line_too_long"] == 0
