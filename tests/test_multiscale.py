@@ -13,6 +13,7 @@ from skimage import data as skdata
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.methods import METHODS, SCENE_RANGING, run_method
 from rangefx.golden.multiscale import (
+    AUTO_MAX_LEVELS,
     MultiscaleConfig,
     claimed_max_disparity,
     disparity_g6,
@@ -170,8 +171,10 @@ def test_window_is_normalised_and_symmetric():
 
 def test_streaming_schedule_by_hand():
     """L = 4, limit 8 px, k = 2 warps, r = 4: λ3 = k r = 8 coarse lines; each finer
-    level waits 4 + 2 λ_{l+1} lines for the coarse estimate, then adds k r."""
-    cfg = MultiscaleConfig(levels=4, max_disparity=8.0)
+    level waits 4 + 2 λ_{l+1} lines for the coarse estimate, then adds k r. The
+    normalisation (R = 4) runs beside that wait: only the coarsest level's R lines add
+    latency; it holds 2 R lines per camera and level, and the delay lines R fewer."""
+    cfg = MultiscaleConfig(levels=4, max_disparity=8.0, normalise="none")
     s = streaming_schedule(cfg, 512)
     lam = [lv["latency_lines"] for lv in s["levels"]]
     delay = [lv["delay_lines"] for lv in s["levels"]]
@@ -182,8 +185,14 @@ def test_streaming_schedule_by_hand():
     assert [lv["width"] for lv in s["levels"]] == [512, 256, 128, 64]
     lv0 = s["levels"][0]["buffer_words"]
     assert lv0["warp_row"] == 2 * (8 + 4)  # E2 row buffer: the largest disparity + 4 taps
-    assert lv0["coarse_delay"] == 2 * 140 * 512
+    assert lv0["coarse_delay"] == 2 * 140 * 512 and lv0["normalise"] == 0
     assert s["buffer_words"] == sum(sum(lv["buffer_words"].values()) for lv in s["levels"])
+    norm = streaming_schedule(cfg.with_(normalise="local_mean", normalise_radius=4), 512)
+    lam = [lv["latency_lines"] for lv in norm["levels"]]
+    assert lam == [4 + 2 * 84 + 8, 4 + 2 * 36 + 8, 4 + 2 * 12 + 8, 4 + 8] == [180, 84, 36, 12]
+    for lv in norm["levels"]:
+        assert lv["buffer_words"]["normalise"] == 2 * 8 * lv["width"]
+        assert lv["buffer_words"]["coarse_delay"] == 2 * max(lv["delay_lines"] - 4, 0) * lv["width"]
 
 
 def test_middlebury_metrics_by_hand():
@@ -270,7 +279,7 @@ def test_eval_peers_need_the_middlebury_protocol(capsys):
 
 def test_coarse_lag_trades_delay_lines_for_a_stale_coarse_estimate():
     lagged = streaming_schedule(
-        MultiscaleConfig(levels=4, max_disparity=8.0, coarse_lag=8), 512, 512
+        MultiscaleConfig(levels=4, max_disparity=8.0, coarse_lag=8, normalise="none"), 512, 512
     )
     assert [lv["delay_lines"] for lv in lagged["levels"]] == [84, 36, 12, 0]
     assert lagged["latency_lines"] == 92
@@ -283,7 +292,8 @@ def test_coarse_lag_trades_delay_lines_for_a_stale_coarse_estimate():
 @pytest.mark.parametrize(
     ("width", "given", "limit", "levels"),
     [
-        (185, {}, 185 / 8, 6),  # the motorcycle pair at 1/4
+        (185, {}, 185 / 8, 5),  # the motorcycle pair at 1/4 (the auto depth's cap)
+        (512, {}, 64.0, 5),  # lab: the cap, not the 7 levels the limit asks
         (39, {}, 39 / 8, 4),  # and at 1/19
         (4, {}, 1.0, 1),  # never below the coarse level's pixel
         (185, {"max_disparity": 16.0}, 16.0, 5),  # the user's limit sets the depth
@@ -295,7 +305,8 @@ def test_the_limit_and_the_depth_come_from_the_user_or_the_width(width, given, l
     pyramid depth the user's or the fewest levels whose claim covers the limit."""
     cfg = MultiscaleConfig(**given).resolve(width)
     assert cfg.disparity_limit == pytest.approx(limit) and cfg.levels == levels
-    assert claimed_max_disparity(cfg) >= limit or "levels" in given
+    assert claimed_max_disparity(cfg) >= limit or "levels" in given or levels == AUTO_MAX_LEVELS
+    assert cfg.levels <= AUTO_MAX_LEVELS or "levels" in given
     assert cfg.resolve(width) == cfg  # resolved: nothing left to choose
     with pytest.raises(ValueError, match="resolve"):
         _ = MultiscaleConfig().disparity_limit
@@ -371,3 +382,10 @@ def test_eval_perturb_changes_the_right_image_only(capsys):
     assert out["perturbation"]["gain"] == 1.1 and out["perturbation"]["vshift"] == 1.0
     assert out["factors"]["19"]["methods"] != plain["factors"]["19"]["methods"]
     assert "p3" in out["factors"]["19"]["overflows"]
+    # the fixed-point section runs on the perturbed pair too: its scores move, the
+    # golden beside each pipeline runs on the same perturbed case (agreement stays)
+    for name in ("p3", "p1_consistent"):
+        got, was = out["fixed_point"][name], plain["fixed_point"][name]
+        assert got["fixed_vs_truth"] != was["fixed_vs_truth"], name
+        assert got["golden_vs_truth"] != was["golden_vs_truth"], name
+    assert out["fixed_point"]["p3"]["valid_agreement"] >= 0.99

@@ -92,8 +92,10 @@ def test_line_buffers_and_latency_follow_the_streaming_schedule():
     assert P3.cost(wider, (m, n)).line_buffer_bits > cost.line_buffer_bits
     case = scene_case("lab")
     result = P3.run(case, taps=False)
-    # 512 px wide: limit 64 px, 6 levels (auto), each coarser level doubling the delay
-    assert result.schedule["latency_lines"] == sched["latency_lines"] == 628
+    # 512 px wide: limit 64 px, 5 levels (the auto depth's cap), each coarser level
+    # doubling the delay; the coarsest level's normalisation adds R = 4 of its lines
+    assert result.schedule["levels"] == 5
+    assert result.schedule["latency_lines"] == sched["latency_lines"] == 308 + 16 * 4
     assert result.line_buffer_bits == cost.line_buffer_bits
     lines = (result.out_cycles - result.in_cycles) // n  # no blanking: n clocks per line
     assert lines.min() == sched["latency_lines"]
