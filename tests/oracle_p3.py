@@ -5,10 +5,10 @@ nothing with the numba kernels of ``rangefx.rtl_model.p3`` but the word-length c
 (:class:`P3Config`) and G6's settings and window (:mod:`rangefx.golden.multiscale`).
 Every signal is an exact :class:`fractions.Fraction` (the page's sums written directly:
 the reduce as one 5x5 sum, the expand as the bilinear formula, the warp from the
-fraction ``x - u``); every cast goes through the apytypes-based
-:func:`oracle_p1.cast_exact`, the dividers are the P1 oracle's bit-level restoring loop
-or LUT + Newton reciprocal, the Keys ROM is built from the exact cubic. Python loops per
-pixel: tiny images only.
+fraction ``x - u``, the normalisation as the box sum at every level); every cast goes
+through the apytypes-based :func:`oracle_p1.cast_exact`, the dividers are the P1
+oracle's bit-level restoring loop or LUT + Newton reciprocal, the Keys ROM is built
+from the exact cubic. Python loops per pixel: tiny images only.
 """
 
 from __future__ import annotations
@@ -135,6 +135,11 @@ def oracle_p3(
     ROM = [[ctx.val(ctx.cast(w, "p3_keys"), "p3_keys") for w in _keys(Fraction(i, rows))]
            for i in range(rows)]  # fmt: skip
 
+    # the normalisation: N = E - c Σ_box E, c the register 1 / (2R + 1)^2
+    R = config.normalise_radius
+    NBOX = ctx.val(reg_raw(1 / (2 * R + 1) ** 2, fmt("p3_nbox")), "p3_nbox")
+    taps: dict[str, np.ndarray] = {}
+
     # the pyramid (exact values of each level's codes)
     pyr: list[list[list[list[Fraction]]]] = [[], []]
     for s in (0, 1):
@@ -157,8 +162,20 @@ def oracle_p3(
                     line.append(ctx.val(ctx.cast(acc, "p3_pyr"), "p3_pyr"))
                 child.append(line)
             pyr[s].append(child)
+        if config.normalise == "local_mean":  # every level on its own
+            for lv, level in enumerate(pyr[s]):
+                h, w = len(level), len(level[0])
+                box = [[sum(level[_clip(y + i, h)][_clip(x + j, w)]
+                            for i in range(-R, R + 1) for j in range(-R, R + 1))
+                        for x in range(w)] for y in range(h)]  # fmt: skip
+                codes = [[ctx.cast(level[y][x] - NBOX * box[y][x], "p3_norm") for x in range(w)]
+                         for y in range(h)]  # fmt: skip
+                if lv == 0:
+                    taps[f"e{s + 1}.norm"] = np.array(codes, dtype=np.int64)
+                pyr[s][lv] = [[ctx.val(c, "p3_norm") for c in row] for row in codes]
+        else:
+            assert config.normalise == "none", config.normalise
 
-    taps: dict[str, np.ndarray] = {}
     u: list[list[int]] = []  # raw codes of p3_u
     sums = None
     for lv in range(built - 1, -1, -1):

@@ -210,7 +210,9 @@ P3_DESIGNS = (
     {"radius": 2, "sigma": 1.5, "levels": 2, "warps": 1, "max_disparity": 3.0,
      "recip_lut_bits": 5, "recip_bits": 13},
     {"radius": 3, "sigma": 1.5, "threshold_r": 40.0, "threshold_g": 1.0, "keys_bits": 5,
-     "coarse_lag": 2},
+     "coarse_lag": 2, "normalise_radius": 2},
+    {"normalise": "none", "radius": 2, "sigma": 1.0, "levels": 2},
+    {"normalise_radius": 1, "radius": 2, "sigma": 1.0, "levels": 3},
 )  # fmt: skip
 
 

@@ -92,8 +92,10 @@ def test_line_buffers_and_latency_follow_the_streaming_schedule():
     assert P3.cost(wider, (m, n)).line_buffer_bits > cost.line_buffer_bits
     case = scene_case("lab")
     result = P3.run(case, taps=False)
-    # 512 px wide: limit 64 px, 6 levels (auto), each coarser level doubling the delay
-    assert result.schedule["latency_lines"] == sched["latency_lines"] == 628
+    # 512 px wide: limit 64 px, 5 levels (the auto depth's cap), each coarser level
+    # doubling the delay; the coarsest level's normalisation adds R = 4 of its lines
+    assert result.schedule["levels"] == 5
+    assert result.schedule["latency_lines"] == sched["latency_lines"] == 308 + 16 * 4
     assert result.line_buffer_bits == cost.line_buffer_bits
     lines = (result.out_cycles - result.in_cycles) // n  # no blanking: n clocks per line
     assert lines.min() == sched["latency_lines"]
@@ -172,7 +174,9 @@ def test_oracle_and_model_agree_on_negative_fraction_bits(seed, quant):
     assert any(np.any(ref.taps[t] != 0) for t in ("warp0", "sge0", "du0"))
 
 
-@pytest.mark.parametrize("perturb", [{"gain": 0.9}, {"gain": 1.1}, {"vshift": 1.0}])
+@pytest.mark.parametrize(
+    "perturb", [{"gain": 0.9}, {"gain": 1.1}, {"offset": -10.0}, {"vshift": 1.0}]
+)
 def test_no_overflow_when_the_cameras_differ(perturb):
     """1/4, the right image as a real rig's (``rangefx eval --perturb``): the shipped
     formats still give 0 overflows (a gain of 0.9 drives |du| to 34.8 px)."""
@@ -181,3 +185,13 @@ def test_no_overflow_when_the_cameras_differ(perturb):
     image2 = np.clip(np.rint(data.image2), 0, 255).astype(np.int64)
     result = P3.run(replace(case, image2=image2), taps=False)
     assert result.overflow_total == 0, {k: v for k, v in result.overflows.items() if v}
+
+
+def test_p3_builds_the_normalisations_it_models():
+    """``zncc`` (a square root and a divider per pixel) is G6's only: P3 says so; the
+    normalised level is a tap of each stream in ``p3_norm``, absent without it."""
+    with pytest.raises(ValueError, match="P3 builds normalise 'none' or 'local_mean'"):
+        P3.default_config(normalise="zncc")
+    names = {t.name: t for t in P3.tap_table(P3.default_config())}
+    assert names["e1.norm"].signal == names["e2.norm"].signal == "p3_norm"
+    assert "e1.norm" not in {t.name for t in P3.tap_table(P3.default_config(normalise="none"))}

@@ -27,6 +27,8 @@ __all__ = ["P3_SIGNALS", "P3Config"]
 _SIGNAL_TABLE: tuple[tuple[str, str], ...] = (
     ("p3_pix", "input pixels E1, E2 (grey levels; level 0 of the pyramid)"),
     ("p3_pyr", "pyramid levels 1.. of E1, E2 (5-tap binomial reduce)"),
+    ("p3_nbox", "register: 1 / (2R + 1)^2, the weight of the normalisation's box mean"),
+    ("p3_norm", "N = E - mean(E) over the box, each camera and level"),
     ("p3_grad", "central differences along the row, E1x and Wx (eqs 18-19)"),
     ("p3_keys", "ROM: Keys cubic weights of the warp, 4 per fraction index"),
     ("p3_warp", "W = E2(x - u), the warped second image (Keys cubic)"),
@@ -58,7 +60,12 @@ MULTISCALE_FIELDS: tuple[str, ...] = (
     "coarse_px",
     "max_disparity",
     "coarse_lag",
+    "normalise",
+    "normalise_radius",
 )
+#: The normalisations P3 builds (G6's ``"zncc"`` needs a square root and a divider per
+#: pixel and camera: golden only, as is G6's ``vertical`` term).
+P3_NORMALISATIONS: tuple[str, ...] = ("none", "local_mean")
 #: G6's measured defaults: P3's design fields default to them.
 _G6 = MultiscaleConfig()
 
@@ -80,6 +87,10 @@ class P3Config(WordLengthConfig):
         Largest disparity, px of the input (the clip and the E2 row buffers): the
         user's setting; 0 = chosen from the image width (G6's ``None``,
         :data:`~rangefx.golden.multiscale.AUTO_DISPARITY_FRACTION` of it).
+    normalise, normalise_radius
+        G6's photometric normalisation, one of :data:`P3_NORMALISATIONS` (``"none"``:
+        the warps read the pyramid's ``p3_pix`` / ``p3_pyr``; ``"local_mean"``: each
+        level's ``p3_norm``), and its box radius.
     keys_bits
         Fraction bits of the warp's position ``x - u`` (rounded to them) that index the
         Keys weight ROM (``2**keys_bits`` rows of 4 weights).
@@ -89,7 +100,7 @@ class P3Config(WordLengthConfig):
 
     PIPELINE: ClassVar[str] = "p3"
     SIGNAL_TABLE: ClassVar[tuple[tuple[str, str], ...]] = _SIGNAL_TABLE
-    HOST_REGISTERS: ClassVar[tuple[str, ...]] = ("p3_win", "p3_tr2", "p3_fb")
+    HOST_REGISTERS: ClassVar[tuple[str, ...]] = ("p3_nbox", "p3_win", "p3_tr2", "p3_fb")
     QUOTIENTS: ClassVar[tuple[str, ...]] = ("p3_du", "p3_range")
     DOC: ClassVar[str] = "docs/multiscale.md"
 
@@ -102,6 +113,8 @@ class P3Config(WordLengthConfig):
     coarse_px: float = _G6.coarse_px
     max_disparity: float = 0.0
     coarse_lag: int = _G6.coarse_lag
+    normalise: str = _G6.normalise
+    normalise_radius: int = _G6.normalise_radius
     keys_bits: int = 8
     divider: str = "reciprocal"
     recip_lut_bits: int = 8
@@ -115,10 +128,15 @@ class P3Config(WordLengthConfig):
             self.multiscale()
         except TypeError as exc:
             raise ValueError(str(exc)) from None
+        if self.normalise not in P3_NORMALISATIONS:
+            raise ValueError(
+                f"P3 builds normalise {' or '.join(map(repr, P3_NORMALISATIONS))}, not "
+                f"{self.normalise!r} (G6 only)"
+            )
         self.check_int_field("keys_bits", 1, 12)
         self.check_choice("divider", DIVIDERS)
         self.check_reciprocal_fields()
-        for name in ("p3_pix", "p3_pyr", "p3_win", "p3_tr2", "p3_fb", "p3_range"):
+        for name in ("p3_pix", "p3_pyr", "p3_nbox", "p3_win", "p3_tr2", "p3_fb", "p3_range"):
             if self.formats[name].signed:
                 raise ValueError(f"signal {name!r} must be unsigned (it is never negative)")
         for name in ("p3_u", "p3_keys", "p3_win", "p3_sgg"):
@@ -128,8 +146,10 @@ class P3Config(WordLengthConfig):
             raise ValueError(
                 f"threshold_r = {self.threshold_r!r}: its square T_r^2 is not a finite number"
             )
-        if not self.formats["p3_keys"].signed:
-            raise ValueError("signal 'p3_keys' must be signed (Keys weights are negative)")
+        for name, why in (("p3_keys", "Keys weights are negative"),
+                          ("p3_norm", "the local mean is removed")):  # fmt: skip
+            if not self.formats[name].signed:
+                raise ValueError(f"signal {name!r} must be signed ({why})")
 
     def design_register_values(self) -> Iterable[tuple[str, str, float, str]]:
         """Besides the base class's: ``T_g^2`` (``p3_sgg``) and, when set, the disparity
@@ -152,10 +172,15 @@ class P3Config(WordLengthConfig):
 
     def exact_intermediates(self) -> Iterable[tuple[str, Terms, int]]:
         f = self.formats
-        level = f["p3_pix"] if signed_bits(f["p3_pix"]) >= signed_bits(f["p3_pyr"]) else f["p3_pyr"]
+        pyr = f["p3_pix"] if signed_bits(f["p3_pix"]) >= signed_bits(f["p3_pyr"]) else f["p3_pyr"]
         # the reduce: 25 products of the binomial weights (<= 36, 7 bits) with a parent pixel
         binom = FixedFormat(False, 6, 0)
-        yield "p3_pyr", ((binom, level),) * 25, 0
+        yield "p3_pyr", ((binom, pyr),) * 25, 0
+        level = pyr  # what the warps read: the pyramid, or each level normalised
+        if self.normalise != "none":  # E 2^f_nbox - c Σ_box E, exact
+            box = (2 * self.normalise_radius + 1) ** 2
+            yield "p3_norm", ((pyr, f["p3_nbox"]), *((f["p3_nbox"], pyr),) * box), 0
+            level = f["p3_norm"]
         yield "p3_grad", ((level,), (level,), (f["p3_warp"],), (f["p3_warp"],)), 1
         yield "p3_warp", ((f["p3_keys"], level),) * 4, 0
         yield "p3_g", ((f["p3_grad"],), (f["p3_grad"],)), 1

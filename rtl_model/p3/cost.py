@@ -3,7 +3,9 @@
 The same models as P1's and P2's (:mod:`rangefx.rtl_model.cost`).
 
 Registers
-    Per level (the levels run concurrently, one pixel per clock each): both streams'
+    The normalisation (``normalise`` not ``"none"``): per stream and level the box's row
+    and column sums and ``N`` (``p3_norm``), and the ``1/box`` register (``p3_nbox``). Per
+    level (the levels run concurrently, one pixel per clock each): both streams'
     pyramid word (``p3_pix`` at level 0); per warp stage of each level: ``W``, ``Wx``,
     ``g``, ``e``, the three row passes' ``2 r + 1`` tap shift registers of their products
     and their sums, the three column sums, ``du``, ``u``; at level 0 ``ax`` once per
@@ -12,18 +14,23 @@ Registers
     level and ``u_min`` (``p3_u`` words), ``range_max`` (a ``p3_range`` word). The Keys ROM
     is counted as a memory (``2**keys_bits`` words of 4 weights).
 Buffers
-    Every line buffer of the streaming schedule (:func:`~rangefx.rtl_model.p3.model.buffer_bits`):
-    the reduce's 4 lines per image, the E2 warp rows, the window's ``2 r`` lines of row
-    sums and ``r`` lines of E1, E2 and ``u``, the expand's coarse line, the coarse-to-fine
-    delay lines. RAMB18: each buffer one memory of (lines x width) words.
+    Every line buffer of the streaming schedule
+    (:func:`~rangefx.rtl_model.p3.model.buffer_bits`): the normalisation's ``2 R`` lines
+    per stream and level, the reduce's 4 lines per image, the E2 warp rows, the window's
+    ``2 r`` lines of row sums and ``r`` lines of E1, E2 and ``u``, the expand's coarse
+    line, the coarse-to-fine delay lines (raw pixels, normalised as they leave). RAMB18:
+    each buffer one memory of (lines x width) words.
 DSP slices
-    Per warp stage: the warp's 4 products, ``g^2``, ``g e``, ``e^2``, the window's
-    ``r + 1`` products per pass and product (the symmetric taps share one after a
-    pre-add), the divider's; at level 0 ``Σe² Σg²``, ``(Σge)²``, ``T_r^2 Σg²`` and the
+    Per stream and level the normalisation's ``1/box`` times the box sum; per warp
+    stage: the warp's 4 products, ``g^2``, ``g e``, ``e^2``, the window's ``r + 1``
+    products per pass and product (the symmetric taps share one after a pre-add), the
+    divider's; at level 0 ``Σe² Σg²``, ``(Σge)²``, ``T_r^2 Σg²`` and the
     range divider's.
 """
 
 from __future__ import annotations
+
+import math
 
 from rangefx.golden.multiscale import streaming_schedule
 
@@ -41,12 +48,20 @@ def _stages(config: P3Config, shape: tuple[int, int]) -> tuple[int, int]:
     return levels, levels * config.warps
 
 
+def _box_bits(config: P3Config) -> int:
+    """Bits the box sum adds to a pixel: ``ceil(log2((2R + 1)²))``."""
+    return math.ceil(math.log2((2 * config.normalise_radius + 1) ** 2))
+
+
 def register_bits(config: P3Config, shape: tuple[int, int]) -> int:
     """Register bits of the datapath (see the module docstring)."""
     f = {k: v.word for k, v in config.formats.items()}
     levels, stages = _stages(config, shape)
     taps = 2 * config.radius + 1
     total = 2 * f["p3_pix"] + 2 * (levels - 1) * f["p3_pyr"] + levels * f["p3_grad"]
+    if config.normalise != "none":  # per stream and level: row + column sums, N
+        box = 2 * (f["p3_pyr"] + _box_bits(config)) + f["p3_norm"]
+        total += 2 * levels * box + f["p3_nbox"]
     per_stage = f["p3_warp"] + f["p3_grad"] + f["p3_g"] + f["p3_e"] + f["p3_du"] + f["p3_u"]
     products = 2 * f["p3_g"] + f["p3_g"] + f["p3_e"] + 2 * f["p3_e"]
     per_stage += taps * products
@@ -63,6 +78,8 @@ def multipliers(config: P3Config, shape: tuple[int, int]) -> list[Multiplier]:
     f = config.formats
     _, stages = _stages(config, shape)
     pix = max(_bits(f["p3_pix"]), _bits(f["p3_pyr"]))
+    if config.normalise != "none":
+        pix = _bits(f["p3_norm"])
     g, e, win = _bits(f["p3_g"]), _bits(f["p3_e"]), _bits(f["p3_win"])
     taps = config.radius + 1
     muls = [
@@ -80,6 +97,10 @@ def multipliers(config: P3Config, shape: tuple[int, int]) -> list[Multiplier]:
         Multiplier("res: sge^2", _bits(f["p3_sge"]), _bits(f["p3_sge"])),
         Multiplier("rthr: T_r^2 * sgg", _bits(f["p3_tr2"]), _bits(f["p3_sgg"])),
     ]
+    if config.normalise != "none":
+        box = max(_bits(f["p3_pix"]), _bits(f["p3_pyr"])) + _box_bits(config)
+        levels = len(level_shapes(config, shape))
+        muls.append(Multiplier("normalise: 1/box * box sum", _bits(f["p3_nbox"]), box, 2 * levels))
     if config.divider == "reciprocal":
         muls += reciprocal_multipliers(config.recip_bits, "divider du", _bits(f["p3_sge"]), stages)
         muls += reciprocal_multipliers(config.recip_bits, "divider range", _bits(f["p3_fb"]), 1)
@@ -96,10 +117,14 @@ def config_cost(config: P3Config, shape: tuple[int, int], mode: str = "stereo") 
     u = f["p3_u"].word
     rows = f["p3_rgg"].word + f["p3_rge"].word + f["p3_ree"].word
     bram = bram18_blocks(1 << config.keys_bits, 4 * f["p3_keys"].word)
+    normalised = config.normalise != "none"
     for lv in sched["levels"]:
         level, n_l = lv["level"], lv["width"]
-        pix = f["p3_pix"].word if level == 0 else f["p3_pyr"].word
+        raw = f["p3_pix"].word if level == 0 else f["p3_pyr"].word
+        pix = f["p3_norm"].word if normalised else raw  # what the warps read
         parent = f["p3_pix"].word if level == 1 else f["p3_pyr"].word
+        if normalised:
+            bram += 2 * bram18_blocks(n_l, 2 * config.normalise_radius * raw)
         n_parent = -(-n // 2 ** max(level - 1, 0))
         r = config.radius
         if level:
@@ -107,7 +132,8 @@ def config_cost(config: P3Config, shape: tuple[int, int], mode: str = "stereo") 
         bram += config.warps * bram18_blocks(n_l, 2 * r * rows)
         bram += config.warps * bram18_blocks(n_l, r * (2 * pix + u))
         if lv["delay_lines"]:
-            bram += 2 * bram18_blocks(lv["delay_lines"] * n_l, pix)
+            if lv["buffer_words"]["coarse_delay"]:  # raw pixels: normalised as they leave
+                bram += 2 * bram18_blocks(lv["buffer_words"]["coarse_delay"] // 2, raw)
             bram += bram18_blocks(-(-n_l // 2), u)
     return CostReport(
         register_bits=register_bits(config, shape),

@@ -61,14 +61,24 @@ __all__ = [
 ]
 
 _SIG = {name: k for k, name in enumerate(P3_SIGNALS)}
-PIX, PYR, GRAD, KEYS, WARP, G, E, WIN, RGG, RGE, REE = (_SIG[s] for s in P3_SIGNALS[:11])
-SGG, SGE, SEE, DU, U, RES, TR2, FB, RANGE = (_SIG[s] for s in P3_SIGNALS[11:])
+PIX, NBOX, NORM, PYR, GRAD, KEYS, WARP, G, E, WIN = (
+    _SIG[s] for s in ("p3_pix", "p3_nbox", "p3_norm", "p3_pyr", "p3_grad", "p3_keys",
+                      "p3_warp", "p3_g", "p3_e", "p3_win")
+)  # fmt: skip
+RGG, RGE, REE, SGG, SGE, SEE, DU, U, RES, TR2, FB, RANGE = (
+    _SIG[s] for s in ("p3_rgg", "p3_rge", "p3_ree", "p3_sgg", "p3_sge", "p3_see", "p3_du",
+                      "p3_u", "p3_res", "p3_tr2", "p3_fb", "p3_range")
+)  # fmt: skip
 
 # cast sites (each logs its own raw min/max at one frac_in)
 S_PIX1, S_PIX2, S_PYR0, S_PYR1, S_EXPAND, S_RES, S_RTHR = range(7)
-#: Per-level sites: base + offset, base ``S_LEVEL`` at level 0 (pixels at ``p3_pix``'s
-#: fraction bits), ``S_LEVEL + 12`` at the coarser levels (``p3_pyr``'s).
-S_LEVEL = 7
+#: Normalisation sites, per stream: level 0 (from ``p3_pix``), the coarser levels (from
+#: ``p3_pyr``).
+S_NORM = ((7, 8), (9, 10))
+#: Per-level sites: base + offset, base ``S_LEVEL`` at level 0, ``S_LEVEL + 12`` at the
+#: coarser levels (the pixels the warps read at ``p3_pix``'s / ``p3_pyr``'s fraction
+#: bits, or at ``p3_norm``'s at every level when normalising).
+S_LEVEL = 11
 L_AX, L_WARP, L_WX, L_G, L_E, L_RGG, L_RGE, L_REE, L_SGG, L_SGE, L_SEE, L_U = range(12)
 N_SITES = S_LEVEL + 24
 
@@ -112,6 +122,36 @@ def _input_kernel(img, site, fm, st, ov, out):
         for x in range(n):
             row[x] = img[y, x]
         _cast_logged_row(row, 0, PIX, site, fm, st, ov, out[y])
+
+
+@njit(cache=True, nogil=True)
+def _normalise_kernel(p, f_p, c, f_c, radius, site, fm, st, ov, out):
+    """Local mean removal over the ``(2 R + 1)²`` box (replicated borders):
+    ``N = E - c Σ_box E`` with ``c`` the ``p3_nbox`` register (``1 / (2R + 1)²``), exact
+    (``E 2^f_c - c Σ``, the box sum by running sums along the row and down the columns),
+    cast once into ``p3_norm``."""
+    m, n = p.shape
+    rows = np.empty((m, n), dtype=np.int64)
+    for y in range(m):  # running row sums of the 2R + 1 replicated taps
+        s = np.int64(0)
+        for k in range(-radius, radius + 1):
+            s += p[y, min(max(k, 0), n - 1)]
+        rows[y, 0] = s
+        for x in range(1, n):
+            s += p[y, min(x + radius, n - 1)] - p[y, max(x - radius - 1, 0)]
+            rows[y, x] = s
+    col = np.zeros(n, dtype=np.int64)
+    for k in range(-radius, radius + 1):
+        col += rows[min(max(k, 0), m - 1)]
+    acc = np.empty(n, dtype=np.int64)
+    for y in range(m):
+        if y:  # the column sums run down the lines
+            add, drop = rows[min(y + radius, m - 1)], rows[max(y - radius - 1, 0)]
+            for x in range(n):
+                col[x] += add[x] - drop[x]
+        for x in range(n):
+            acc[x] = (p[y, x] << f_c) - c * col[x]
+        _cast_logged_row(acc, f_p + f_c, NORM, site, fm, st, ov, out[y])
 
 
 @njit(cache=True, nogil=True)
@@ -421,6 +461,8 @@ class P3Registers:
     ) -> None:  # fmt: skip
         ms = config.multiscale().resolve(width)
         rf = runtime.RegisterFile(config)
+        box = (2 * config.normalise_radius + 1) ** 2
+        self.nbox = rf.write("1/box", 1.0 / box, "p3_nbox") if config.normalise != "none" else 0
         window = ms.window()
         r = config.radius
         self.window = np.array([rf.write(f"W{k}", window[r + k], "p3_win") for k in range(r + 1)],
@@ -489,6 +531,8 @@ def stage_latencies(config: P3Config) -> dict[str, int]:
     rdiv = runtime.divider_latency(config.divider, config.formats["p3_range"].word)
     return {
         "input": 1,
+        # R pixels ahead for the box, the running sums' add, the subtraction + cast
+        "normalise": config.normalise_radius + 2 if config.normalise != "none" else 0,
         "warp": 4,  # two taps ahead, ROM read, four products, adder tree + cast
         "derivative": 2,  # one pixel ahead, difference + cast (Wx); g one more
         "products": 1,
@@ -516,10 +560,15 @@ def tap_offsets(config: P3Config, shape: tuple[int, int]) -> dict[str, tuple[int
     """Tap -> (lines, cycles): a sample of line ``y``, column ``x`` leaves ``cycles``
     clocks after pixel ``x`` of line ``y + lines`` arrived (flush lines after the frame)."""
     sched = p3_schedule(config, shape)
-    d, r, p = sched["delay_lines"], config.radius, _warp_cycles(config)
+    # level 0's warps start when both the coarse estimate (delay lines) and the
+    # normalised line (R lines and the normalisation's pixel latency) are there
+    rn = 0 if config.normalise == "none" else config.normalise_radius
+    d, r, p = max(sched["delay_lines"], rn), config.radius, _warp_cycles(config)
     lat = stage_latencies(config)
-    i0 = lat["input"]
+    i0 = lat["input"] + lat["normalise"]
     out = {"ax": (d, i0 + lat["derivative"]), "u_start": (d, i0)}
+    if rn:
+        out["e1.norm"] = out["e2.norm"] = (rn, i0)
     row = lat["warp"] + lat["derivative"] + 1 + lat["products"] + lat["window_row"]
     for k in range(config.warps):
         lines, c = d + k * r, i0 + k * p
@@ -572,25 +621,33 @@ def tap_cycles(tap: str, config: P3Config, in_cycles: np.ndarray, hblank: int) -
 
 def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     """Line-buffer bits of every buffer of the streaming schedule, by kind: the words of
-    :func:`~rangefx.golden.multiscale.streaming_schedule` times their formats (reduce:
-    the exact row sums, the parent's word + 4; warp row and delay lines: the level's
-    pixel word; window products: the three row-sum words; window align: E1, E2 and u;
-    expand: u)."""
+    :func:`~rangefx.golden.multiscale.streaming_schedule` times their formats
+    (normalise and delay lines: the level's pixels, normalised as they leave the delay,
+    so that the long delay holds the narrow raw word; reduce: the exact row sums, the
+    parent's word + 4; warp row: what the warp reads, ``p3_norm`` when normalising, else
+    the level's pixel word; window products: the three row-sum words; window align: E1,
+    E2 (as the warp row) and u; expand: u)."""
     m, n = shape
     f = config.formats
     sched = streaming_schedule(config.multiscale(), n, m)
     pix = lambda level: f["p3_pix"].word if level == 0 else f["p3_pyr"].word  # noqa: E731
+    # what the warps, window and delay lines hold: the level, or its normalised pixels
+    warped = lambda level: f["p3_norm"].word if normalised else pix(level)  # noqa: E731
+    normalised = config.normalise != "none"
     rows = f["p3_rgg"].word + f["p3_rge"].word + f["p3_ree"].word
     u = f["p3_u"].word
     out = dict.fromkeys(
-        ("reduce", "warp_row", "window_products", "window_align", "expand", "coarse_delay"), 0
-    )
+        ("normalise", "reduce", "warp_row", "window_products", "window_align", "expand",
+         "coarse_delay"), 0,
+    )  # fmt: skip
+
     for lv in sched["levels"]:
         level, words = lv["level"], lv["buffer_words"]
+        out["normalise"] += words["normalise"] * pix(level)
         out["reduce"] += words["reduce"] * (pix(level - 1) + 4) if level else 0
-        out["warp_row"] += words["warp_row"] * pix(level)
+        out["warp_row"] += words["warp_row"] * warped(level)
         out["window_products"] += words["window_products"] // 3 * rows
-        out["window_align"] += words["window_align"] // 3 * (2 * pix(level) + u)
+        out["window_align"] += words["window_align"] // 3 * (2 * warped(level) + u)
         out["expand"] += words["expand"] * u
         out["coarse_delay"] += words["coarse_delay"] * pix(level)
     return out
@@ -628,8 +685,12 @@ def run_p3(
     rom, rom_overflows, rom_range = keys_rom_casts(config)
     shapes = level_shapes(config, (m, n))
     f_pix, f_pyr = fm[PIX, 1], fm[PYR, 1]
+    normalise = config.normalise != "none"
 
-    def pyramid(img: np.ndarray, site: int) -> tuple[list[np.ndarray], runtime.SignalStats]:
+    def pyramid(
+        img: np.ndarray, site: int, norm_sites: tuple[int, int]
+    ) -> tuple[list[np.ndarray], runtime.SignalStats]:
+        """One camera's pyramid and, when normalising, each level normalised."""
         stats = runtime.SignalStats(N_SITES, len(P3_SIGNALS))
         st, _, ov = stats.arrays
         level = np.empty((m, n), dtype=np.int64)
@@ -638,18 +699,28 @@ def run_p3(
         for k in range(1, len(shapes)):
             frac, s = (f_pix, S_PYR0) if k == 1 else (f_pyr, S_PYR1)
             out.append(_reduce_kernel(out[-1], frac, s, fm, st, ov))
+        if normalise:
+            for k, raw in enumerate(out):
+                norm = np.empty(raw.shape, dtype=np.int64)
+                _normalise_kernel(raw, f_pix if k == 0 else f_pyr, regs.nbox, fm[NBOX, 1],
+                                  config.normalise_radius, norm_sites[k > 0], fm, st, ov,
+                                  norm)  # fmt: skip
+                out[k] = norm
         return out, stats
 
+    streams = ((im1, S_PIX1, S_NORM[0]), (im2, S_PIX2, S_NORM[1]))
     if threads == 2:
-        (p1, s1), (p2, s2) = runtime.run_two(pyramid, (im1, S_PIX1), (im2, S_PIX2))
+        (p1, s1), (p2, s2) = runtime.run_two(pyramid, *streams)
     else:
-        (p1, s1), (p2, s2) = pyramid(im1, S_PIX1), pyramid(im2, S_PIX2)
+        (p1, s1), (p2, s2) = (pyramid(*a) for a in streams)
     stats = runtime.SignalStats(N_SITES, len(P3_SIGNALS))
     st, dst, ov = stats.arrays
     names = tap_names(config)
     tp = np.zeros((len(names), m, n) if taps else (len(names), 1, 1), dtype=np.int64)
     u = np.zeros(shapes[-1], dtype=np.int64)
     sums = [np.empty((m, n), dtype=np.int64) for _ in range(3)]
+    # fraction bits of the pixels the warps read at level 0 and at the coarser levels
+    f_level = (fm[NORM, 1],) * 2 if normalise else (f_pix, f_pyr)
     for level in range(len(shapes) - 1, -1, -1):
         h, w = shapes[level]
         if u.shape != (h, w):
@@ -661,7 +732,7 @@ def run_p3(
         if level == 0:
             sgg, sge, see = sums
         _level_kernel(
-            p1[level], p2[level], u, f_pix if level == 0 else f_pyr, regs.umax[level], rom,
+            p1[level], p2[level], u, f_level[level > 0], regs.umax[level], rom,
             config.keys_bits, regs.window, kind, lut, config.recip_bits, config.warps,
             S_LEVEL + (12 if level else 0), fm, st, dst, ov, sgg, sge, see, tp,
             taps and level == 0,
@@ -676,6 +747,8 @@ def run_p3(
     overflows["p3_keys"] += rom_overflows  # the ROM is datapath (keys_rom_casts)
     minmax["p3_keys"] = rom_range
     tap_dict = {name: tp[k] for k, name in enumerate(names)} if taps else {}
+    if taps and normalise:
+        tap_dict.update({"e1.norm": p1[0], "e2.norm": p2[0]})
     in_cycles = input_cycles((m, n), timing)[-1]
     out_cycles = tap_cycles("range", config, in_cycles, timing.hblank)
     rf = config.formats["p3_range"]

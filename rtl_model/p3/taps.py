@@ -23,6 +23,7 @@ __all__ = ["TAP_SIGNALS", "TAP_STAGE", "tap_table"]
 TAP_SIGNALS: Mapping[str, str] = MappingProxyType(
     {
         "pix_in": "p3_pix",
+        "norm": "p3_norm",
         "ax": "p3_grad",
         "u_start": "p3_u",
         "warp": "p3_warp",
@@ -47,6 +48,7 @@ TAP_SIGNALS: Mapping[str, str] = MappingProxyType(
 TAP_STAGE: Mapping[str, str | None] = MappingProxyType(
     {
         "pix_in": None,
+        "norm": "normalise",
         "ax": "derivative",
         "u_start": "expand",
         "warp": "warp",
@@ -78,6 +80,9 @@ def tap_table(config: P3Config) -> tuple[TapSpec, ...]:
     out = [
         TapSpec(f"{s}.pix_in", "p3_pix", config.formats["p3_pix"], None, 0, s) for s in ("e1", "e2")
     ]
+    if config.normalise != "none":  # each camera's normalised level 0
+        fmt = config.formats["p3_norm"]
+        out += [TapSpec(f"{s}.norm", "p3_norm", fmt, "normalise", None, s) for s in ("e1", "e2")]
     for tap in tap_names(config):
         base = base_name(tap)
         signal = TAP_SIGNALS[base]

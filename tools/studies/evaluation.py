@@ -289,14 +289,23 @@ def evaluate_middlebury(
 
 
 def evaluate_fixed_point(
-    data: StereoData, name: str, factor: int | None, pipelines: Sequence[str] | None = None
+    data: StereoData,
+    name: str,
+    factor: int | None,
+    pipelines: Sequence[str] | None = None,
+    perturbation: Perturbation | None = None,
 ) -> dict[str, dict]:
     """Every registered pipeline (each variant, shipped default config) on the pair as
     :func:`~rangefx.tools.studies.cases.real_pair_case` builds it (integer grey levels,
     metres), beside its golden on the same case: overflows, saturated host registers,
     median and p95 |fixed - golden| / golden, valid agreement, and both scored against the
-    dataset's depth like the golden methods (relative errors, so the unit cancels)."""
+    dataset's depth like the golden methods (relative errors, so the unit cancels). With
+    ``perturbation``, the right image is ``data``'s perturbed (``--perturb``), rounded to
+    grey levels as the Middlebury section's P3 gets it."""
     case = real_pair_case(name, factor)
+    if perturbation is not None and not perturbation.is_identity:
+        image2 = np.clip(np.rint(perturbation.apply(data.image2)), 0, 255).astype(np.int64)
+        case = dataclasses.replace(case, image2=image2)
     to_dataset_unit = 1e3  # the case is in metres, the dataset's depth in mm
     out = {}
     for pipeline in (PIPELINES[n] for n in pipelines or PIPELINES):
@@ -424,7 +433,7 @@ def evaluate_pair(
     for data in datasets:
         figures, note = evaluate_middlebury(data, peers=peers, max_disparity=max_disparity)
         tables[data.factor] = (data, figures)
-    fixed = evaluate_fixed_point(default, dataset, factor_n, pipelines)
+    fixed = evaluate_fixed_point(default, dataset, factor_n, pipelines, perturbation)
     result = {
         "dataset": default.name,
         "protocol": "middlebury",
