@@ -125,10 +125,13 @@ def _cmd_stress(args: argparse.Namespace, out: Path) -> int:
         raise UserError(f"--stress must be >= 0, not {args.stress}")
     if args.layout_sweep is not None:
         raise UserError("--stress and --layout-sweep are separate programmes: give one")
+    if args.jobs < 1:
+        raise UserError(f"--jobs must be >= 1, not {args.jobs}")
     with atomic_output_dir(out) as tmp:
         res = stress_into(
             tmp, args.stress, args.pipeline, seed=args.seed, clearance_ft=args.clearance,
             guidance_interval=args.guidance_interval, replan_interval=args.replan_interval,
+            jobs=args.jobs,
         )  # fmt: skip
     data = res.to_dict()
     if args.json:
@@ -185,28 +188,24 @@ def _case(obstacles: str):
 
     if obstacles == "runway":
         return _runway_case(None)
-    if obstacles == "runway-p1":
-        return _runway_case("p1")
+    if obstacles.startswith("runway-"):
+        return _runway_case(obstacles.removeprefix("runway-"))
     return synthetic_case()
 
 
 def _runway_case(pipeline: str | None):
     """The ``runway`` scene end to end, ranged by golden ``g4_consistent`` (``None``) or
-    by the bit-accurate ``pipeline`` in the scene's mode (motion)."""
-    from rangefx.guidance.cases import runway_case
+    by the bit-accurate ``pipeline``: the motion pair if it models motion mode, else the
+    stereo pair (:func:`rangefx.guidance.cases.runway_scene_for`)."""
+    from rangefx.guidance.cases import runway_case, runway_scene_for
     from rangefx.rtl_model.registry import get_pipeline
 
     from ..studies.runner import range_source
 
-    source = None
+    source, scene = None, None
     label = f"--pipeline {pipeline}" if pipeline else "--obstacles runway"
     if pipeline is not None:
         pipe = get_pipeline(pipeline)
-        if "motion" not in pipe.modes:
-            raise UserError(
-                f"--pipeline {pipeline}: {pipeline.upper()} models "
-                f"{' and '.join(pipe.modes)} mode only; the runway scene is a motion pair"
-            )
         if pipeline == "p1":  # the consistent variant, as the documented figures
             from rangefx.rtl_model.p1 import P1Config
 
@@ -214,12 +213,17 @@ def _runway_case(pipeline: str | None):
         else:
             config = pipe.default_config()
         source = range_source(pipe, config)
+        try:
+            scene = runway_scene_for(pipe.modes)
+        except ValueError as exc:
+            raise UserError(f"{label}: {exc}") from None
     try:
-        case = runway_case(source)
+        case = runway_case(source, scene=scene)
     except ValueError as exc:
         raise UserError(f"{label}: {exc}") from None
+    mode = "motion" if scene is None else scene.kind
     case.info["method"] = (
-        f"{pipeline.upper()} fixed point, motion mode, default config"
+        f"{pipeline.upper()} fixed point, {mode} mode, default config"
         + (", consistent" if pipeline == "p1" else "")
         if pipeline
         else "golden g4_consistent"
@@ -237,6 +241,7 @@ def stress_into(
     clearance_ft: float = 20.0,
     guidance_interval: float = 0.1,
     replan_interval: float = 0.5,
+    jobs: int = 1,
 ):
     """The stress programme (:func:`rangefx.guidance.stress.stress_programme`) on the
     ``runway`` scene ranged by ``pipeline``, into ``tmp``: ``stress.json`` and
@@ -264,7 +269,7 @@ def stress_into(
     try:
         res = stress_programme(
             case, count, seed=seed, source=f"runway-{pipeline}", clearance_ft=clearance_ft,
-            config=config, avoid=avoid, progress=lambda _n: bar.update(),
+            config=config, avoid=avoid, progress=lambda _n: bar.update(), jobs=jobs,
         )  # fmt: skip
     finally:
         bar.close()
@@ -429,11 +434,12 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--obstacles",
-        choices=("synthetic", "runway", "runway-p1"),
+        choices=("synthetic", "runway", *(f"runway-{name}" for name in PIPELINES)),
         default="synthetic",
         help="obstacle set: documented synthetic stand-in, the runway scene ranged by "
-        "golden g4_consistent, or (runway-p1, end to end) by the fixed-point P1 pipeline "
-        "in motion mode (default synthetic)",
+        "golden g4_consistent, or (runway-p1, runway-p3, ... end to end) by that fixed-point "
+        "pipeline: P1 on the motion pair, a stereo-only pipeline on the runway's stereo "
+        "pair (default synthetic)",
     )
     p.add_argument(
         "--law",
@@ -494,5 +500,12 @@ def add_parser(sub) -> None:
         help="--stress: the bit-accurate pipeline that ranges the runway scene (default p1)",
     )
     p.add_argument("--seed", type=int, default=0, help="--stress: layout seed (default 0)")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        metavar="N",
+        help="--stress: fly the layouts in N worker processes (default 1; same rows)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object with the figures")
     p.set_defaults(func=cmd_guide)
