@@ -840,6 +840,7 @@ def guide(
     stress: int | None = None,
     pipeline: str = "p1",
     seed: int = 0,
+    jobs: int = 1,
 ) -> GuideResult:
     """Fly the report's chapter-6 guidance through obstacles, keeping a clearance.
 
@@ -847,8 +848,9 @@ def guide(
     ----------
     obstacles
         ``"synthetic"`` (the documented stand-in for the report's range points),
-        ``"runway"`` (the runway scene ranged by golden G4) or ``"runway-p1"`` (end to
-        end: ranged by the bit-accurate P1 in motion mode).
+        ``"runway"`` (the runway scene ranged by golden G4) or ``"runway-<pipeline>"``
+        (end to end: ranged by that bit-accurate pipeline; P1 in motion mode, a
+        stereo-only pipeline such as P3 on the runway's stereo pair).
     law
         ``"avoid"`` (keeps ``clearance_ft`` from every obstacle extent; the report's law
         is flown beside it) or ``"report"`` (eqs 20-69).
@@ -862,6 +864,8 @@ def guide(
     stress, pipeline, seed
         Fly both laws over this many seeded layouts of the runway scene ranged by
         ``pipeline``, a true vehicle on or near the nominal path, instead.
+    jobs
+        Worker processes of the stress programme (the same rows for any count).
 
     Returns
     -------
@@ -875,5 +879,5 @@ def guide(
     return guide_flight(
         obstacles, law=law, clearance_ft=clearance_ft, shift=shift,
         guidance_interval=guidance_interval, replan_interval=replan_interval,
-        layout_sweep=layout_sweep, stress=stress, pipeline=pipeline, seed=seed,
+        layout_sweep=layout_sweep, stress=stress, pipeline=pipeline, seed=seed, jobs=jobs,
     )  # fmt: skip

@@ -52,6 +52,7 @@ from .geometry import (
 )
 
 __all__ = [
+    "RUNWAY_STEREO_BASELINE_FT",
     "SCENE_NAMES",
     "TEXTURE_NAMES",
     "Scene",
@@ -59,6 +60,7 @@ __all__ = [
     "frame2_positions",
     "object_corners",
     "render_plane",
+    "render_runway_stereo",
     "render_scene",
 ]
 
@@ -848,6 +850,47 @@ def render_scene(
     return _render(preset, camera, seed, sigma, ss)
 
 
+#: Baseline of :func:`render_runway_stereo` (ft): its disparity at the nearest ground
+#: in view (24.1 ft along the optical axis, the bottom image corners) is 59 px at
+#: 512 px width (f = 812 px), within P3's 64 px search range there; the vehicles
+#: (233-607 ft) have 6.1-2.3 px.
+RUNWAY_STEREO_BASELINE_FT: float = 1.75
+
+
+def render_runway_stereo(
+    baseline: float = RUNWAY_STEREO_BASELINE_FT,
+    *,
+    seed: int = 0,
+    size: tuple[int, int] | None = None,
+    noise_sigma: float | None = None,
+    supersample: int | None = None,
+) -> Scene:
+    """The ``runway`` scene as a stereo pair: view 1 of :func:`render_scene` ``("runway")``
+    (the same camera, world, objects, ``depth1`` and ``labels1``) and a second camera
+    ``baseline`` ft to its right (``+y_c``) at the same instant and attitude.
+
+    Why: a stereo-only pipeline (P3) ranges the runway from it. The motion pair's
+    translation is along the line of sight to the runway ahead, whose image points lie
+    near the focus of expansion where motion ranging has no parallax; a lateral
+    baseline gives every pixel a disparity ``f B / x_c``. The scene keeps the name
+    ``"runway"`` (its ranging preset, frame map and vehicles are the motion pair's) and
+    has ``kind == "stereo"``. Parameters as in :func:`render_scene`.
+    """
+    if (
+        isinstance(baseline, bool)
+        or not isinstance(baseline, (int, float, np.integer, np.floating))
+        or not (math.isfinite(baseline) and baseline > 0)
+    ):
+        raise ValueError(f"stereo baseline must be a positive finite length, not {baseline!r}")
+    seed = _check_seed(seed)
+    preset = _runway_preset(float(baseline))
+    height, width = preset.size if size is None else _check_size(size)
+    sigma = preset.noise_sigma if noise_sigma is None else _check_noise(noise_sigma)
+    ss = preset.supersample if supersample is None else _check_supersample(supersample)
+    camera = PinholeCamera.from_fov(width, height, preset.hfov_deg)
+    return _render(preset, camera, seed, sigma, ss)
+
+
 def object_corners(name: str) -> dict[str, np.ndarray]:
     """True geometry of a preset's named objects: the corners of their planar faces.
 
@@ -1161,8 +1204,10 @@ _VEHICLES: tuple[tuple[str, float, float, str, float, float, float], ...] = (
 )
 
 
-def _runway_preset() -> _Preset:
-    """Flight pair of the obstacle-location paper of ch. 4 (Figs 3-5 and its table)."""
+def _runway_preset(stereo_baseline: float | None = None) -> _Preset:
+    """Flight pair of the obstacle-location paper of ch. 4 (Figs 3-5 and its table); with
+    ``stereo_baseline`` (ft) the same view 1 and a second camera that far to its right
+    at the same instant and attitude (:func:`render_runway_stereo`)."""
     hfov = 35.0
     f_ref = _ref_f(hfov)
     deg = math.pi / 180.0
@@ -1183,6 +1228,20 @@ def _runway_preset() -> _Preset:
     )
     centre, rot = _view(motion, 1)
     axis = rot[:, 0]
+    kind = "motion"
+    if stereo_baseline is not None:
+        # Camera 2 beside camera 1 along its right axis y_c (rot[:, 1] in NED), same
+        # instant and attitude: the vehicle position moves by that vector.
+        right = float(stereo_baseline) * rot[:, 1]
+        motion = MotionIncrement.from_attitudes(
+            camera_angles=(0.0, -3.0 * deg, 0.0),
+            camera_offset=(8.0, 0.0, 1.0),
+            attitude1=attitude1,
+            attitude2=attitude1,
+            position1=position1,
+            position2=tuple(float(a + b) for a, b in zip(position1, right, strict=True)),
+        )
+        kind = "stereo"
     e_u = np.array([math.cos(heading), math.sin(heading), 0.0])
     e_v = np.array([-math.sin(heading), math.cos(heading), 0.0])
     up = np.array([0.0, 0.0, -1.0])
@@ -1243,4 +1302,10 @@ def _runway_preset() -> _Preset:
         "supersampling per pixel, Gaussian noise sigma = {noise:g} grey levels, 8-bit "
         "quantisation."
     )
-    return _Preset("runway", "motion", "ft", hfov, motion, world, tuple(objects), description)
+    if stereo_baseline is not None:
+        description += (
+            f" Stereo variant: the same view 1 and a second camera {stereo_baseline:g} ft "
+            "to its right (along y_c) at the same instant and attitude, instead of the "
+            "second frame."
+        )
+    return _Preset("runway", kind, "ft", hfov, motion, world, tuple(objects), description)

@@ -69,6 +69,7 @@ the limits.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 import warnings
@@ -76,9 +77,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.polynomial import legendre as npleg
+from numpy.polynomial import polynomial as nppoly
 from scipy.optimize import minimize
 
-from .extraction import ObstacleBox
+from .extraction import BoxSet, ObstacleBox
 from .law import (
     FIRST_SINGULAR_SIGMA_T,
     BoundaryConditions,
@@ -252,23 +254,42 @@ def _hermite(s: np.ndarray) -> np.ndarray:
     return h
 
 
-def _correction(s: np.ndarray, m: int) -> np.ndarray:
-    """``s²(1-s)² P_j(2s-1)`` and its first two s-derivatives, shape (3, m, n)."""
+@functools.lru_cache(maxsize=8)
+def _correction_polys(m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Power-series coefficients (m, deg + 1) of ``s²(1-s)² P_j(2s-1)``, ``j < m``, and of
+    its first two s-derivatives (built once per ``m``: :func:`AvoidPlan.evaluate` needs
+    them at every guidance update)."""
     w = np.polynomial.Polynomial([0, 0, 1, -2, 1])  # s²(1-s)²
-    out = np.empty((3, m, len(s)))
+    deg = m + 3
+    out = np.zeros((3, m, deg + 1))
     for j in range(m):
         pj = np.polynomial.Polynomial(npleg.leg2poly([0] * j + [1])).convert()
         pj = pj(np.polynomial.Polynomial([-1, 2]))  # P_j(2s - 1)
         poly = w * pj
         for k in range(3):
-            out[k, j] = poly.deriv(k)(s) if k else poly(s)
-    return out
+            c = poly.deriv(k).coef if k else poly.coef
+            out[k, j, : len(c)] = c
+    return out[0], out[1], out[2]
 
 
+def _correction(s: np.ndarray, m: int) -> np.ndarray:
+    """``s²(1-s)² P_j(2s-1)`` and its first two s-derivatives, shape (3, m, n)."""
+    s = np.asarray(s, dtype=np.float64)
+    return np.stack([nppoly.polyval(s, c.T) for c in _correction_polys(m)])
+
+
+@functools.lru_cache(maxsize=8)
 def _basis(n_nodes: int, m: int) -> _Basis:
     x, wq = npleg.leggauss(n_nodes)
     s = 0.5 * (x + 1.0)
     return _Basis(s, 0.5 * wq, _hermite(s), _correction(s, m))
+
+
+@functools.lru_cache(maxsize=64)
+def _box_set(boxes: tuple[ObstacleBox, ...]) -> BoxSet:
+    """The extents of a layout as one :class:`~rangefx.guidance.extraction.BoxSet`, built
+    once per layout (every solve of a flight asks for the same extents)."""
+    return BoxSet(boxes)
 
 
 @dataclass(frozen=True)
@@ -431,7 +452,7 @@ def limited_command(
 def _clearances(pos: np.ndarray, boxes: tuple[ObstacleBox, ...]) -> np.ndarray:
     if not boxes:
         return np.full((len(pos), 0), np.inf)
-    return np.stack([b.signed_distance(pos) for b in boxes], axis=1)
+    return _box_set(tuple(boxes)).signed_distance(pos)
 
 
 # --------------------------------------------------------------------------- one solve
@@ -450,6 +471,12 @@ class _Problem:
     t_bounds: tuple[float, float]
     need_ft: np.ndarray  # per box: clearance + the planning margin the end points allow
 
+    def __post_init__(self) -> None:
+        # SLSQP evaluates the cost, the constraints and their Jacobians at the same x:
+        # the path at the last x is kept.
+        self._last: tuple[np.ndarray, tuple] | None = None
+        self._boxset = _box_set(self.boxes) if self.boxes else None
+
     @property
     def min_speed(self) -> float:
         """Half the smaller of the current and the final speed (see :func:`limit_margins`)."""
@@ -459,9 +486,22 @@ class _Problem:
         return float(x[0]), x[1:].reshape(-1, 3)
 
     def path(self, x):
+        if self._last is not None and np.array_equal(self._last[0], x):
+            return self._last[1]
         t_go, c = self.unpack(x)
         b = self.basis
-        return _path_from(b.herm, b.corr, t_go, self.r0, self.v0, self.bc.rf, self.bc.vf, c)
+        out = _path_from(b.herm, b.corr, t_go, self.r0, self.v0, self.bc.rf, self.bc.vf, c)
+        self._last = (np.array(x, dtype=np.float64), out)
+        return out
+
+    def path_dt(self, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """d/dT of position, velocity and acceleration at the nodes (fixed ``s``): ``T``
+        enters through the end slopes ``T v0``, ``T v_f`` and the ``1/T^k`` of d^k/dt^k."""
+        t_go, _ = self.unpack(x)
+        _, v, a = self.path(x)
+        h = self.basis.herm
+        slope = [h[k][1][:, None] * self.v0 + h[k][3][:, None] * self.bc.vf for k in range(3)]
+        return slope[0], (slope[1] - v) / t_go, slope[2] / t_go**2 - 2.0 * a / t_go
 
     def cost(self, x) -> float:
         """Eq 20 by Gauss-Legendre quadrature on [0, T]."""
@@ -476,9 +516,6 @@ class _Problem:
             + w.mu * (r[:, 2] - w.z_ref) ** 2
             - w.beta * self.field.sum_sq_distance(r)
         )
-
-    def _dt(self, x) -> float:
-        return 1e-6 * max(1.0, abs(x[0]))
 
     def _chain(self, t_go, idx, g_r, g_v=None, g_a=None) -> np.ndarray:
         """d(row)/dc for rows that each depend on one sample ``idx[row]`` through
@@ -501,15 +538,15 @@ class _Problem:
         g_r[:, 2] += t_go * self.basis.weights * (1.0 - w.zeta) * w.mu * (r[:, 2] - w.z_ref)
         idx = np.arange(len(r))
         grad_c = self._chain(t_go, idx, g_r, None, g_a).sum(axis=0)
-        h = self._dt(x)
-        xp = x.copy()
-        xp[0] += h
-        return np.concatenate([[(self.cost(xp) - self.cost(x)) / h], grad_c])
+        # J = T Σ w L(r, a): dJ/dT = J/T + Σ T w (∂L/∂r dr/dT + ∂L/∂a da/dT)
+        dr, _, da = self.path_dt(x)
+        grad_t = self.cost(x) / t_go + float((g_r * dr).sum() + (g_a * da).sum())
+        return np.concatenate([[grad_t], grad_c])
 
     def clearances(self, x) -> np.ndarray:
         """Signed distance of every sample to every extent, (samples, boxes)."""
         r, _, _ = self.path(x)
-        return _clearances(r, self.boxes)
+        return self._boxset.signed_distance(r)
 
     def clearance_margin(self, x) -> np.ndarray:
         return (self.clearances(x) - self.need_ft).ravel()
@@ -518,16 +555,12 @@ class _Problem:
         t_go, _ = self.unpack(x)
         r, _, _ = self.path(x)
         n, k = len(r), len(self.boxes)
-        g = np.stack([b.signed_distance_gradient(r) for b in self.boxes], axis=1)  # n,k,3
+        g = self._boxset.signed_distance_gradient(r)  # n,k,3
         # rows ordered (sample, box) like clearance_margin's ravel
         jac_c = self._chain(t_go, np.repeat(np.arange(n), k), g.reshape(n * k, 3))
-        return np.column_stack([self._t_column(x, self.clearance_margin), jac_c])
-
-    def _t_column(self, x, fun) -> np.ndarray:
-        h = self._dt(x)
-        xp = x.copy()
-        xp[0] += h
-        return (fun(xp) - fun(x)) / h
+        dr, _, _ = self.path_dt(x)
+        jac_t = (g * dr[:, None, :]).sum(axis=-1).ravel()
+        return np.column_stack([jac_t, jac_c])
 
     def other_margins(self, x) -> np.ndarray:
         r, v, a = self.path(x)
@@ -540,31 +573,39 @@ class _Problem:
         n = len(r)
         eye = np.eye(3)
         nl = 6
+        # central differences per sample and axis, all in one vectorised call:
+        # blocks (axis, [v+, v-, a+, a-]) of n rows each
+        hv = 1e-6 * np.maximum(np.abs(v), 1.0)  # (n, 3)
+        ha = 1e-6 * np.maximum(np.abs(a), 1.0)
+        vs, acc = [], []
+        for ax in range(3):
+            dv, da = hv[:, ax : ax + 1] * eye[ax], ha[:, ax : ax + 1] * eye[ax]
+            vs += [v + dv, v - dv, v, v]
+            acc += [a, a, a + da, a - da]
+        lm = limit_margins(
+            np.concatenate(vs), np.concatenate(acc), self.params, self.cfg, self.min_speed
+        ).reshape(3, 4, n, nl)
         g_v = np.empty((nl, n, 3))
         g_a = np.empty((nl, n, 3))
-        for ax in range(3):  # central differences per sample, vectorised over samples
-            hv = 1e-6 * np.maximum(np.abs(v[:, ax]), 1.0)[:, None]
-            ha = 1e-6 * np.maximum(np.abs(a[:, ax]), 1.0)[:, None]
-            ms = self.min_speed
-            dv = limit_margins(v + hv * eye[ax], a, self.params, self.cfg, ms) - limit_margins(
-                v - hv * eye[ax], a, self.params, self.cfg, ms
-            )
-            da = limit_margins(v, a + ha * eye[ax], self.params, self.cfg, ms) - limit_margins(
-                v, a - ha * eye[ax], self.params, self.cfg, ms
-            )
-            g_v[:, :, ax] = (dv / (2 * hv)).T
-            g_a[:, :, ax] = (da / (2 * ha)).T
+        for ax in range(3):
+            g_v[:, :, ax] = ((lm[ax, 0] - lm[ax, 1]) / (2 * hv[:, ax : ax + 1])).T
+            g_a[:, :, ax] = ((lm[ax, 2] - lm[ax, 3]) / (2 * ha[:, ax : ax + 1])).T
         idx = np.tile(np.arange(n), nl)  # rows ordered (limit, sample) like lim.T.ravel
         zero = np.zeros((nl * n, 3))
         jac_lim = self._chain(t_go, idx, zero, g_v.reshape(nl * n, 3), g_a.reshape(nl * n, 3))
         jac_z = self._chain(t_go, np.arange(n), np.tile([0.0, 0.0, 1.0], (n, 1)))
-        return np.column_stack([self._t_column(x, self.other_margins), np.vstack([jac_lim, jac_z])])
+        dr, dv, da = self.path_dt(x)
+        jac_t = np.concatenate(
+            [((g_v * dv).sum(axis=-1) + (g_a * da).sum(axis=-1)).ravel(), dr[:, 2]]
+        )
+        return np.column_stack([jac_t, np.vstack([jac_lim, jac_z])])
 
 
 def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, object]:
     """SLSQP on the programme; ``relaxed`` maximises the smallest clearance instead."""
     lo, hi = prob.t_bounds
     n = len(x0)
+    opts = {"maxiter": prob.cfg.maxiter, "ftol": prob.cfg.ftol}
     if relaxed:
         # variables [T, c..., slack]: maximise slack s with clearance - need >= s.
         x_init = np.concatenate([x0, [float(prob.clearance_margin(x0).min(initial=0.0))]])
@@ -596,7 +637,7 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
             method="SLSQP",
             bounds=bounds,
             constraints=cons,
-            options={"maxiter": prob.cfg.maxiter, "ftol": prob.cfg.ftol},
+            options=opts,
         )
         return res.x[:-1], res
     bounds = [(lo, hi)] + [(None, None)] * (n - 1)
@@ -604,14 +645,9 @@ def _solve(prob: _Problem, x0: np.ndarray, relaxed: bool) -> tuple[np.ndarray, o
     if prob.boxes:
         cons.append({"type": "ineq", "fun": prob.clearance_margin, "jac": prob.clearance_jac})
     res = minimize(
-        prob.cost,
-        x0,
-        jac=prob.cost_grad,
-        method="SLSQP",
-        bounds=bounds,
-        constraints=cons,
-        options={"maxiter": prob.cfg.maxiter, "ftol": prob.cfg.ftol},
-    )
+        prob.cost, x0, jac=prob.cost_grad, method="SLSQP", bounds=bounds, constraints=cons,
+        options=opts,
+    )  # fmt: skip
     return res.x, res
 
 

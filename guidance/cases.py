@@ -51,6 +51,7 @@ __all__ = [
     "layout_sweep",
     "random_layouts",
     "runway_case",
+    "runway_scene_for",
     "shift_grid_layouts",
     "synthetic_case",
 ]
@@ -147,6 +148,21 @@ def runway_case(
     truth = scene_truth_boxes(scene.name, fmap)
     info = {"valid_pixels": int(np.count_nonzero(valid)), "obstacle_points": len(pts)}
     return GuidanceCase(name, pts, ex.obstacles, truth, ex, info, scene, fmap)
+
+
+def runway_scene_for(modes: tuple[str, ...], **render):
+    """The rendering of the ``runway`` scene a pipeline with these ``modes`` ranges: the
+    motion pair (:func:`rangefx.golden.scenes.render_scene`) when it models motion mode,
+    else the stereo pair (:func:`rangefx.golden.scenes.render_runway_stereo`: same view
+    1, a second camera beside it); ``render`` (size, seed, ...) goes to the renderer.
+    ``ValueError`` when it models neither."""
+    from rangefx.golden.scenes import render_runway_stereo, render_scene
+
+    if "motion" in modes:
+        return render_scene("runway", **render)
+    if "stereo" in modes:
+        return render_runway_stereo(**render)
+    raise ValueError(f"the runway scene is a motion or a stereo pair; the pipeline models {modes}")
 
 
 @dataclass

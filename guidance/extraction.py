@@ -71,6 +71,7 @@ from rangefx.golden.geometry import (
 from .obstacles import FrameMap, ParkedVehicle, guidance_from_ned
 
 __all__ = [
+    "BoxSet",
     "ExtractionConfig",
     "ExtractionResult",
     "ObstacleBox",
@@ -129,40 +130,11 @@ class ObstacleBox:
         Positive outside, negative inside (minus the distance to the nearest face).
         Below the ground (``z < 0``) counts as outside by ``-z``.
         """
-        q = self.local(p)
-        half_z = 0.5 * self.top
-        d = np.stack(
-            [
-                np.abs(q[..., 0]) - self.half_u,
-                np.abs(q[..., 1]) - self.half_v,
-                np.abs(q[..., 2] - half_z) - half_z,
-            ],
-            axis=-1,
-        )
-        outside = np.linalg.norm(np.maximum(d, 0.0), axis=-1)
-        inside = np.minimum(d.max(axis=-1), 0.0)
-        return outside + inside
+        return BoxSet((self,)).signed_distance(p)[..., 0]
 
     def signed_distance_gradient(self, p: np.ndarray) -> np.ndarray:
         """Gradient of :meth:`signed_distance` with respect to ``p`` (shape (..., 3))."""
-        q = self.local(p)
-        half_z = 0.5 * self.top
-        rel = np.stack([q[..., 0], q[..., 1], q[..., 2] - half_z], axis=-1)
-        half = np.array([self.half_u, self.half_v, half_z])
-        d = np.abs(rel) - half
-        sign = np.where(rel >= 0, 1.0, -1.0)
-        pos = np.maximum(d, 0.0)
-        norm = np.linalg.norm(pos, axis=-1, keepdims=True)
-        outside = norm[..., 0] > 0
-        g_local = np.where(outside[..., None], pos * sign / np.where(norm > 0, norm, 1.0), 0.0)
-        k = np.argmax(d, axis=-1)
-        inside_g = np.zeros_like(d)
-        np.put_along_axis(inside_g, k[..., None], 1.0, axis=-1)
-        g_local = np.where(outside[..., None], g_local, inside_g * sign)
-        g = np.empty_like(g_local)
-        g[..., :2] = g_local[..., :2] @ self.axes
-        g[..., 2] = g_local[..., 2]
-        return g
+        return BoxSet((self,)).signed_distance_gradient(p)[..., 0, :]
 
     def corners(self) -> np.ndarray:
         """The 8 corners (guidance frame), shape (8, 3)."""
@@ -192,6 +164,55 @@ class ObstacleBox:
             self.top + margin,
             self.n_points,
         )
+
+
+class BoxSet:
+    """Several :class:`ObstacleBox` evaluated at once: the signed distance of points to
+    every box and its gradient, vectorised over points and boxes (the avoiding law's
+    clearance constraints evaluate them at every SLSQP step)."""
+
+    def __init__(self, boxes: tuple[ObstacleBox, ...]) -> None:
+        self.boxes = tuple(boxes)
+        self.centres = np.array([b.centre for b in self.boxes], dtype=np.float64).reshape(-1, 2)
+        self.axes = np.array([b.axes for b in self.boxes], dtype=np.float64).reshape(-1, 2, 2)
+        self.half = np.array(
+            [(b.half_u, b.half_v, 0.5 * b.top) for b in self.boxes], dtype=np.float64
+        ).reshape(-1, 3)
+
+    def __len__(self) -> int:
+        return len(self.boxes)
+
+    def _relative(self, p: np.ndarray) -> np.ndarray:
+        """Point minus box centre in each box's frame ``(u, v, z - top/2)``: (..., k, 3)."""
+        p = np.asarray(p, dtype=np.float64)
+        d = p[..., None, :2] - self.centres  # (..., k, 2)
+        uv = np.einsum("...kd,kjd->...kj", d, self.axes)
+        return np.concatenate([uv, p[..., None, 2:3] - self.half[:, 2:3]], axis=-1)
+
+    def signed_distance(self, p: np.ndarray) -> np.ndarray:
+        """:meth:`ObstacleBox.signed_distance` to every box, shape (..., k)."""
+        d = np.abs(self._relative(p)) - self.half
+        outside = np.linalg.norm(np.maximum(d, 0.0), axis=-1)
+        inside = np.minimum(d.max(axis=-1), 0.0)
+        return outside + inside
+
+    def signed_distance_gradient(self, p: np.ndarray) -> np.ndarray:
+        """Gradient of :meth:`signed_distance` with respect to ``p``, shape (..., k, 3)."""
+        rel = self._relative(p)
+        d = np.abs(rel) - self.half
+        sign = np.where(rel >= 0, 1.0, -1.0)
+        pos = np.maximum(d, 0.0)
+        norm = np.linalg.norm(pos, axis=-1, keepdims=True)
+        outside = norm[..., 0] > 0
+        g_local = np.where(outside[..., None], pos * sign / np.where(norm > 0, norm, 1.0), 0.0)
+        k = np.argmax(d, axis=-1)
+        inside_g = np.zeros_like(d)
+        np.put_along_axis(inside_g, k[..., None], 1.0, axis=-1)
+        g_local = np.where(outside[..., None], g_local, inside_g * sign)
+        g = np.empty_like(g_local)
+        g[..., :2] = np.einsum("...kj,kjd->...kd", g_local[..., :2], self.axes)
+        g[..., 2] = g_local[..., 2]
+        return g
 
 
 def box_from_corners(name: str, corners: np.ndarray) -> ObstacleBox:

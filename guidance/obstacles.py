@@ -344,12 +344,18 @@ def runway_frame_map(
 ) -> FrameMap:
     """Place the ``runway`` scene's frame-1 vehicle at ``start`` flying at ``heading_deg``.
 
-    The scene's heading is that of its INS translation ``Δx_v`` (the runway direction).
+    The scene's heading is that of its INS translation ``Δx_v`` (the runway direction);
+    of a stereo pair (:func:`rangefx.golden.scenes.render_runway_stereo`, whose ``Δx_v``
+    is the lateral baseline) the vehicle's yaw at view 1, the same direction.
     """
     m = scene.motion
+    if getattr(scene, "kind", "motion") == "stereo":
+        heading = math.atan2(float(m.T2[0, 1]), float(m.T2[0, 0]))
+    else:
+        heading = math.atan2(float(m.dxv[1]), float(m.dxv[0]))
     return FrameMap(
         origin_scene=(float(m.xv[0]), float(m.xv[1])),
-        heading_scene=math.atan2(float(m.dxv[1]), float(m.dxv[0])),
+        heading_scene=heading,
         origin_guidance=(float(start[0]), float(start[1])),
         heading_guidance=math.radians(heading_deg),
     )

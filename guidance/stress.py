@@ -23,6 +23,7 @@ what the layout asks of a law that does not avoid).
 from __future__ import annotations
 
 import math
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -202,6 +203,58 @@ def extent_along_ray_lengths(case: GuidanceCase, camera: np.ndarray) -> dict:
     }
 
 
+def _stress_row(
+    case: GuidanceCase,
+    lay: StressLayout,
+    nominal_positions: np.ndarray,
+    clearance_ft: float,
+    config: SimulationConfig | None,
+    avoid: AvoidConfig | None,
+) -> tuple[dict, tuple]:
+    """One layout of :func:`stress_programme`: its row and ``(moved case, avoid run,
+    report run)``."""
+    moved = case.shifted(lay.shift_ft)
+    rep = fly(moved, "report", clearance_ft=clearance_ft, config=config, avoid=avoid)
+    run = fly(moved, "avoid", clearance_ft=clearance_ft, config=config, avoid=avoid)
+    m, ex = run.metrics, run.result.extras
+    ends = np.stack([run.result.bc.r0, np.asarray(ex["touchdown"])])
+    end_ext = _min_distance(ends, moved.boxes)
+    path_d = _min_distance(nominal_positions, moved.truth)
+    near = sum(
+        bool(np.min(b.signed_distance(nominal_positions)) < clearance_ft) for b in moved.truth
+    )
+    t_rep = rep.metrics["flight_time_s"]
+    row = {
+        **lay.to_dict(),
+        "vehicles_within_clearance_of_nominal_path": near,
+        "nominal_path_true_distance_ft": float(path_d.min()),
+        "outcome": ex["outcome"],
+        "manoeuvre": (ex["manoeuvre"] or {}).get("kind", ""),
+        "hold_point_ft": (ex["manoeuvre"] or {}).get("hold_point_ft"),
+        "crash_reason": ex["crash_reason"],
+        "feasible": m["feasible"],
+        "collision": bool(m["min_true_obstacle_distance_ft"] < 0.0),
+        "min_true_distance_ft": m["min_true_obstacle_distance_ft"],
+        "min_extent_distance_ft": m["min_extent_distance_ft"],
+        "clearance_kept": m["clearance_kept"],
+        "start_extent_distance_ft": float(end_ext[0]),
+        "touchdown_extent_distance_ft": float(end_ext[1]),
+        "flight_time_s": m["flight_time_s"],
+        "flight_time_ratio": m["flight_time_s"] / t_rep,
+        "max_load_factor": m["max_load_factor"],
+        "max_abs_theta_deg": m["max_abs_theta_deg"],
+        "max_abs_phi_deg": m["max_abs_phi_deg"],
+        "min_altitude_ft": float(run.result.positions[:, 2].min()),
+        "limited_updates": m["limited_updates"],
+        "solves": m["compute"]["solves"],
+        "planner_wall_s": float(sum(ex["solve_times_s"])),
+        "report_law_min_true_distance_ft": rep.metrics["min_true_obstacle_distance_ft"],
+        "report_law_collision": bool(rep.metrics["min_true_obstacle_distance_ft"] < 0),
+        "warnings": run.warnings,
+    }
+    return row, (moved, run, rep)
+
+
 def stress_programme(
     case: GuidanceCase,
     count: int,
@@ -213,6 +266,7 @@ def stress_programme(
     avoid: AvoidConfig | None = None,
     progress=None,
     indices: list[int] | None = None,
+    jobs: int = 1,
 ) -> StressResult:
     """Fly ``count`` stress layouts of ``case`` (:func:`stress_layouts`) with the avoiding
     law, and the report's law beside it, and score both against the true vehicles.
@@ -221,58 +275,36 @@ def stress_programme(
     ``collision`` (the avoiding law entered a true vehicle), the smallest distance to
     the true vehicles and to the extents, ``clearance_kept`` (true distance ≥ the
     clearance), flight time and its ratio to the report law's, peak load factor, |θ|,
-    |φ|, the start's and touch-down's distances to the extents, and the report law's
-    true distance and collision. ``indices`` flies only those of the ``count`` layouts
-    (the layouts are drawn per index, so a programme can be split over processes)."""
+    |φ|, the start's and touch-down's distances to the extents, the planner's time
+    (``planner_wall_s``, the sum of its solves) and the report law's true distance and
+    collision. ``indices`` flies only those of the ``count`` layouts (the layouts are
+    drawn per index, so a programme can be split over processes); ``jobs`` > 1 flies
+    them in that many worker processes (the same rows, in layout order)."""
+    if not isinstance(jobs, int) or jobs < 1:
+        raise ValueError(f"stress jobs must be an integer >= 1, not {jobs!r}")
     nominal = fly(case, "report", clearance_ft=clearance_ft, config=config, avoid=avoid)
     nom = nominal.result
     rows: list[dict] = []
     runs: dict = {}
     layouts = stress_layouts(case, nom.t, nom.positions, count, seed=seed)
-    for lay in layouts if indices is None else [layouts[i] for i in indices]:
-        moved = case.shifted(lay.shift_ft)
-        rep = fly(moved, "report", clearance_ft=clearance_ft, config=config, avoid=avoid)
-        run = fly(moved, "avoid", clearance_ft=clearance_ft, config=config, avoid=avoid)
-        m, ex = run.metrics, run.result.extras
-        ends = np.stack([run.result.bc.r0, np.asarray(ex["touchdown"])])
-        end_ext = _min_distance(ends, moved.boxes)
-        path_d = _min_distance(nom.positions, moved.truth)
-        near = sum(
-            bool(np.min(b.signed_distance(nom.positions)) < clearance_ft) for b in moved.truth
-        )
-        t_rep = rep.metrics["flight_time_s"]
-        rows.append(
-            {
-                **lay.to_dict(),
-                "vehicles_within_clearance_of_nominal_path": near,
-                "nominal_path_true_distance_ft": float(path_d.min()),
-                "outcome": ex["outcome"],
-                "manoeuvre": (ex["manoeuvre"] or {}).get("kind", ""),
-                "hold_point_ft": (ex["manoeuvre"] or {}).get("hold_point_ft"),
-                "crash_reason": ex["crash_reason"],
-                "feasible": m["feasible"],
-                "collision": bool(m["min_true_obstacle_distance_ft"] < 0.0),
-                "min_true_distance_ft": m["min_true_obstacle_distance_ft"],
-                "min_extent_distance_ft": m["min_extent_distance_ft"],
-                "clearance_kept": m["clearance_kept"],
-                "start_extent_distance_ft": float(end_ext[0]),
-                "touchdown_extent_distance_ft": float(end_ext[1]),
-                "flight_time_s": m["flight_time_s"],
-                "flight_time_ratio": m["flight_time_s"] / t_rep,
-                "max_load_factor": m["max_load_factor"],
-                "max_abs_theta_deg": m["max_abs_theta_deg"],
-                "max_abs_phi_deg": m["max_abs_phi_deg"],
-                "min_altitude_ft": float(run.result.positions[:, 2].min()),
-                "limited_updates": m["limited_updates"],
-                "solves": m["compute"]["solves"],
-                "report_law_min_true_distance_ft": rep.metrics["min_true_obstacle_distance_ft"],
-                "report_law_collision": bool(rep.metrics["min_true_obstacle_distance_ft"] < 0),
-                "warnings": run.warnings,
-            }
-        )
-        runs[lay.name] = (moved, run, rep)
-        if progress is not None:
-            progress(lay.name)
+    todo = layouts if indices is None else [layouts[i] for i in indices]
+    args = (nom.positions, clearance_ft, config, avoid)
+    if jobs > 1 and len(todo) > 1:
+        # The rendered scene is not needed to fly: the workers get the case without it.
+        light = replace(case, scene=None)
+        with ProcessPoolExecutor(max_workers=min(jobs, len(todo))) as pool:
+            futures = [pool.submit(_stress_row, light, lay, *args) for lay in todo]
+            for lay, fut in zip(todo, futures, strict=True):
+                row, runs[lay.name] = fut.result()
+                rows.append(row)
+                if progress is not None:
+                    progress(lay.name)
+    else:
+        for lay in todo:
+            row, runs[lay.name] = _stress_row(case, lay, *args)
+            rows.append(row)
+            if progress is not None:
+                progress(lay.name)
     camera = np.asarray(nom.bc.r0)
     return StressResult(
         source, clearance_ft, seed, rows, nom.flight_time,

@@ -80,7 +80,7 @@ def test_guide_prints_one_json_object(tmp_path, capsys):
         (["--replan-interval", "0"], "--replan-interval"),
         (["--stress", "-1"], "--stress"),
         (["--stress", "1", "--layout-sweep", "1"], "--stress"),
-        (["--stress", "1", "--pipeline", "p3"], "--pipeline p3"),
+        (["--stress", "1", "--jobs", "0"], "--jobs"),
     ],
 )
 def test_guide_bad_input_is_one_line_error(tmp_path, capsys, argv, culprit):

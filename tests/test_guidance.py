@@ -553,3 +553,38 @@ def test_report_example_figures_are_set_by_the_obstacle_centroid():
         ObstacleField(synthetic_runway_obstacles(), REPORT_WEIGHTS), t_go=20.0
     )
     assert forced["max_load_factor"] > 1.02 and forced["max_abs_theta_deg"] > 12.0
+
+
+def test_runway_stereo_pair_is_the_runway_view_with_a_second_camera_beside_it():
+    # P3 models stereo mode only: the chain ranges the runway from this pair.
+    from rangefx.golden.scenes import render_runway_stereo, render_scene
+    from rangefx.guidance.cases import runway_scene_for
+    from rangefx.guidance.obstacles import runway_frame_map
+    from rangefx.rtl_model.p3.model import stereo_baseline
+    from rangefx.rtl_model.registry import PIPELINES, get_pipeline
+
+    size = (48, 48)
+    motion = render_scene("runway", size=size)
+    stereo = render_runway_stereo(3.0, size=size)
+    assert stereo.kind == "stereo" and motion.kind == "motion" and stereo.name == "runway"
+    # the same view 1: image, exact depth and labels
+    assert np.array_equal(stereo.image1, motion.image1)
+    assert np.array_equal(stereo.depth1, motion.depth1)
+    assert np.array_equal(stereo.labels1, motion.labels1)
+    # camera 2 3 ft to the right of camera 1, no rotation: what P3 accepts
+    assert np.allclose(stereo.motion.camera_displacement, [0.0, 3.0, 0.0], atol=1e-12)
+    assert stereo_baseline(stereo.motion) == pytest.approx(3.0)
+    # view 2 differs (a parallax), and the frame map puts both views' vehicle alike
+    assert not np.array_equal(stereo.image2, motion.image2)
+    fm_s, fm_m = runway_frame_map(stereo), runway_frame_map(motion)
+    assert fm_s.heading_scene == pytest.approx(fm_m.heading_scene, abs=1e-12)
+    assert fm_s.origin_scene == pytest.approx(fm_m.origin_scene)
+    with pytest.raises(ValueError, match="baseline"):
+        render_runway_stereo(-1.0, size=size)
+    # every registered pipeline gets a runway pair it models
+    for name in PIPELINES:
+        modes = get_pipeline(name).modes
+        want = "motion" if "motion" in modes else "stereo"
+        assert want in modes
+    assert runway_scene_for(("stereo",), size=size).kind == "stereo"
+    assert runway_scene_for(("stereo", "motion"), size=size).kind == "motion"

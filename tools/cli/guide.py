@@ -49,7 +49,7 @@ def cmd_guide(args: argparse.Namespace) -> int:
         args.obstacles, law=args.law, clearance_ft=args.clearance, shift=tuple(args.shift),
         guidance_interval=args.guidance_interval, replan_interval=args.replan_interval,
         layout_sweep=args.layout_sweep, stress=args.stress, pipeline=args.pipeline,
-        seed=args.seed,
+        seed=args.seed, jobs=args.jobs,
     )  # fmt: skip
     out = result.write(args.out)
     if result.programme == "stress":
@@ -113,11 +113,12 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--obstacles",
-        choices=("synthetic", "runway", "runway-p1"),
+        choices=("synthetic", "runway", *(f"runway-{name}" for name in PIPELINES)),
         default="synthetic",
         help="obstacle set: documented synthetic stand-in, the runway scene ranged by "
-        "golden g4_consistent, or (runway-p1, end to end) by the fixed-point P1 pipeline "
-        "in motion mode (default synthetic)",
+        "golden g4_consistent, or (runway-p1, runway-p3, ... end to end) by that fixed-point "
+        "pipeline: P1 on the motion pair, a stereo-only pipeline on the runway's stereo "
+        "pair (default synthetic)",
     )
     p.add_argument(
         "--law",
@@ -178,5 +179,12 @@ def add_parser(sub) -> None:
         help="--stress: the bit-accurate pipeline that ranges the runway scene (default p1)",
     )
     p.add_argument("--seed", type=int, default=0, help="--stress: layout seed (default 0)")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        metavar="N",
+        help="--stress: fly the layouts in N worker processes (default 1; same rows)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object with the figures")
     p.set_defaults(func=cmd_guide)

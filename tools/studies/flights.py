@@ -8,8 +8,9 @@ one of three obstacle sets:
 * ``synthetic``: the documented stand-in for the report's 293 range points on four
   parked vehicles (:func:`rangefx.guidance.obstacles.synthetic_runway_obstacles`);
 * ``runway``: the ``runway`` scene ranged by the golden ``g4_consistent`` method;
-* ``runway-p1``: end to end, the same scene through the bit-accurate P1 pipeline in
-  motion mode (one stream, frame store, rotation on).
+* ``runway-p1``, ``runway-p3``, ...: end to end, the same scene through a bit-accurate
+  pipeline: P1 on the motion pair (one stream, frame store, rotation on), a stereo-only
+  pipeline on the runway's stereo pair (:func:`rangefx.guidance.cases.runway_scene_for`).
 
 Three programmes: one flight (the avoiding law keeps a clearance from every extracted
 obstacle extent, :mod:`rangefx.guidance.avoid`, with the report's law flown beside it;
@@ -33,13 +34,15 @@ from typing import Any
 
 import numpy as np
 
+from rangefx.rtl_model.registry import PIPELINES
+
 from ..errors import UserError
 from ..report import atomic_output_dir, atomic_write_text, json_safe
 
 __all__ = ["OBSTACLE_SETS", "PROGRAMMES", "GuideResult", "guide_flight", "stress_table"]
 
 #: Obstacle sets of a single flight.
-OBSTACLE_SETS = ("synthetic", "runway", "runway-p1")
+OBSTACLE_SETS = ("synthetic", "runway", *(f"runway-{name}" for name in PIPELINES))
 #: The programmes :func:`guide_flight` flies.
 PROGRAMMES = ("flight", "layout-sweep", "stress")
 
@@ -135,6 +138,7 @@ def guide_flight(
     stress: int | None = None,
     pipeline: str = "p1",
     seed: int = 0,
+    jobs: int = 1,
 ) -> GuideResult:
     """Fly a guidance programme: one flight of ``law`` on ``obstacles`` (default), the
     layout sweep over ``layout_sweep`` random layouts, or the stress programme over
@@ -144,7 +148,8 @@ def guide_flight(
     ------
     UserError
         A non-finite shift, a clearance that is not a positive number, a bad interval,
-        both programmes at once, or a pipeline that does not model motion mode.
+        both programmes at once, fewer than one job, or a pipeline with neither a motion
+        nor a stereo mode.
     """
     if len(shift) != 3 or not all(math.isfinite(v) for v in shift):
         raise UserError(f"--shift must be finite numbers, not {list(shift)}")
@@ -161,7 +166,10 @@ def guide_flight(
             raise UserError(f"--stress must be >= 0, not {stress}")
         if layout_sweep is not None:
             raise UserError("--stress and --layout-sweep are separate programmes: give one")
-        return _stress(stress, pipeline, seed, clearance_ft, guidance_interval, replan_interval)
+        if jobs < 1:
+            raise UserError(f"--jobs must be >= 1, not {jobs}")
+        return _stress(stress, pipeline, seed, clearance_ft, guidance_interval, replan_interval,
+                       jobs)  # fmt: skip
     if layout_sweep is not None:
         if layout_sweep < 0:
             raise UserError(f"--layout-sweep must be >= 0, not {layout_sweep}")
@@ -175,28 +183,24 @@ def _case(obstacles: str):
 
     if obstacles == "runway":
         return _runway_case(None)
-    if obstacles == "runway-p1":
-        return _runway_case("p1")
+    if obstacles.startswith("runway-"):
+        return _runway_case(obstacles.removeprefix("runway-"))
     return synthetic_case()
 
 
 def _runway_case(pipeline: str | None):
     """The ``runway`` scene end to end, ranged by golden ``g4_consistent`` (``None``) or
-    by the bit-accurate ``pipeline`` in the scene's mode (motion)."""
-    from rangefx.guidance.cases import runway_case
+    by the bit-accurate ``pipeline``: the motion pair if it models motion mode, else the
+    stereo pair (:func:`rangefx.guidance.cases.runway_scene_for`)."""
+    from rangefx.guidance.cases import runway_case, runway_scene_for
     from rangefx.rtl_model.registry import get_pipeline
 
     from .runner import range_source
 
-    source = None
+    source, scene = None, None
     label = f"--pipeline {pipeline}" if pipeline else "--obstacles runway"
     if pipeline is not None:
         pipe = get_pipeline(pipeline)
-        if "motion" not in pipe.modes:
-            raise UserError(
-                f"--pipeline {pipeline}: {pipeline.upper()} models "
-                f"{' and '.join(pipe.modes)} mode only; the runway scene is a motion pair"
-            )
         if pipeline == "p1":  # the consistent variant, as the documented figures
             from rangefx.rtl_model.p1 import P1Config
 
@@ -204,12 +208,17 @@ def _runway_case(pipeline: str | None):
         else:
             config = pipe.default_config()
         source = range_source(pipe, config)
+        try:
+            scene = runway_scene_for(pipe.modes)
+        except ValueError as exc:
+            raise UserError(f"{label}: {exc}") from None
     try:
-        case = runway_case(source)
+        case = runway_case(source, scene=scene)
     except ValueError as exc:
         raise UserError(f"{label}: {exc}") from None
+    mode = "motion" if scene is None else scene.kind
     case.info["method"] = (
-        f"{pipeline.upper()} fixed point, motion mode, default config"
+        f"{pipeline.upper()} fixed point, {mode} mode, default config"
         + (", consistent" if pipeline == "p1" else "")
         if pipeline
         else "golden g4_consistent"
@@ -220,7 +229,7 @@ def _runway_case(pipeline: str | None):
 
 def _stress(
     count: int, pipeline: str, seed: int, clearance_ft: float, guidance_interval: float,
-    replan_interval: float,
+    replan_interval: float, jobs: int = 1,
 ) -> GuideResult:  # fmt: skip
     """The stress programme (:func:`rangefx.guidance.stress.stress_programme`) on the
     ``runway`` scene ranged by ``pipeline``."""
@@ -234,7 +243,7 @@ def _stress(
     try:
         res = stress_programme(
             case, count, seed=seed, source=f"runway-{pipeline}", clearance_ft=clearance_ft,
-            config=config, avoid=avoid, progress=lambda _n: bar.update(),
+            config=config, avoid=avoid, progress=lambda _n: bar.update(), jobs=jobs,
         )  # fmt: skip
     finally:
         bar.close()
