@@ -403,10 +403,16 @@ def cmd_optimise(args: argparse.Namespace) -> int:
     cases = [_case(pipe, name, args.size, "--scene") for name in scenes]
     vcase = _case(pipe, args.verify, args.size, "--verify") if args.verify else None
     synth_cost = _synth_cost(pipe, args, cases[0]) if args.cost == "synth" else None
+    fmax = None
+    if args.fmax_min is not None:
+        from ..studies.timing import TimingOptions, fmax_floor
+
+        timing = TimingOptions(stage=args.timing_stage, speed=args.timing_speed)
+        fmax = fmax_floor(args.fmax_min, cases[0].shape, cases[0].mode, timing, pipe.name)
     res = optimise(
         cases, start, budget, pipeline=pipe, margin=args.margin, signals=args.signals,
         tune_registers=args.tune_registers, workers=args.workers, progress=not args.json,
-        cost_fn=synth_cost,
+        cost_fn=synth_cost, fmax=fmax,
     )  # fmt: skip
     case = cases[0]
     shape, mode = case.shape, case.mode
@@ -466,6 +472,8 @@ def cmd_optimise(args: argparse.Namespace) -> int:
             **{k: synth_cost(c) for k, c in (("start", start), ("default", default),
                                              ("optimised", res.config))},
         }  # fmt: skip
+    if fmax is not None:
+        figures["fmax"] = {"minimum_mhz": args.fmax_min, **timing.as_dict(), **res.fmax_mhz}
     if vcase is not None:
         golden = pipe.golden(vcase, res.config).result
         fig_opt = evaluate(vcase, res.config, golden, pipeline=pipe)
@@ -495,6 +503,10 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         f"saved {figures['bits_saved']}); DSP {cost.dsp} (default {dcost.dsp}); BRAM18 "
         f"{cost.bram18} (default {dcost.bram18}); {res.evaluations} runs, {res.seconds:.1f} s"
     )
+    if fmax is not None:
+        f = figures["fmax"]
+        print(f"# Fmax ({f['stage']}, speed {f['speed']}) {f['optimised']:.1f} MHz (start "
+              f"{f['start']:.1f}; floor --fmax-min {args.fmax_min:g})")  # fmt: skip
     if args.margin:
         print(
             f"# tuned with margin {args.margin}: median_rel_range_diff <= {tuning.median:.4g}, "
@@ -599,6 +611,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "of the whole P1: a narrowing that does not lower it is not kept)")  # fmt: skip
     p.add_argument("--synth-target", choices=("xc7", "xcup", "ecp5", "ice40"), default="xcup",
                    help="Yosys target of --cost synth (default xcup)")  # fmt: skip
+    p.add_argument("--fmax-min", type=float, metavar="MHZ",
+                   help="P1: keep a narrowing only if the RTL still places and routes at "
+                   ">= MHZ (Yosys + nextpnr-ecp5, LFE5U-85F, one seed, cached; the start must "
+                   "meet it too)")  # fmt: skip
+    p.add_argument("--timing-stage", choices=("top", "frontend"), default="top",
+                   help="what --fmax-min times: all of P1 (default) or one front end")  # fmt: skip
+    p.add_argument("--timing-speed", type=int, choices=(6, 7, 8), default=6,
+                   help="ECP5 speed grade of --fmax-min (default 6)")  # fmt: skip
     p.add_argument(
         "--out", type=out_path, help="write optimised.toml, build-up plots and summary.json here"
     )
