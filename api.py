@@ -740,6 +740,9 @@ def optimise(
     workers: int = 2,
     cost: str = "proxy",
     synth_target: str = "xcup",
+    fmax_min: float | None = None,
+    timing_stage: str = "top",
+    timing_speed: int = 6,
     progress: bool = False,
     **design: Any,
 ) -> OptimiseReport:
@@ -764,6 +767,7 @@ def optimise(
     verify
         A held-out scene (``plane``, or a preset that is not a tuning scene).
     size, signals, tune_registers, workers, cost, synth_target, progress
+    fmax_min, timing_stage, timing_speed
         As ``rangefx optimise`` (:func:`rangefx.tools.studies.tuning.optimise_on_scenes`).
 
     Returns
@@ -781,6 +785,7 @@ def optimise(
         pipe, start, [scenes] if isinstance(scenes, str) else list(scenes), budget=budget,
         agreement=agreement, margin=margin, verify=verify, size=size, signals=signals,
         tune_registers=tune_registers, workers=workers, cost=cost, synth_target=synth_target,
+        fmax_min=fmax_min, timing_stage=timing_stage, timing_speed=timing_speed,
         progress=progress,
     )  # fmt: skip
 

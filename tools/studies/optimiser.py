@@ -46,6 +46,13 @@ tightened budget :meth:`Budget.tightened` — median ``<= median·(1 − M)`` an
 disagreement ``1 − agreement' <= (1 − agreement)·(1 − M)`` — so the result keeps a
 reserve for scenes it was not tuned on; the result is still reported against the
 user's budget. ``M = 0`` is the plain budget (the same object: same decisions).
+
+A clock-rate floor (:class:`FmaxConstraint`, ``rangefx optimise --fmax-min``): the start
+must meet it, and a narrowing that meets the budget is kept only if the narrowed
+config's measured Fmax (place and route, :func:`rangefx.tools.studies.timing.timing_record`)
+still does. It is measured once per narrowing that meets the budget, not per candidate
+(a place-and-route run costs as much as many model runs); every kept step and every
+step refused for its Fmax logs ``fmax_mhz``.
 """
 
 from __future__ import annotations
@@ -73,6 +80,7 @@ from .sweep import check_signals
 
 __all__ = [
     "Budget",
+    "FmaxConstraint",
     "OptimiseResult",
     "check_margin",
     "evaluate",
@@ -113,6 +121,25 @@ class Budget:
         return med <= self.median and agr >= self.agreement
 
 
+@dataclass(frozen=True)
+class FmaxConstraint:
+    """A floor on the clock rate of a config: ``measure(config)`` gives its Fmax in MHz
+    (``rangefx optimise --fmax-min``: :func:`rangefx.tools.studies.timing.timing_record`
+    on the first tuning scene's shape and mode), which must be ``>= minimum_mhz``."""
+
+    minimum_mhz: float
+    measure: Callable[[WordLengthConfig], float]
+
+    def __post_init__(self) -> None:
+        ok = isinstance(self.minimum_mhz, int | float) and not isinstance(self.minimum_mhz, bool)
+        if not (ok and 0 < self.minimum_mhz < math.inf):
+            raise ValueError(f"the Fmax floor must be a positive number of MHz, not "
+                             f"{self.minimum_mhz!r}")  # fmt: skip
+
+    def met(self, fmax_mhz: float) -> bool:
+        return math.isfinite(fmax_mhz) and fmax_mhz >= self.minimum_mhz
+
+
 def check_margin(margin: float) -> float:
     """``margin`` if it is a number in ``[0, 1)``; a one-line :class:`UserError` otherwise."""
     ok = isinstance(margin, int | float) and not isinstance(margin, bool)
@@ -145,6 +172,8 @@ class OptimiseResult:
     start_scene_figures: list[dict[str, Any]] = field(default_factory=list)
     scene_runs: list[int] = field(default_factory=list)
     tuning_budget: Budget | None = None
+    #: with an :class:`FmaxConstraint`: the measured Fmax (MHz) of the start and the result
+    fmax_mhz: dict[str, float] | None = None
 
 
 def worst_case(scene_figures: Sequence[dict[str, Any]]) -> dict[str, Any]:
@@ -252,6 +281,7 @@ def optimise(
     progress: bool = True,
     on_eval: Callable[[WordLengthConfig, list[dict | None]], None] | None = None,
     cost_fn: Callable[[WordLengthConfig], float] | None = None,
+    fmax: FmaxConstraint | None = None,
 ) -> OptimiseResult:
     """Cheapest config reachable from ``start`` meeting ``budget`` on every case.
 
@@ -267,6 +297,8 @@ def optimise(
     the Yosys LUT + FF of the whole P1): each signal's narrowing that meets the budget is
     kept only if it does not raise ``cost_fn`` (the step is then logged with
     ``"kept": False``); the signals are still visited in the order of the proxy weights.
+    ``fmax``: a clock-rate floor the start and every kept narrowing must meet (module
+    docstring); a start below it is a :class:`UserError`.
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise UserError(f"--workers must be a positive integer, not {workers!r}")
@@ -345,6 +377,14 @@ def optimise(
             f"{_label(cases[k], k)!r} (figures {start_figs[k]}); start from a wider config"
         )
     start_saturated = [set(f["saturated_registers"]) for f in start_figs if f is not None]
+    fmax_now = None
+    if fmax is not None:
+        fmax_now = start_fmax = fmax.measure(start)
+        if not fmax.met(start_fmax):
+            raise UserError(
+                f"the starting config {start.name!r} runs at {start_fmax:.1f} MHz, below "
+                f"--fmax-min {fmax.minimum_mhz:g}; start from a faster config or lower the floor"
+            )
     # Weights on every tuning scene; the first scene's cost is the one minimised.
     all_weights = [pipe.cost_weights(start, case.shape, case.mode) for case in cases]
     weights = all_weights[0]
@@ -410,6 +450,15 @@ def optimise(
                             steps.append(rejected)
                             bar.update(1)
                             continue
+                    if fmax is not None:
+                        new_fmax = fmax.measure(new)
+                        if not fmax.met(new_fmax):
+                            steps.append({"signal": name, "dim": dim, "from": old,
+                                          "to": str(new.formats[name]), "kept": False,
+                                          "fmax_mhz": new_fmax})  # fmt: skip
+                            bar.update(1)
+                            continue
+                        fmax_now = new_fmax
                     current, cur_figs = new, best_figs
                     worst = worst_case(cur_figs)
                     steps.append(
@@ -423,6 +472,8 @@ def optimise(
                     if cost_fn is not None:
                         steps[-1] |= {"kept": True, "cost_from": measured[0],
                                       "cost_to": measured[1]}  # fmt: skip
+                    if fmax is not None:
+                        steps[-1] |= {"kept": True, "fmax_mhz": fmax_now}
                 bar.update(1)
     finally:
         bar.close()
@@ -430,4 +481,5 @@ def optimise(
     return OptimiseResult(
         final, start, worst_case(cur_figs), worst_case(start_figs), n_evals,
         time.perf_counter() - t0, steps, list(cur_figs), list(start_figs), scene_runs, tuning,
+        None if fmax is None else {"start": start_fmax, "optimised": fmax_now},
     )  # fmt: skip

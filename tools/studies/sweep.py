@@ -119,7 +119,10 @@ METRIC_GROUPS: tuple[str, ...] = ("golden", "truth", "sqnr", "overflows")
 #: Metric groups a definition (or ``rangefx sweep --cost synth``) must ask for: ``synth``,
 #: the Yosys area of P1's RTL (:func:`rangefx.tools.studies.synth.synth_record`), which
 #: also makes ``synth_cost`` (LUT + FF) the cost axis of the Pareto fronts; ``timing``,
-#: the place-and-route Fmax of P1's RTL (:func:`rangefx.tools.studies.timing.timing_record`).
+#: the place-and-route Fmax of P1's RTL (:func:`rangefx.tools.studies.timing.timing_record`;
+#: what is timed: the ``[sweep]`` key ``timing``, a table of
+#: :class:`~rangefx.tools.studies.timing.TimingOptions` fields, e.g.
+#: ``timing = { stage = "frontend", speed = 8, seeds = 3 }``).
 OPTIONAL_METRICS: tuple[str, ...] = ("synth", "timing")
 PARAMS: tuple[str, ...] = (
     "frac",
@@ -229,6 +232,9 @@ class SweepDef:
     seed: int = 0
     pareto_metric: str = "median_rel_range_diff"
     pipeline: str = "p1"
+    #: the ``timing`` metrics' options (:class:`~rangefx.tools.studies.timing.TimingOptions`
+    #: fields; empty: the defaults, the whole P1 at speed 6, one seed)
+    timing: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         pipe = get_pipeline(self.pipeline)
@@ -250,6 +256,10 @@ class SweepDef:
             raise ValueError(
                 f"sweep: the {rtl[0]} metrics need RTL: only P1 has it, not {self.pipeline}"
             )
+        if self.timing:
+            if "timing" not in self.metrics:
+                raise ValueError("sweep: a 'timing' table needs the 'timing' metrics")
+            self.timing_options()  # its fields' errors now, not at the first point
         if self.combine not in COMBINES:
             raise ValueError(f"sweep: combine must be one of {COMBINES}, not {self.combine!r}")
         if not self.axes:
@@ -268,6 +278,17 @@ class SweepDef:
         """The cost axis of the Pareto fronts: ``synth_cost`` with the synth metrics, else
         the proxy's ``cost_bits``."""
         return "synth_cost" if "synth" in self.metrics else "cost_bits"
+
+    def timing_options(self):  # -> TimingOptions (imported on use: it loads the HDL glue)
+        """The :class:`~rangefx.tools.studies.timing.TimingOptions` of the ``timing``
+        metrics; an unknown or bad field is a ``ValueError``."""
+        from .timing import TimingOptions
+
+        try:
+            return TimingOptions(**dict(self.timing))
+        except TypeError:
+            known = ", ".join(TimingOptions.__dataclass_fields__)
+            raise ValueError(f"sweep: timing keys are {known}, not {dict(self.timing)}") from None
 
     @property
     def pipe(self) -> Pipeline:
@@ -358,7 +379,7 @@ def parse_sweep(text: str, where: str = "sweep definition", root: Path | None = 
     if not isinstance(head, Mapping):
         raise _err(where, "missing the [sweep] table")
     keys = {"name", "pipeline", "base", "variant", "scenes", "metrics", "combine", "size",
-            "seed", "pareto_metric"}  # fmt: skip
+            "seed", "pareto_metric", "timing"}  # fmt: skip
     if "buildup_hooks" in head:
         raise _err(
             where,
@@ -395,6 +416,9 @@ def parse_sweep(text: str, where: str = "sweep definition", root: Path | None = 
         raise _err(where, f"[sweep] base: {exc}") from None
     axes = tuple(_parse_axis(a, k, where, pipe, base) for k, a in enumerate(axes_raw))
     size = head.get("size")
+    timing = head.get("timing", {})
+    if not isinstance(timing, Mapping):
+        raise _err(where, f"[sweep] timing must be a table, not {timing!r}")
     try:
         return SweepDef(
             name=str(head.get("name", "sweep")),
@@ -407,6 +431,7 @@ def parse_sweep(text: str, where: str = "sweep definition", root: Path | None = 
             seed=int(head.get("seed", 0)),
             pareto_metric=str(head.get("pareto_metric", "median_rel_range_diff")),
             pipeline=pipe.name,
+            timing=tuple(sorted(timing.items())),
         )
     except (ValueError, TypeError) as exc:
         raise _err(where, str(exc)) from None
@@ -443,6 +468,7 @@ class Point:
             "size": list(defn.size) if defn.size else None,
             "seed": defn.seed,
             "metrics": list(defn.metrics),
+            "timing": dict(defn.timing),
             "config": self.config.to_toml() if self.config is not None else None,
             "error": self.error,
             "threads": threads,
@@ -520,6 +546,8 @@ def expand(defn: SweepDef, max_points: int = MAX_POINTS) -> list[Point]:
         for scene in defn.scenes:
             toml = config.to_toml() if config is not None else None
             extra = "" if config is not None else json.dumps(labels)
+            if defn.timing:  # what is timed changes a timing point's result
+                extra += json.dumps(sorted(defn.timing))
             key = point_key(defn.pipeline, toml, scene, defn.size, defn.seed, defn.metrics, extra)
             points.append(Point(key, scene, config, labels, error))
     return points
@@ -591,9 +619,10 @@ def evaluate_point(spec: Mapping[str, Any]) -> dict[str, Any]:
 
         rec.update(synth_record(config, case.shape, case.mode))
     if "timing" in metrics:
-        from .timing import timing_record
+        from .timing import TimingOptions, timing_record
 
-        rec.update(timing_record(config, case.shape, case.mode))
+        options = TimingOptions(**spec.get("timing", {}))
+        rec.update(timing_record(config, case.shape, case.mode, options))
     rec["seconds"] = time.perf_counter() - t0
     return _finite(rec)
 
@@ -903,6 +932,9 @@ _POINT_FIELDS = (
     "synth_carry",
     "synth_dsp",
     "synth_bram",
+    "fmax_mhz",
+    "critical_logic_ns",
+    "critical_routing_ns",
     "median_rel_range_diff",
     "p95_rel_range_diff",
     "valid_agreement",

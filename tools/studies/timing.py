@@ -57,8 +57,10 @@ __all__ = [
     "STAGES",
     "CriticalPath",
     "SeedTiming",
+    "TimingOptions",
     "TimingResult",
     "cache_dir",
+    "fmax_floor",
     "frontend_wrapper",
     "nextpnr_command",
     "parse_nextpnr_report",
@@ -492,15 +494,81 @@ def _store(path: Path, data: Mapping) -> None:
     tmp.replace(path)
 
 
+@dataclass(frozen=True)
+class TimingOptions:
+    """What a study times (``rangefx sweep`` ``timing`` table, ``rangefx optimise
+    --fmax-min``): the ``stage`` (``top``: the whole P1; ``frontend``: one stream's front
+    end, a small design for quick checks), the device, package and speed grade, and the
+    nextpnr seeds whose median Fmax is taken (:func:`time_p1`)."""
+
+    stage: str = "top"
+    speed: int = 6
+    seeds: int = 1
+    device: str = "85k"
+    package: str = "CABGA381"
+
+    def __post_init__(self) -> None:
+        if self.stage not in STAGES:
+            raise ValueError(f"timing stage must be one of {', '.join(STAGES)}, not {self.stage!r}")
+        if self.device not in DEVICES:
+            raise ValueError(f"timing device must be one of {', '.join(DEVICES)}, not "
+                             f"{self.device!r}")  # fmt: skip
+        dev = DEVICES[self.device]
+        if self.package not in dev.packages:
+            raise ValueError(f"timing package {self.package!r} is not one of the {self.device} "
+                             f"device's: {', '.join(dev.packages)}")  # fmt: skip
+        if isinstance(self.speed, bool) or self.speed not in dev.speeds:
+            raise ValueError(f"timing speed grade must be one of {dev.speeds}, not {self.speed!r}")
+        if isinstance(self.seeds, bool) or not isinstance(self.seeds, int) or self.seeds < 1:
+            raise ValueError(f"timing seeds must be a positive integer, not {self.seeds!r}")
+
+    def as_dict(self) -> dict[str, int | str]:
+        return asdict(self)
+
+
 def timing_record(
-    config: P1Config, shape: tuple[int, int], mode: str, speed: int = 6, seeds: int = 1
+    config: P1Config,
+    shape: tuple[int, int],
+    mode: str,
+    options: TimingOptions | None = None,
 ) -> dict[str, float]:
-    """A sweep point's timing figures (``rangefx sweep`` metric ``timing``; the whole P1 on
-    the default device, :func:`time_p1`): ``fmax_mhz`` (the clock's median over ``seeds``)
-    and the critical path's ``critical_logic_ns`` and ``critical_routing_ns``."""
-    r = time_p1(config, speed=speed, seeds=seeds, shape=shape, mode=mode)
+    """A study's timing figures of one config (``rangefx sweep`` metric ``timing``,
+    ``rangefx optimise --fmax-min``; :func:`time_p1` with ``options``, default: the whole
+    P1 on an LFE5U-85F speed 6, one seed): ``fmax_mhz`` (the clock's median over the
+    seeds) and the critical path's ``critical_logic_ns`` and ``critical_routing_ns``."""
+    o = options or TimingOptions()
+    r = time_p1(config, device=o.device, package=o.package, speed=o.speed, seeds=o.seeds,
+                shape=shape, mode=mode, stage=o.stage)  # fmt: skip
     clock = next(iter(r.fmax_mhz))
     path = r.critical_path.get(clock)
     return {"fmax_mhz": r.fmax_mhz[clock],
             "critical_logic_ns": path.logic_ns if path else float("nan"),
             "critical_routing_ns": path.routing_ns if path else float("nan")}  # fmt: skip
+
+
+def fmax_floor(
+    minimum_mhz: float,
+    shape: tuple[int, int],
+    mode: str,
+    options: TimingOptions | None = None,
+    pipeline: str = "p1",
+):  # -> rangefx.tools.studies.optimiser.FmaxConstraint
+    """The optimiser's clock-rate floor (``rangefx optimise --fmax-min``): each config's
+    Fmax is :func:`timing_record`'s on ``shape`` and ``mode`` with ``options`` (cached per
+    design and seed, so a config met twice is placed once). A pipeline without RTL, a
+    floor that is not a positive number, or a missing tool is a :class:`UserError` now,
+    before any run."""
+    from .optimiser import FmaxConstraint
+
+    if pipeline != "p1":
+        raise UserError(f"--fmax-min: only P1 has RTL in hdl/, not {pipeline}")
+    yosys_command(), nextpnr_command()  # one error line now if a tool is missing
+    opts = options or TimingOptions()
+
+    def measure(config) -> float:
+        return timing_record(config, shape, mode, opts)["fmax_mhz"]
+
+    try:
+        return FmaxConstraint(minimum_mhz, measure)
+    except ValueError as exc:
+        raise UserError(f"--fmax-min: {exc}") from None

@@ -171,6 +171,9 @@ def optimise_on_scenes(
     workers: int = 2,
     cost: str = "proxy",
     synth_target: str = "xcup",
+    fmax_min: float | None = None,
+    timing_stage: str = "top",
+    timing_speed: int = 6,
     progress: bool = True,
 ) -> OptimiseReport:
     """The cheapest config of ``pipeline`` reachable from ``start`` that meets the budget
@@ -198,6 +201,11 @@ def optimise_on_scenes(
     cost, synth_target
         ``"proxy"`` minimises ``cost_bits``; ``"synth"`` the Yosys LUT + FF of the whole
         P1 on ``synth_target``.
+    fmax_min, timing_stage, timing_speed
+        P1: keep a narrowing only if the RTL (``timing_stage`` ``"top"`` or
+        ``"frontend"``) still places and routes at ``>= fmax_min`` MHz on an LFE5U-85F of
+        speed grade ``timing_speed`` (:func:`rangefx.tools.studies.timing.fmax_floor`;
+        the start must meet it too). None: no clock-rate floor.
 
     Raises
     ------
@@ -230,10 +238,16 @@ def optimise_on_scenes(
     cases = [tuning_case(pipe, name, size, "--scene") for name in scenes]
     vcase = tuning_case(pipe, verify, size, "--verify") if verify else None
     synth_cost = _synth_cost(pipe, synth_target, cases[0]) if cost == "synth" else None
+    fmax = timing = None
+    if fmax_min is not None:
+        from .timing import TimingOptions, fmax_floor
+
+        timing = TimingOptions(stage=timing_stage, speed=timing_speed)
+        fmax = fmax_floor(fmax_min, cases[0].shape, cases[0].mode, timing, pipe.name)
     res = optimise(
         cases, start, user_budget, pipeline=pipe, margin=margin, signals=signals,
         tune_registers=tune_registers, workers=workers, progress=progress,
-        cost_fn=synth_cost,
+        cost_fn=synth_cost, fmax=fmax,
     )  # fmt: skip
     figures = _report_figures(pipe, res, start, default, scenes, cases, user_budget, tuning,
                               margin, tune_registers)  # fmt: skip
@@ -244,6 +258,8 @@ def optimise_on_scenes(
             **{k: synth_cost(c) for k, c in (("start", start), ("default", default),
                                              ("optimised", res.config))},
         }  # fmt: skip
+    if fmax is not None:
+        figures["fmax"] = {"minimum_mhz": fmax_min, **timing.as_dict(), **res.fmax_mhz}
     if vcase is not None:
         figures["verify"] = _verify_figures(pipe, res.config, default, verify, vcase, user_budget)
     return OptimiseReport(pipe, res, cases[0], figures)
