@@ -195,7 +195,9 @@ def _redeliver(signum: int, install: int) -> None:
     """The signal again, to the main thread: a real one (``pthread_kill``), which also
     wakes a main thread asleep in a wait, as the first did (``_thread.interrupt_main``
     only flags it for the next bytecode)."""
-    if _installs[0] == install:
+    # only while rangefx's handler is the one in place: a SIGTERM after restore() would
+    # end the (test) process
+    if _installs[0] == install and signal.getsignal(signum) is _on_signal:
         signal.pthread_kill(threading.main_thread().ident, signum)
 
 
