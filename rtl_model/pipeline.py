@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import abc
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
@@ -292,6 +292,11 @@ class Pipeline(abc.ABC):
         :attr:`buildup_axes` says what each index counts. None by default."""
         return {}
 
+    #: The model function the default :meth:`simulate` calls, as a ``staticmethod``:
+    #: ``run_model(image1, image2, camera, motion, config, settings, *, timing, taps,
+    #: threads, log) -> PipelineResult``.
+    run_model: ClassVar[Callable[..., PipelineResult] | None] = None
+
     #: Build-up profile name -> what its index counts (the plot's x label).
     buildup_axes: ClassVar[dict[str, str]] = {}
 
@@ -354,7 +359,6 @@ class Pipeline(abc.ABC):
         self.check_mode(case)
         return self.simulate(case, config, timing or TimingConfig(), taps, threads, log)
 
-    @abc.abstractmethod
     def simulate(
         self,
         case: Case,
@@ -364,7 +368,15 @@ class Pipeline(abc.ABC):
         threads: int,
         log: bool = True,
     ) -> PipelineResult:
-        """The model itself, on checked arguments (:meth:`run` is the public entry)."""
+        """The model itself, on checked arguments (:meth:`run` is the public entry): by
+        default :attr:`run_model` on the case's images, camera and motion and this
+        pipeline's settings (a pipeline whose model takes more overrides this)."""
+        if self.run_model is None:
+            raise NotImplementedError(f"pipeline {self.name} has neither run_model nor simulate")
+        return self.run_model(
+            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
+            timing=timing, taps=taps, threads=threads, log=log,
+        )  # fmt: skip
 
     def golden(
         self, case: Case, config: WordLengthConfig | None = None, *, taps: bool = False

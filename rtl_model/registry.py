@@ -16,7 +16,7 @@ from .p2.pipeline import P2Pipeline
 from .p3.pipeline import P3Pipeline
 from .pipeline import Pipeline
 
-__all__ = ["PIPELINES", "get_pipeline", "register_pipeline", "unregister_pipeline"]
+__all__ = ["BUILTIN", "PIPELINES", "get_pipeline", "register_pipeline", "unregister_pipeline"]
 
 _REGISTERED: dict[str, Pipeline] = {p.name: p for p in (P1Pipeline(), P2Pipeline(), P3Pipeline())}
 #: Pipeline name -> its one instance (read-only: :func:`register_pipeline` adds one).

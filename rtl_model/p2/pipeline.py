@@ -35,6 +35,7 @@ class P2Pipeline(Pipeline):
     settings_type: ClassVar[type] = RiccatiConfig
     case_options: ClassVar[tuple[str, ...]] = ("threshold_e", "range_max")
     buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
+    run_model = staticmethod(model.run_p2)
     sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p2_lab.toml",)
 
     @property
@@ -46,20 +47,6 @@ class P2Pipeline(Pipeline):
             used = {taps.TAP_SIGNALS[t] for t, s in taps.TAP_STAGE.items() if s == stage}
             groups[stage] = tuple(s for s in P2Config.signals() if s in used)
         return groups
-
-    def simulate(
-        self,
-        case: Case,
-        config: WordLengthConfig,
-        timing: TimingConfig,
-        taps: bool,
-        threads: int,
-        log: bool = True,
-    ) -> PipelineResult:
-        return model.run_p2(
-            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
-            timing=timing, taps=taps, threads=threads, log=log,
-        )  # fmt: skip
 
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         result = range_g5(case.image1, case.image2, case.camera, case.motion, self.settings(case))

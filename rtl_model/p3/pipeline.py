@@ -36,6 +36,7 @@ class P3Pipeline(Pipeline):
     settings_type: ClassVar[type] = RangingConfig
     case_options: ClassVar[tuple[str, ...]] = ("range_max",)
     buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
+    run_model = staticmethod(model.run_p3)
     sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p3_lab.toml",)
 
     @property
@@ -46,20 +47,6 @@ class P3Pipeline(Pipeline):
         groups["window"] = ("p3_rgg", "p3_rge", "p3_ree", "p3_sgg", "p3_sge", "p3_see")
         groups["estimate"] = ("p3_du", "p3_u")
         return groups
-
-    def simulate(
-        self,
-        case: Case,
-        config: WordLengthConfig,
-        timing: TimingConfig,
-        taps: bool,
-        threads: int,
-        log: bool = True,
-    ) -> PipelineResult:
-        return model.run_p3(
-            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
-            timing=timing, taps=taps, threads=threads, log=log,
-        )  # fmt: skip
 
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         ms = config.multiscale()
