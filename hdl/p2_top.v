@@ -485,8 +485,9 @@ module p2_top #(
     // ---- the forward engine -----------------------------------------------------------
     // t: the sweep-buffer read (column WIDTH-1: none, zeros); the e operand of the lane
     localparam integer FTAGW = 3 + LW + XW + 1;
-    reg [SB_W-1:0] fr1;
+    reg [SB_W-1:0] fr1_ram;          // the block RAM's registered read
     reg [FTAGW-1:0] ftag1;
+    wire [SB_W-1:0] fr1 = ftag1[FTAGW-2] ? {SB_W{1'b0}} : fr1_ram;
     reg [E_W-1:0] e_state [0:LANES-1];
     reg [E_W-1:0] e_op;
     wire f_zero = (fk == WIDTH - 1);
@@ -496,7 +497,7 @@ module p2_top #(
     reg [FTAGW-1:0] ftag4;
     wire e_byp = ftag4[FTAGW-1] && (ftag4[XW+1 +: LW] == fph[LW-1:0]);
     always @(posedge clk) begin
-        fr1 <= f_zero ? {SB_W{1'b0}} : sb[(fb * LANES + fph[LW-1:0]) * WIDTH + fk];
+        fr1_ram <= sb[(fb * LANES + fph[LW-1:0]) * WIDTH + fk];
         ftag1 <= rst ? {FTAGW{1'b0}} : ftag_t;
         e_op <= (fk == 0) ? {E_W{1'b0}} : (e_byp ? e_new : e_state[fph[LW-1:0]]);
     end
