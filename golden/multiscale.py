@@ -177,7 +177,7 @@ class MultiscaleConfig:
     warps: int = 2
     sigma: float = 2.0
     radius: int = 4
-    threshold_g: float = 2.0
+    threshold_g: float = 1.0
     threshold_r: float = 25.0
     coarse_px: float = 1.0
     max_disparity: float | None = None

@@ -346,7 +346,8 @@ def test_outputs_written(tmp_path, pipeline):
         return
     if pipeline == "p3":
         base = outcome.records[expand(defn)[0].key]
-        assert base["taps"]["ax"] == {"sqnr_db": None, "max_abs_err": 0.0}  # E1x is exact
+        # E1x of the normalised level: p3_norm's rounding (61 dB measured), not exact
+        assert base["taps"]["ax"]["sqnr_db"] > 50 and "e1.norm" in base["taps"]
         assert base["taps"]["u1"]["sqnr_db"] > 30 and base["taps"]["sgg1"]["sqnr_db"] > 30
         # narrowing the window sums by 4 fraction bits saves line-buffer bits
         grp = next(p for p in outcome.points if p.labels == (("window.frac_delta", -4),))
