@@ -143,3 +143,24 @@ def test_the_headline_is_the_whole_top_without_its_probes(monkeypatch, tmp_path,
     assert r["probes"]["ff"] >= 2 * 32
     assert r["stages"] == {}  # --stage top: no breakdown
     assert r["proxy_ratio"]["ff"] == round(r["proxy"]["register_bits"] / r["ff"], 3)
+
+
+@pytest.mark.parametrize("command", ["synth", "timing"])
+def test_hdl_synth_and_timing_take_the_filter_form_and_pole(command, monkeypatch):
+    """The filters' structure is hardware: ``--filter-form``/``--pole`` reach the config
+    that is synthesised or timed."""
+    from rangefx.tools.cli import hdl
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def capture(config, *args, **kwargs):
+        seen.append((config.filter_form, config.pole))
+        raise Stop
+
+    monkeypatch.setattr(hdl, "synth_p1" if command == "synth" else "time_p1", capture)
+    with pytest.raises(Stop):
+        main(["hdl", command, "--filter-form", "direct", "--pole", "0.375", "--json"])
+    assert seen == [("direct", 0.375)]
