@@ -405,10 +405,15 @@ def cmd_optimise(args: argparse.Namespace) -> int:
     synth_cost = _synth_cost(pipe, args, cases[0]) if args.cost == "synth" else None
     fmax = None
     if args.fmax_min is not None:
-        from ..studies.timing import TimingOptions, fmax_floor
+        from ..studies.optimiser import FmaxConstraint
+        from ..studies.timing import TimingOptions, fmax_measure
 
         timing = TimingOptions(stage=args.timing_stage, speed=args.timing_speed)
-        fmax = fmax_floor(args.fmax_min, cases[0].shape, cases[0].mode, timing, pipe.name)
+        measure = fmax_measure(cases[0].shape, cases[0].mode, timing, pipe.name)
+        try:
+            fmax = FmaxConstraint(args.fmax_min, measure)
+        except ValueError as exc:
+            raise UserError(f"--fmax-min: {exc}") from None
     res = optimise(
         cases, start, budget, pipeline=pipe, margin=args.margin, signals=args.signals,
         tune_registers=args.tune_registers, workers=args.workers, progress=not args.json,
