@@ -143,3 +143,97 @@ def test_the_headline_is_the_whole_top_without_its_probes(monkeypatch, tmp_path,
     assert r["probes"]["ff"] >= 2 * 32
     assert r["stages"] == {}  # --stage top: no breakdown
     assert r["proxy_ratio"]["ff"] == round(r["proxy"]["register_bits"] / r["ff"], 3)
+
+
+# ------------------------------------------------ the proxy calibrated to the whole top
+def _linear_synth(coef: dict[str, dict[str, tuple[float, float]]]):
+    """A stand-in for Yosys whose areas are exact straight lines in the proxy's terms."""
+    from rangefx.rtl_model.p1.cost import AREA_FEATURES, config_cost
+
+    def synth(config, target, shape, mode):
+        terms = config_cost(config, shape, mode).as_dict()
+        return {cls: round(coef[target][cls][0] * terms[t] + coef[target][cls][1])
+                for cls, t in AREA_FEATURES.items()}  # fmt: skip
+
+    return synth
+
+
+def test_the_calibration_recovers_the_lines_it_is_fitted_to_and_scores_held_out_configs():
+    from rangefx.tools.studies import calibrate as cal
+
+    truth = {"xcup": {"lut": (4.0, 800.0), "ff": (5.0, 700.0), "dsp": (1.5, 0.0),
+                      "bram": (1.0, 0.0)},
+             "ecp5": {"lut": (3.0, 900.0), "ff": (10.0, 0.0), "dsp": (1.5, 3.0),
+                      "bram": (1.0, 3.0)}}  # fmt: skip
+    r = cal.calibrate(("xcup", "ecp5"), (64, 64), synth=_linear_synth(truth))
+    for target, lines in truth.items():
+        for cls, (slope, intercept) in lines.items():
+            got = r["coefficients"][target][cls]
+            assert got == pytest.approx([slope, intercept], rel=1e-3, abs=0.6), (target, cls)
+        rows = r["configs"][target]
+        assert {n for n, row in rows.items() if not row["fit"]} == set(cal.HELD_OUT_CONFIGS)
+        for row in rows.values():  # the lines are exact: every estimate within rounding
+            assert all(v == pytest.approx(1.0, abs=0.01) for v in row["after"].values())
+        default = rows["default"]
+        assert default["before"]["ff"] == round(
+            default["proxy"]["register_bits"] / default["synth"]["ff"], 3
+        )
+
+
+def test_recalibration_is_one_command_that_writes_the_file_the_proxy_reads(
+    monkeypatch, tmp_path, capsys
+):
+    from rangefx.rtl_model.p1 import cost
+    from rangefx.tools.studies import calibrate as cal
+
+    truth = {t: {"lut": (4.0, 800.0), "ff": (5.0, 700.0), "dsp": (1.5, 0.0), "bram": (1.0, 3.0)}
+             for t in cal.TARGETS}  # fmt: skip
+    written = tmp_path / "synth_calibration.toml"
+    monkeypatch.setattr(cal, "CALIBRATION_FILE", written)
+    monkeypatch.setattr(cal, "yosys_version", lambda: "Yosys 0.23 (stand-in)")
+    monkeypatch.setattr(cal, "_synth", _linear_synth(truth))
+    assert cal.main(["--write", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    loaded = cost.load_area_calibration(written)
+    assert loaded["meta"]["fit_configs"] == list(cal.FIT_CONFIGS)
+    assert loaded["meta"]["rtl_sha256"] == out["rtl_sha256"] == cal.rtl_identity()["rtl_sha256"]
+    for target in cal.TARGETS:
+        assert loaded["targets"][target] == out["coefficients"][target]
+    est = cost.estimated_area(P1Config.default(), (512, 512), "stereo", "ecp5", loaded)
+    terms = cost.config_cost(P1Config.default(), (512, 512), "stereo").as_dict()
+    assert est["ff"] == pytest.approx(5.0 * terms["register_bits"] + 700.0, abs=1)
+    with pytest.raises(ValueError, match="no area calibration for target 'ice40'"):
+        cost.estimated_area(P1Config.default(), (64, 64), "stereo", "ice40", loaded)
+
+
+def test_the_shipped_calibration_covers_the_targets_and_estimates_the_default():
+    from rangefx.rtl_model.p1 import cost
+    from rangefx.tools.studies import calibrate as cal
+
+    shipped = cost.load_area_calibration()
+    assert set(shipped["targets"]) == set(cal.TARGETS)
+    assert shipped["meta"]["fit_configs"] == list(cal.FIT_CONFIGS)
+    for target in cal.TARGETS:
+        est = cost.estimated_area(P1Config.default(), (512, 512), "stereo", target)
+        assert all(v > 0 for v in est.values()), (target, est)
+
+
+@pytest.mark.parametrize("command", ["synth", "timing"])
+def test_hdl_synth_and_timing_take_the_filter_form_and_pole(command, monkeypatch):
+    """The filters' structure is hardware: ``--filter-form``/``--pole`` reach the config
+    that is synthesised or timed."""
+    from rangefx.tools.cli import hdl
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def capture(config, *args, **kwargs):
+        seen.append((config.filter_form, config.pole))
+        raise Stop
+
+    monkeypatch.setattr(hdl, "synth_p1" if command == "synth" else "time_p1", capture)
+    with pytest.raises(Stop):
+        main(["hdl", command, "--filter-form", "direct", "--pole", "0.375", "--json"])
+    assert seen == [("direct", 0.375)]

@@ -36,16 +36,45 @@ DSP slices
 ``cost_bits``
     The scalar the optimiser minimises: register bits + line-buffer bits + frame-store
     bits.
+Calibrated area (:func:`estimated_area`)
+    LUT, FF, DSP and BRAM of the whole ``p1_top`` as Yosys synthesises it, each a
+    straight line ``slope * term + intercept`` of one proxy term (:data:`AREA_FEATURES`),
+    fitted per target by ``python -m rangefx.tools.studies.calibrate --write`` and stored
+    in :data:`CALIBRATION_FILE` with the commit and hash of the RTL it was fitted to.
 """
 
 from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
 
 from ..cost import CostReport, Multiplier, bram18_blocks, reciprocal_multipliers, sum_bits
 from ..cost import operand_bits as _bits
 from .config import P1Config
 from .model import buffer_bits, frame_store_word, line_buffer_words
 
-__all__ = ["REGISTER_INSTANCES", "config_cost", "multipliers", "register_bits"]
+__all__ = [
+    "AREA_FEATURES",
+    "CALIBRATION_FILE",
+    "REGISTER_INSTANCES",
+    "config_cost",
+    "estimated_area",
+    "load_area_calibration",
+    "multipliers",
+    "register_bits",
+]
+
+#: Area class of the synthesis -> the proxy term (:class:`CostReport` key) it is fitted on.
+AREA_FEATURES: dict[str, str] = {
+    "lut": "register_bits",
+    "ff": "register_bits",
+    "dsp": "dsp",
+    "bram": "bram18",
+}
+#: The fitted coefficients (written by ``python -m rangefx.tools.studies.calibrate``).
+CALIBRATION_FILE = Path(__file__).with_name("synth_calibration.toml")
 
 #: Signal -> (instances per stream, instances in the range stage + host registers).
 REGISTER_INSTANCES: dict[str, tuple[int, int]] = {
@@ -177,3 +206,37 @@ def config_cost(config: P1Config, shape: tuple[int, int], mode: str = "stereo") 
         bram18=bram,
         dsp=sum(mul.dsp for mul in multipliers(config, mode)),
     )
+
+
+def load_area_calibration(path: str | Path | None = None) -> dict[str, Any]:
+    """The calibration file (default :data:`CALIBRATION_FILE`): ``meta`` (the RTL's commit
+    and hash, Yosys, the configs fitted on) and ``targets`` {target: {class: [slope,
+    intercept]}}."""
+    with open(path or CALIBRATION_FILE, "rb") as fh:
+        return tomllib.load(fh)
+
+
+def estimated_area(
+    config: P1Config,
+    shape: tuple[int, int],
+    mode: str = "stereo",
+    target: str = "xcup",
+    calibration: Mapping[str, Any] | None = None,
+) -> dict[str, int]:
+    """LUT, FF, DSP and BRAM of the whole ``p1_top`` estimated from the proxy
+    (:func:`config_cost`) with the calibration of ``target`` (default: the shipped
+    :data:`CALIBRATION_FILE`); each class ``round(max(0, slope * term + intercept))``.
+
+    Raises
+    ------
+    ValueError
+        No calibration for ``target``.
+    """
+    cal = calibration if calibration is not None else load_area_calibration()
+    coef = cal.get("targets", {}).get(target)
+    if coef is None:
+        known = ", ".join(cal.get("targets", {})) or "none"
+        raise ValueError(f"no area calibration for target {target!r} (calibrated: {known})")
+    terms = config_cost(config, shape, mode).as_dict()
+    return {cls: max(0, round(coef[cls][0] * terms[term] + coef[cls][1]))
+            for cls, term in AREA_FEATURES.items()}  # fmt: skip

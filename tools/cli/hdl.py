@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from rangefx.rtl_model.p1.config import FILTER_FORMS
 from rangefx.rtl_model.registry import get_pipeline
 from rangefx.vectors.replay import SIMULATORS
 
@@ -31,6 +32,7 @@ from ..studies.timing import TARGETS as TIMING_TARGETS
 from .options import add_design_args, design_from_args, int_at_least, pipeline_from_args
 
 __all__ = [
+    "add_filter_args",
     "add_parser",
     "add_replay_parser",
     "add_synth_parser",
@@ -146,10 +148,20 @@ def cmd_synth(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_filter_args(p) -> None:
+    """``--filter-form`` and ``--pole``: the filters' structure is hardware (the direct
+    form holds a multiplier per filter, the shift form wires the pole 2^-k)."""
+    p.add_argument("--filter-form", choices=FILTER_FORMS,
+                   help="P1 filters: multiply by the pole register, or shift by k for a pole "
+                   "2^-k (default: the config's, shift)")  # fmt: skip
+    p.add_argument("--pole", type=float, help="filter pole (default: the config's, 0.5)")
+
+
 def add_synth_parser(hs) -> None:
     """``hdl synth``: added to the ``hdl`` group's subparsers ``hs``."""
     s = hs.add_parser("synth", help="Yosys area of the whole P1 RTL, its probes and its stages")
     add_design_args(s, estimator=False)
+    add_filter_args(s)
     s.add_argument("--target", choices=tuple(TARGETS), default="xcup",
                    help="Yosys flow: synth_xilinx -family xc7|xcup, synth_ecp5, synth_ice40 "
                    "(default xcup)")  # fmt: skip
@@ -215,6 +227,7 @@ def add_timing_parser(hs) -> None:
                       "of the P1 RTL (Yosys + nextpnr)")  # fmt: skip
     t.add_argument("--pipeline", default="p1", help="pipeline with RTL in hdl/ (p1)")
     add_design_args(t, estimator=False)
+    add_filter_args(t)
     t.add_argument("--target", choices=tuple(TIMING_TARGETS), default="ecp5",
                    help="FPGA family: ecp5 (Yosys synth_ecp5, nextpnr-ecp5)")  # fmt: skip
     t.add_argument("--device", choices=tuple(DEVICES), default="85k",

@@ -35,7 +35,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -60,7 +60,7 @@ __all__ = [
     "TimingOptions",
     "TimingResult",
     "cache_dir",
-    "fmax_floor",
+    "fmax_measure",
     "frontend_wrapper",
     "nextpnr_command",
     "parse_nextpnr_report",
@@ -546,29 +546,23 @@ def timing_record(
             "critical_routing_ns": path.routing_ns if path else float("nan")}  # fmt: skip
 
 
-def fmax_floor(
-    minimum_mhz: float,
+def fmax_measure(
     shape: tuple[int, int],
     mode: str,
     options: TimingOptions | None = None,
     pipeline: str = "p1",
-):  # -> rangefx.tools.studies.optimiser.FmaxConstraint
-    """The optimiser's clock-rate floor (``rangefx optimise --fmax-min``): each config's
-    Fmax is :func:`timing_record`'s on ``shape`` and ``mode`` with ``options`` (cached per
-    design and seed, so a config met twice is placed once). A pipeline without RTL, a
-    floor that is not a positive number, or a missing tool is a :class:`UserError` now,
-    before any run."""
-    from .optimiser import FmaxConstraint
-
+) -> Callable[[P1Config], float]:
+    """The Fmax of a config for the optimiser's clock-rate floor (``rangefx optimise
+    --fmax-min``, :class:`rangefx.tools.studies.optimiser.FmaxConstraint`):
+    :func:`timing_record`'s on ``shape`` and ``mode`` with ``options`` (cached per design
+    and seed, so a config met twice is placed once). A pipeline without RTL or a missing
+    tool is a :class:`UserError` now, before any run."""
     if pipeline != "p1":
         raise UserError(f"--fmax-min: only P1 has RTL in hdl/, not {pipeline}")
     yosys_command(), nextpnr_command()  # one error line now if a tool is missing
     opts = options or TimingOptions()
 
-    def measure(config) -> float:
+    def measure(config: P1Config) -> float:
         return timing_record(config, shape, mode, opts)["fmax_mhz"]
 
-    try:
-        return FmaxConstraint(minimum_mhz, measure)
-    except ValueError as exc:
-        raise UserError(f"--fmax-min: {exc}") from None
+    return measure

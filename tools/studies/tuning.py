@@ -240,10 +240,15 @@ def optimise_on_scenes(
     synth_cost = _synth_cost(pipe, synth_target, cases[0]) if cost == "synth" else None
     fmax = timing = None
     if fmax_min is not None:
-        from .timing import TimingOptions, fmax_floor
+        from .optimiser import FmaxConstraint
+        from .timing import TimingOptions, fmax_measure
 
         timing = TimingOptions(stage=timing_stage, speed=timing_speed)
-        fmax = fmax_floor(fmax_min, cases[0].shape, cases[0].mode, timing, pipe.name)
+        measure = fmax_measure(cases[0].shape, cases[0].mode, timing, pipe.name)
+        try:
+            fmax = FmaxConstraint(fmax_min, measure)
+        except ValueError as exc:
+            raise UserError(f"--fmax-min: {exc}") from None
     res = optimise(
         cases, start, user_budget, pipeline=pipe, margin=margin, signals=signals,
         tune_registers=tune_registers, workers=workers, progress=progress,
