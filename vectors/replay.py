@@ -11,6 +11,11 @@ plus the declared latency) and the first mismatch; the AXI4-Stream output agains
 ``valid`` and ``range`` taps, word for word and cycle for cycle; the overflow counters
 against the manifest's counts.
 
+A P2 directory (the manifest's pipeline) runs ``hdl/p2_top.v`` with its plain Verilog
+bench ``hdl/tb_p2_top.v`` under Icarus or Verilator (:func:`simulate` dispatches); every
+tap is compared in cycle order (P2's lanes leave interleaved, one sample per cycle per
+tap), the AXI4-Stream output with one TLAST per lane group (docs/hdl.md, "P2").
+
 Before a run, every file of the directory the replay reads (the streams, the taps, the
 reciprocal ROM) is checked against the manifest's size and SHA-256 (:func:`verify_files`):
 both simulators read the same stimulus, the ``.stream.mem`` files. A failed build or
