@@ -215,8 +215,12 @@ def test_generate_vectors_never_replaces_a_users_directory(tmp_path):
 def test_replay_a_p1_directory_in_a_simulator(tmp_path, monkeypatch):
     pytest.importorskip("cocotb")
     vec = api.generate_vectors("lab", tmp_path / "vec", crop=CROP).out
+    hdl = Path(rangefx.__file__).parent / "hdl"
+    before = {p: p.stat().st_mtime_ns for p in hdl.rglob("*")}
     result = api.replay(vec, "icarus", dump=tmp_path / "dump")
     assert result.ok and result.to_dict()["value_mismatches"] == 0
+    # the simulator's files stay in its work directory, never beside the package's RTL
+    assert {p: p.stat().st_mtime_ns for p in hdl.rglob("*")} == before
     assert (tmp_path / "dump" / "status.json").is_file()
     assert json.loads(result.write(tmp_path / "rep").read_text()) == result.to_dict()
     p3 = api.generate_vectors("lab", tmp_path / "p3", crop=CROP, pipeline="p3").out

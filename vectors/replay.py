@@ -209,6 +209,9 @@ def _run_cocotb(
             build_dir=build,
             extra_env=env,
             log_file=work / "sim.log",
+            # in the work directory: cocotb's default is beside the bench, in hdl/ (named
+            # after a pytest test when run under pytest), inside the installed package
+            results_xml=str(work / "results.xml"),
         )
     except (RuntimeError, SystemExit):  # cocotb's runner exits when a test fails
         raise ValueError(f"the {sim} simulation failed: {_log_tail(work / 'sim.log')}") from None
