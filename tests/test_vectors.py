@@ -24,6 +24,7 @@ from rangefx.rtl_model.p1 import FRONTEND_TAPS, RANGE_TAPS
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.rtl_model.p1.taps import TAP_SIGNALS, tap_format
 from rangefx.rtl_model.pipeline import Case
+from rangefx.rtl_model.registry import PIPELINES
 from rangefx.tools.cli import main
 from rangefx.tools.studies.cases import scene_case
 from rangefx.vectors import formats as fio
@@ -291,6 +292,21 @@ def test_diff_finds_a_cycles_only_shift_of_a_csv_dump(tmp_path, vec, capsys, tap
     # a .mem dump holds values only: the same samples compare equal, no cycle verdict
     r = diff_dump(vec, vec / f"{tap}.mem")
     assert r.ok and r.cycle_mismatches is None
+
+
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_every_pipelines_csv_taps_diff_clean_and_a_late_range_is_caught(tmp_path, pipeline):
+    """Each pipeline's own .csv taps carry the cycles `vectors diff` expects (scheduled
+    taps too: P2's sweep), and its range tap one cycle late is a cycle mismatch."""
+    out = tmp_path / pipeline
+    assert _gen(out, "--pipeline", pipeline, "--formats", "mem,csv", "--hblank", "3") == 0
+    csvs = sorted(out.glob("*.csv"))
+    assert csvs and all(diff_dump(out, f).cycle_mismatches == 0 for f in csvs)
+    dump = tmp_path / "range.csv"
+    _shift_csv_cycles(out / "range.csv", dump, 0)
+    r = diff_dump(out, dump)
+    assert r.value_mismatches == 0 and r.cycle_mismatches == r.expected_count == r.mismatches
+    assert r.first["index"] == 0 and r.first["got_cycle"] == r.first["cycle"] + 1
 
 
 def test_diff_unknown_signal_is_a_user_error(tmp_path, vec, capsys):
