@@ -37,7 +37,7 @@ module p1_frontend #(
 `include "p1_frontend_params.vh"
     // derived: the x-derivative's format and the stage latencies
     parameter integer EX_W = CONSISTENT ? X2_W : DQ_W,
-    parameter integer DIV_LAT = DIVIDER ? 8 + 10 : DQ_W + 4 + 1,  // PIPE / FRONT
+    parameter integer DIV_LAT = DIVIDER ? 9 + 10 : DQ_W + 4 + 1,  // PIPE / FRONT
     parameter integer EX_LAT = CONSISTENT ? 0 : 3 + DIV_LAT
 ) (
     input  wire              clk,

@@ -124,7 +124,7 @@ module p1_range #(
     localparam integer C_LAT = 13;
     localparam integer P_LAT = 9;
     localparam integer DIV_FRONT = DIVIDER ? 10 : 1;  // PIPE = 1 / FRONT = 1
-    localparam integer DIV_LAT = (DIVIDER ? 8 : RNG_W + 4) + DIV_FRONT;
+    localparam integer DIV_LAT = (DIVIDER ? 9 : RNG_W + 4) + DIV_FRONT;
 
     // host registers as two's complement values
     wire signed [CO_SW-1:0]  cx_v = `RFX_SX(cx_raw, CO_S);

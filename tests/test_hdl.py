@@ -23,7 +23,7 @@ import pytest
 
 from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
-from rangefx.rtl_model.p1 import RANGE_TAPS
+from rangefx.rtl_model.p1 import RANGE_TAPS, stage_latencies
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.tools.cli import main
 from rangefx.tools.cli.vectors import crop_case
@@ -243,7 +243,8 @@ def test_x_values_of_a_delay_line_mutant_are_mismatches_naming_the_first(tmp_pat
     and the range stage computes x. The replay reports them, it does not crash."""
     config = P1Config.default()
     vec, _vs = _vectors(tmp_path, config, "motion")
-    fe_lat = 9 + 8  # paper variant, reciprocal divider (hdl/p1_top.v FE_LAT)
+    lat = stage_latencies(config)  # hdl/p1_top.v FE_LAT: the front end's stages
+    fe_lat = sum(lat[s] for s in ("input", "bias", "row_filter", "column_filter", "x_derivative"))
     report = _replay(vec, tmp_path, FE_LAT=fe_lat - 2)
     assert not report.ok
     unknown = [t for t, row in report.taps.items()
