@@ -335,28 +335,18 @@ module p1_frontend #(
     assign ex = ex_w;
 
     // ---- E_hat and ey delayed to ex: the stream outputs --------------------------------
+    // (a LUT-RAM ring buffer, fx_delay; the valid bits are flip-flops cleared by reset)
     localparam integer XL = (EX_LAT > 0) ? EX_LAT : 1;
-    reg [S1_W-1:0] e_d  [0:XL-1];
-    reg [S2_W-1:0] ey_d [0:XL-1];
-    reg [XL-1:0]   xv_d, xsof_d, xeol_d;
-    integer k;
-    always @(posedge clk) begin
-        e_d[0] <= col_s1;
-        ey_d[0] <= col_s2;
-        for (k = 1; k < XL; k = k + 1) begin
-            e_d[k] <= e_d[k-1];
-            ey_d[k] <= ey_d[k-1];
-        end
-        xv_d <= rst ? {XL{1'b0}} : {xv_d, col_v};
-        xsof_d <= {xsof_d, sof_d[2]};
-        xeol_d <= {xeol_d, eol_d[2]};
-    end
+    reg [XL-1:0]   xv_d;
+    always @(posedge clk) xv_d <= rst ? {XL{1'b0}} : {xv_d, col_v};
+    wire [S1_W-1:0] e_x;
+    wire [S2_W-1:0] ey_x;
+    wire            sof_x, eol_x;
+    fx_delay #(S1_W + S2_W + 2, EX_LAT) d_out (
+        clk, {col_s1, col_s2, sof_d[2], eol_d[2]}, {e_x, ey_x, sof_x, eol_x});
     assign ex_v = (EX_LAT > 0) ? xv_d[XL-1] : col_v;
     assign out_valid = ex_v;
-    assign out_sof = (EX_LAT > 0) ? xsof_d[XL-1] : sof_d[2];
-    assign out_eol = (EX_LAT > 0) ? xeol_d[XL-1] : eol_d[2];
-    assign out_e = (EX_LAT > 0) ? e_d[XL-1] : col_s1;
-    assign out_ey = (EX_LAT > 0) ? ey_d[XL-1] : col_s2;
+    assign {out_e, out_ey, out_sof, out_eol} = {e_x, ey_x, sof_x, eol_x};
     assign out_ex = ex_w;
 
     // ---- overflow counters ---------------------------------------------------------------
