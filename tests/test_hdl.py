@@ -25,6 +25,7 @@ from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p1 import RANGE_TAPS, stage_latencies
 from rangefx.rtl_model.p1.config import P1Config
+from rangefx.rtl_model.p1.model import LINE_BUFFER_READ_AHEAD
 from rangefx.tools.cli import main
 from rangefx.tools.cli.vectors import crop_case
 from rangefx.tools.studies.cases import scene_case
@@ -121,6 +122,24 @@ def test_front_end_replays_value_and_cycle_exact(config_name, design, mode, tmp_
     axis = {k: report.m_axis[k] for k in ("words", "mismatches", "lines", "framing_ok")}
     assert axis == {"words": m * n, "mismatches": 0, "lines": m, "framing_ok": True}
     assert report.m_axis["cycle_mismatches"] == 0
+    assert report.ok, report.as_dict()
+
+
+def test_the_shortest_line_period_replays_value_and_cycle_exact(tmp_path):
+    """Lines of 2 pixels with the shortest blanking the model accepts: the column filter
+    issues each line-buffer read a cycle ahead of its pixel (hdl/p1_colfilt.v,
+    LINE_BUFFER_READ_AHEAD), and still reads the line above's write-back."""
+    config = P1Config.default()
+    shortest = stage_latencies(config)["column_filter"] + LINE_BUFFER_READ_AHEAD
+    timing = TimingConfig(hblank=shortest - 2, vblank=5, gap_prob=0.0, seed=4)
+    case = dataclasses.replace(crop_case(_lab(), [240, 248, 100, 102]), mode="stereo")
+    vs = build_vectors("p1", case, config, timing, description={"scene": "lab"})
+    vec = tmp_path / "vec"
+    vec.mkdir()
+    write_vectors(vec, vs)
+    report = _replay(vec, tmp_path)
+    assert report.value_mismatches == 0 and report.cycle_mismatches == 0, report.first_mismatch
+    assert report.taps["e1.col_state"]["samples"] == 8 * 2
     assert report.ok, report.as_dict()
 
 
