@@ -131,11 +131,13 @@ module fx_cast_var #(
     output wire                    ovf
 );
     localparam integer XW = (IN_W > SH_MAX + 1) ? IN_W : SH_MAX + 1;
-    localparam [XW-1:0] ONE = {{(XW-1){1'b0}}, 1'b1};
     wire signed [XW-1:0] xe = x;
-    wire        [XW-1:0] mask = (ONE << sh) - ONE;
-    wire        [XW-1:0] rem = xe & mask;
-    wire        [XW-1:0] half = (ONE << sh) >> 1;  // 0 when sh = 0: no tie
+    // the dropped bits rem = x mod 2^sh against half = 2^(sh-1), without a carry chain:
+    // the bit at sh - 1 and whether any bit below it is set (sh = 0: no bit, no tie)
+    wire        [XW-1:0] m_lo = ~({XW{1'b1}} << sh);     // bits below sh
+    wire        [XW-1:0] m_below = m_lo >> 1;            // bits below sh - 1
+    wire                 hbit = |(xe & (m_lo ^ m_below));
+    wire                 low = |(xe & m_below);
     wire signed [XW-1:0] q = xe >>> sh;
     wire signed [XW-1:0] q_r;
     wire                 above_r, tie_r, nonzero_r;
@@ -143,10 +145,10 @@ module fx_cast_var #(
         if (REG != 0) begin : g_reg
             reg signed [XW-1:0] q1;
             reg                 a1, t1, n1;
-            always @(posedge clk) {q1, a1, t1, n1} <= {q, rem > half, (sh != 0) && (rem == half), |rem};
+            always @(posedge clk) {q1, a1, t1, n1} <= {q, hbit & low, hbit & ~low, hbit | low};
             assign {q_r, above_r, tie_r, nonzero_r} = {q1, a1, t1, n1};
         end else begin : g_comb
-            assign {q_r, above_r, tie_r, nonzero_r} = {q, rem > half, (sh != 0) && (rem == half), |rem};
+            assign {q_r, above_r, tie_r, nonzero_r} = {q, hbit & low, hbit & ~low, hbit | low};
         end
     endgenerate
     fx_round_sat #(XW, OUT_W, OUT_S, QUANT, OVF) u_rs (

@@ -8,8 +8,9 @@
 //   fx_div_restoring : radix-2 restoring, sign-magnitude, OUT_W + 1 quotient bits (one
 //                      per stage) with the guard bit, a sticky bit; latency OUT_W + 4
 //                      (+ FRONT: the operands' magnitudes registered first)
-//   fx_div_reciprocal: seed ROM (2^L words, $readmemh of ROM_FILE) + one Newton step,
-//                      three products, a normalising cast; latency 8 (+ 10 with PIPE = 1:
+//   fx_div_reciprocal: seed ROM (2^L words, $readmemh of ROM_FILE, a two-cycle read:
+//                      address and data out registered) + one Newton step, three
+//                      products, a normalising cast; latency 9 (+ 10 with PIPE = 1:
 //                      the magnitudes, the leading one and the seed index each registered
 //                      (+3), the products in 3 stages each (fx_mul_pipe, +6), the cast's
 //                      shift registered before its rounding (+1))
@@ -165,8 +166,8 @@ module fx_div_reciprocal #(
     reg [YW-1:0] rom [0:(1 << L) - 1];
     initial $readmemh(ROM_FILE, rom);
 
-    // stage 1: magnitude, leading one p, the L seed index bits and mR, the ROM read.
-    // PIPE cuts it in four: |N| |D|; p; idx and mR; the ROM read.
+    // stages 1-2: magnitude, leading one p, the L seed index bits and mR, the ROM read
+    // (two cycles). PIPE cuts the part before the read in three: |N| |D|; p; idx and mR.
     wire [N_W-1:0] an_n = n[N_W-1] ? -n : n;
     wire [D_W-1:0] ad_n = d[D_W-1] ? -d : d;
     wire           neg_n = (d == {D_W{1'b0}}) ? n[N_W-1] : n[N_W-1] ^ d[D_W-1];
@@ -213,19 +214,23 @@ module fx_div_reciprocal #(
             assign {an_c, fl_c, p_c, idx_c, mr_c} = {an_b, fl_b, p, idx, mr};
         end
     endgenerate
-    reg [YW-1:0]  y0_1;
-    reg [R:0]     mr_1;
-    reg [N_W-1:0] an_1;
-    reg [PB-1:0]  p_1;
+    // the ROM read takes two cycles, the address and the data out each registered (the
+    // DP16KD's own output register on an ECP5: its clock-to-out, not the array's access
+    // time, then starts the path into the first product)
+    reg [YW-1:0]  y0_0, y0_1;
+    reg [R:0]     mr_0, mr_1;
+    reg [N_W-1:0] an_0, an_1;
+    reg [PB-1:0]  p_0, p_1;
+    reg [2:0]     fl_0;
     reg           neg_1, dz_1, nz_1;
     always @(posedge clk) begin
-        y0_1 <= rom[idx_c];
-        mr_1 <= mr_c;
-        an_1 <= an_c;
-        p_1 <= p_c;
-        {neg_1, dz_1, nz_1} <= fl_c;
+        y0_0 <= rom[idx_c];
+        y0_1 <= y0_0;
+        {mr_0, an_0, p_0, fl_0} <= {mr_c, an_c, p_c, fl_c};
+        {mr_1, an_1, p_1} <= {mr_0, an_0, p_0};
+        {neg_1, dz_1, nz_1} <= fl_0;
     end
-    // stages 2-7 (PIPE: products of ML = 3 register stages, fx_pipe.v):
+    // stages 3-8 (PIPE: products of ML = 3 register stages, fx_pipe.v):
     // t = floor(mR y0 2^-R), e = 2^(R+1) - t; y1 = floor(y0 e 2^-R); |N| y1, its sign, the shift
     localparam integer ML = (PIPE != 0) ? 3 : 1;
     wire [2*R+1:0] m1;
@@ -255,7 +260,7 @@ module fx_div_reciprocal #(
                     : (neg_6 ? -$signed(mag) : $signed(mag));
         sh_7 <= dz_6 ? {SH_W{1'b0}} : SH0 + SHL0 + p_6;
     end
-    // stage 8: the cast (PIPE: its shift registered before the rounding, + 1)
+    // stage 9: the cast (PIPE: its shift registered before the rounding, + 1)
     wire [OUT_W-1:0] y_c;
     wire             ovf_c;
     fx_cast_var #(XW, SH_W, SH_MAX, OUT_W, OUT_S, QUANT, OVF, PIPE) u_cast (

@@ -6,7 +6,8 @@
 //                give at most 4 partial products, so no stage holds more than one
 //                carry chain.
 //   fx_umul    : an unsigned product, one register or fx_mul_pipe (the dividers).
-//   fx_delay   : N registers (N = 0: a wire), for the signals that wait beside a stage.
+//   fx_delay   : N registers (N = 0: a wire), for the signals that wait beside a stage;
+//                from 8 cycles on a ring buffer in LUT RAM with a registered read.
 // Both advance every clock; callers carry their valid bits beside them.
 `timescale 1ns / 1ps
 
@@ -102,10 +103,15 @@ module fx_delay #(
     input  wire [W-1:0] d,
     output wire [W-1:0] q
 );
+    // from FX_DELAY_RAM_MIN cycles on, a ring buffer in LUT RAM (ECP5 TRELLIS_DPR16X4)
+    // instead of W x N flip-flops: the word written N - 2 clocks earlier is read through
+    // two registers (read pointer, data out), so no path holds more than one LUT RAM read
+    localparam integer FX_DELAY_RAM_MIN = 8;
+    localparam integer AW = (N > 2) ? $clog2(N - 1) : 1;  // 2^AW >= N - 1 words
     generate
         if (N == 0) begin : g_wire
             assign q = d;
-        end else begin : g_regs
+        end else if (N < FX_DELAY_RAM_MIN) begin : g_regs
             reg [W*N-1:0] r;
             if (N == 1) begin : g_one
                 always @(posedge clk) r <= d;
@@ -113,6 +119,21 @@ module fx_delay #(
                 always @(posedge clk) r <= {r[W*(N-1)-1:0], d};
             end
             assign q = r[W*N-1 -: W];
+        end else begin : g_ram
+            (* ram_style = "distributed" *) reg [W-1:0] mem [0:(1 << AW) - 1];
+            // the write pointer leads the read pointer by N - 2: the word written at edge
+            // k is read at edge k + N - 2 and leaves its register at edge k + N - 1
+            reg [AW-1:0] wp = N - 2;
+            reg [AW-1:0] rp = 0;
+            reg [W-1:0]  r1, r2;
+            always @(posedge clk) begin
+                mem[wp] <= d;
+                wp <= wp + 1'b1;
+                rp <= rp + 1'b1;
+                r1 <= mem[rp];
+                r2 <= r1;
+            end
+            assign q = r2;
         end
     endgenerate
 endmodule

@@ -2,15 +2,18 @@
 // and step 4 of the consistent variant, which runs it on r2), one pixel per clock.
 //
 // The state of every column lives in a line buffer memory (MAX_WIDTH words of ST_W bits):
-//   cycle c   : `in_valid` with the input r (R_*), its column and first-row flag;
-//               the line buffer is read at `col` (synchronous read, as a block RAM)
+//   cycle c-1 : the line buffer read is issued at `rd_col` (`rd_en`: the column of the
+//               pixel that arrives at c; a block RAM's synchronous read)
+//   cycle c   : `in_valid` with the input r (R_*), its column and first-row flag; the
+//               RAM's data out registered (the DP16KD's clock-to-out ends at a register)
 //   cycle c+1 : q = LB[col] (or the first-row init), prod = C (r - q) exact, registered
 //   cycle c+2 : q_next = cast(q + prod, ST), s2 = cast(prod, S2), s1 = cast(q, S1)
 //               (paper) or cast((q + q_next) / 2, S1) (centred); LB[col] <= q_next
 //   cycle c+3 : registered outputs and their overflow flags (`out_valid`)
-// Latency 3; a column is read again at least 3 cycles later (line period > 2; the
-// model rejects shorter lines), so the write is always seen (read after write).
-// `col` >= MAX_WIDTH (a line too long, flagged by the front end) never reaches the memory.
+// Latency 3; a column's read is issued again at least 4 cycles later (line period > 3,
+// rtl_model/p1/model.py LINE_BUFFER_READ_AHEAD; the model rejects shorter lines), after
+// its write at c+2, so the write is always seen (read after write).
+// A column >= MAX_WIDTH (a line too long, flagged by the front end) never reaches the memory.
 `timescale 1ns / 1ps
 module p1_colfilt #(
     parameter integer MAX_WIDTH = 1024,
@@ -30,6 +33,8 @@ module p1_colfilt #(
     input  wire              clk,
     input  wire              rst,
     input  wire [POLE_W-1:0] pole_raw,
+    input  wire              rd_en,     // the next cycle's pixel: its column
+    input  wire [ADDR_W-1:0] rd_col,
     input  wire              in_valid,
     input  wire [ADDR_W-1:0] col,
     input  wire              first_row,
@@ -54,15 +59,15 @@ module p1_colfilt #(
 
     wire signed [POLE_W:0] pole = {(POLE_S != 0) & pole_raw[POLE_W-1], pole_raw};
 
-    // ---- cycle c: line buffer read --------------------------------------------------
+    // ---- cycles c-1, c: line buffer read, its data out registered -----------------------
     reg [ST_W-1:0] lb [0:MAX_WIDTH-1];
-    reg [ST_W-1:0] lb_rd;
+    reg [ST_W-1:0] lb_q, lb_rd;
     reg [R_W-1:0]  r1_d;
     reg [ADDR_W-1:0] col1, col2;
     reg            v1, v2, first1;
-    wire in_range = col < MAX_WIDTH;
     always @(posedge clk) begin
-        if (in_valid && in_range) lb_rd <= lb[col];
+        if (rd_en && rd_col < MAX_WIDTH) lb_q <= lb[rd_col];
+        lb_rd <= lb_q;
         r1_d <= r;
         col1 <= col;
         first1 <= first_row;

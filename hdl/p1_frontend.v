@@ -10,7 +10,8 @@
 //   t+3 row filter loop: prod = C (b - p), p_next, one state register (POLE_K >= 0:
 //       C = 2^-k, the loop is one sum and the cast's overflow mode, no multiplier)
 //   t+4 row_r1, row_r2, row_state                          (row_v)
-//   t+7 col_s1, col_s2, col_state (p1_colfilt: line buffer read, product, casts);
+//   t+7 col_s1, col_s2, col_state (p1_colfilt: line buffer read issued at t+3, its data
+//       out registered at t+4; product, casts);
 //       consistent: col2_state, ex = col2_out beside them (x-derivative latency 0)
 //   paper: t+10 N = s1 r2 (fx_mul_pipe), t+10+DIV_LAT ex = div_quot (ex_v)
 // The stream outputs E_hat = s1, ex, ey = s2 leave together, aligned with ex (out_*), for
@@ -37,7 +38,7 @@ module p1_frontend #(
 `include "p1_frontend_params.vh"
     // derived: the x-derivative's format and the stage latencies
     parameter integer EX_W = CONSISTENT ? X2_W : DQ_W,
-    parameter integer DIV_LAT = DIVIDER ? 8 + 10 : DQ_W + 4 + 1,  // PIPE / FRONT
+    parameter integer DIV_LAT = DIVIDER ? 9 + 10 : DQ_W + 4 + 1,  // PIPE / FRONT
     parameter integer EX_LAT = CONSISTENT ? 0 : 3 + DIV_LAT
 ) (
     input  wire              clk,
@@ -249,9 +250,10 @@ module p1_frontend #(
         eol4 <= eol3;
     end
 
-    // ---- t+4 .. t+7: column filter(s) -------------------------------------------------
+    // ---- t+4 .. t+7: column filter(s), their line buffer reads issued at t+3 ------------
     // a column beyond MAX_WIDTH is mapped out of the line buffers' range
     wire [ADDR_W-1:0] lb_col = col4[ADDR_W] ? {ADDR_W{1'b1}} : col4[ADDR_W-1:0];
+    wire [ADDR_W-1:0] rd_col = col3[ADDR_W] ? {ADDR_W{1'b1}} : col3[ADDR_W-1:0];
     wire [1:0] ovf_q, ovf_q2;
     wire       ovf_s1, ovf_s2, ovf_x2, unused_ovf;
     wire [S2_W-1:0] unused_s2;
@@ -263,8 +265,8 @@ module p1_frontend #(
         .S1_W(S1_W), .S1_F(S1_F), .S1_S(S1_S), .S1_Q(S1_Q), .S1_O(S1_O),
         .S2_W(S2_W), .S2_F(S2_F), .S2_S(S2_S), .S2_Q(S2_Q), .S2_O(S2_O)
     ) u_col (
-        .clk(clk), .rst(rst), .pole_raw(pole_raw), .in_valid(row_v), .col(lb_col), .first_row(first4),
-        .r(row_r1), .q_next(col_state), .s1(col_s1), .s2(col_s2),
+        .clk(clk), .rst(rst), .pole_raw(pole_raw), .rd_en(v3), .rd_col(rd_col),
+        .in_valid(row_v), .col(lb_col), .first_row(first4), .r(row_r1), .q_next(col_state), .s1(col_s1), .s2(col_s2),
         .ovf_st(ovf_q), .ovf_s1(ovf_s1), .ovf_s2(ovf_s2));
     // sideband t+4 -> t+7
     reg [2:0] v_d, sof_d, eol_d;
@@ -286,8 +288,8 @@ module p1_frontend #(
                 .S1_W(X2_W), .S1_F(X2_F), .S1_S(X2_S), .S1_Q(X2_Q), .S1_O(X2_O),
                 .S2_W(S2_W), .S2_F(S2_F), .S2_S(S2_S), .S2_Q(S2_Q), .S2_O(S2_O)
             ) u_col2 (
-                .clk(clk), .rst(rst), .pole_raw(pole_raw), .in_valid(row_v), .col(lb_col),
-                .first_row(first4), .r(row_r2), .q_next(col2_state), .s1(ex_w),
+                .clk(clk), .rst(rst), .pole_raw(pole_raw), .rd_en(v3), .rd_col(rd_col),
+                .in_valid(row_v), .col(lb_col), .first_row(first4), .r(row_r2), .q_next(col2_state), .s1(ex_w),
                 .s2(unused_s2), .ovf_st(ovf_q2), .ovf_s1(ovf_x2), .ovf_s2(unused_ovf));
         end else begin : g_no_col2
             assign col2_state = {Q2_W{1'b0}};
@@ -335,28 +337,18 @@ module p1_frontend #(
     assign ex = ex_w;
 
     // ---- E_hat and ey delayed to ex: the stream outputs --------------------------------
+    // (a LUT-RAM ring buffer, fx_delay; the valid bits are flip-flops cleared by reset)
     localparam integer XL = (EX_LAT > 0) ? EX_LAT : 1;
-    reg [S1_W-1:0] e_d  [0:XL-1];
-    reg [S2_W-1:0] ey_d [0:XL-1];
-    reg [XL-1:0]   xv_d, xsof_d, xeol_d;
-    integer k;
-    always @(posedge clk) begin
-        e_d[0] <= col_s1;
-        ey_d[0] <= col_s2;
-        for (k = 1; k < XL; k = k + 1) begin
-            e_d[k] <= e_d[k-1];
-            ey_d[k] <= ey_d[k-1];
-        end
-        xv_d <= rst ? {XL{1'b0}} : {xv_d, col_v};
-        xsof_d <= {xsof_d, sof_d[2]};
-        xeol_d <= {xeol_d, eol_d[2]};
-    end
+    reg [XL-1:0]   xv_d;
+    always @(posedge clk) xv_d <= rst ? {XL{1'b0}} : {xv_d, col_v};
+    wire [S1_W-1:0] e_x;
+    wire [S2_W-1:0] ey_x;
+    wire            sof_x, eol_x;
+    fx_delay #(S1_W + S2_W + 2, EX_LAT) d_out (
+        clk, {col_s1, col_s2, sof_d[2], eol_d[2]}, {e_x, ey_x, sof_x, eol_x});
     assign ex_v = (EX_LAT > 0) ? xv_d[XL-1] : col_v;
     assign out_valid = ex_v;
-    assign out_sof = (EX_LAT > 0) ? xsof_d[XL-1] : sof_d[2];
-    assign out_eol = (EX_LAT > 0) ? xeol_d[XL-1] : eol_d[2];
-    assign out_e = (EX_LAT > 0) ? e_d[XL-1] : col_s1;
-    assign out_ey = (EX_LAT > 0) ? ey_d[XL-1] : col_s2;
+    assign {out_e, out_ey, out_sof, out_eol} = {e_x, ey_x, sof_x, eol_x};
     assign out_ex = ex_w;
 
     // ---- overflow counters ---------------------------------------------------------------

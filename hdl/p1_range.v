@@ -124,7 +124,7 @@ module p1_range #(
     localparam integer C_LAT = 13;
     localparam integer P_LAT = 9;
     localparam integer DIV_FRONT = DIVIDER ? 10 : 1;  // PIPE = 1 / FRONT = 1
-    localparam integer DIV_LAT = (DIVIDER ? 8 : RNG_W + 4) + DIV_FRONT;
+    localparam integer DIV_LAT = (DIVIDER ? 9 : RNG_W + 4) + DIV_FRONT;
 
     // host registers as two's complement values
     wire signed [CO_SW-1:0]  cx_v = `RFX_SX(cx_raw, CO_S);
@@ -439,12 +439,9 @@ module p1_range #(
     endgenerate
     // the flags of the thresholds travel beside the divider
     reg [DIV_LAT-1:0]   valid_d;
-    reg [5*DIV_LAT-1:0] flags_d;
-    always @(posedge clk) begin
-        valid_d <= rst ? {DIV_LAT{1'b0}} : {valid_d[DIV_LAT-2:0], dv_valid};
-        flags_d <= {flags_d[5*(DIV_LAT-1)-1:0], dv_sof, dv_eol, te_ok, g_ok, den_ok_r};
-    end
-    wire [4:0] flags_q = flags_d[5*DIV_LAT-1 -: 5];
+    always @(posedge clk) valid_d <= rst ? {DIV_LAT{1'b0}} : {valid_d[DIV_LAT-2:0], dv_valid};
+    wire [4:0] flags_q;
+    fx_delay #(5, DIV_LAT) d_flags (clk, {dv_sof, dv_eol, te_ok, g_ok, den_ok_r}, flags_q);
     assign q_valid = valid_d[DIV_LAT-1];
     assign range_q = rq;
     assign ovf_q = rq_ovf;

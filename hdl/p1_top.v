@@ -39,7 +39,7 @@ module p1_top #(
     parameter integer EX_W = CONSISTENT ? X2_W : DQ_W,
     parameter integer EX_F = CONSISTENT ? X2_F : DQ_F,
     parameter integer EX_S = CONSISTENT ? X2_S : DQ_S,
-    parameter integer DIV_LAT = DIVIDER ? 8 + 10 : DQ_W + 4 + 1,
+    parameter integer DIV_LAT = DIVIDER ? 9 + 10 : DQ_W + 4 + 1,
     parameter integer FE_LAT = CONSISTENT ? 7 : 10 + DIV_LAT,
     parameter integer SW = S1_W + EX_W + S2_W       // one stream's outputs (frame store)
 ) (

@@ -68,9 +68,12 @@ KERNEL_INT, KERNEL_BOOL = types.int64, types.boolean
 #: a C-contiguous int64 row, plane (also the format table and the log), float64 plane
 KERNEL_ROW, KERNEL_PLANE = types.int64[::1], types.int64[:, ::1]
 KERNEL_FLOAT_PLANE, KERNEL_FLAGS = types.float64[:, ::1], types.boolean[::1]
-#: Declared latency of the reciprocal divider (LUT, two Newton products, the final
-#: product and its cast); the restoring divider takes ``W + 4`` for a ``W``-bit quotient.
-RECIPROCAL_LATENCY = 8
+#: Declared latency of the reciprocal divider (``hdl/fx_divide.v`` fx_div_reciprocal:
+#: operand normalisation, the seed ROM's two-cycle read (address and data out registered,
+#: the block RAM's output register), two Newton products, the final product and its
+#: cast); the restoring divider takes ``W + 4`` for a ``W``-bit quotient. Every pipeline's
+#: schedule (P1, P2, P3) takes its divider latency from :func:`divider_latency`.
+RECIPROCAL_LATENCY = 9
 
 
 def divider_code(divider: str) -> int:

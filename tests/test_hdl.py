@@ -23,8 +23,9 @@ import pytest
 
 from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
-from rangefx.rtl_model.p1 import RANGE_TAPS
+from rangefx.rtl_model.p1 import RANGE_TAPS, stage_latencies
 from rangefx.rtl_model.p1.config import P1Config
+from rangefx.rtl_model.p1.model import LINE_BUFFER_READ_AHEAD
 from rangefx.tools.cli import main
 from rangefx.tools.studies.cases import crop_case, scene_case
 from rangefx.vectors import replay
@@ -120,6 +121,24 @@ def test_front_end_replays_value_and_cycle_exact(config_name, design, mode, tmp_
     axis = {k: report.m_axis[k] for k in ("words", "mismatches", "lines", "framing_ok")}
     assert axis == {"words": m * n, "mismatches": 0, "lines": m, "framing_ok": True}
     assert report.m_axis["cycle_mismatches"] == 0
+    assert report.ok, report.as_dict()
+
+
+def test_the_shortest_line_period_replays_value_and_cycle_exact(tmp_path):
+    """Lines of 2 pixels with the shortest blanking the model accepts: the column filter
+    issues each line-buffer read a cycle ahead of its pixel (hdl/p1_colfilt.v,
+    LINE_BUFFER_READ_AHEAD), and still reads the line above's write-back."""
+    config = P1Config.default()
+    shortest = stage_latencies(config)["column_filter"] + LINE_BUFFER_READ_AHEAD
+    timing = TimingConfig(hblank=shortest - 2, vblank=5, gap_prob=0.0, seed=4)
+    case = dataclasses.replace(crop_case(_lab(), [240, 248, 100, 102]), mode="stereo")
+    vs = build_vectors("p1", case, config, timing, description={"scene": "lab"})
+    vec = tmp_path / "vec"
+    vec.mkdir()
+    write_vectors(vec, vs)
+    report = _replay(vec, tmp_path)
+    assert report.value_mismatches == 0 and report.cycle_mismatches == 0, report.first_mismatch
+    assert report.taps["e1.col_state"]["samples"] == 8 * 2
     assert report.ok, report.as_dict()
 
 
@@ -242,7 +261,8 @@ def test_x_values_of_a_delay_line_mutant_are_mismatches_naming_the_first(tmp_pat
     and the range stage computes x. The replay reports them, it does not crash."""
     config = P1Config.default()
     vec, _vs = _vectors(tmp_path, config, "motion")
-    fe_lat = 9 + 8  # paper variant, reciprocal divider (hdl/p1_top.v FE_LAT)
+    lat = stage_latencies(config)  # hdl/p1_top.v FE_LAT: the front end's stages
+    fe_lat = sum(lat[s] for s in ("input", "bias", "row_filter", "column_filter", "x_derivative"))
     report = _replay(vec, tmp_path, FE_LAT=fe_lat - 2)
     assert not report.ok
     unknown = [t for t, row in report.taps.items()

@@ -34,7 +34,7 @@ from rangefx.rtl_model.kernels import (
 )
 from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
-from rangefx.rtl_model.p1.model import RANGE, untranspose_band
+from rangefx.rtl_model.p1.model import LINE_BUFFER_READ_AHEAD, RANGE, untranspose_band
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.rtl_model.runtime import DIV_RECIPROCAL, divider_setup, format_table
 from rangefx.rtl_model.stream import make_stream, pixel_cycles
@@ -185,11 +185,21 @@ def test_memory_report(plane, variant):
     assert motion.frame_store_bits == 24 * 32 * per_pixel
 
 
-def test_line_buffer_hazard_is_rejected():
+@pytest.mark.parametrize("hblank", [0, 1, 2])
+def test_line_buffer_hazard_is_rejected(hblank):
+    """A 2-pixel line: the column filter's next read of a column (issued
+    LINE_BUFFER_READ_AHEAD cycles early, hdl/p1_colfilt.v) must follow its write-back,
+    ``column_filter - 1`` cycles after the pixel: the shortest line period accepted is one
+    more than that sum."""
     img = np.zeros((4, 2), dtype=np.uint8)
     cam = PinholeCamera(2, 4, 10.0)
-    with pytest.raises(ValueError, match="line-buffer hazard"):
-        run_p1(img, img, cam, MotionIncrement.stereo(0.1))
+    shortest = stage_latencies(P1Config.default())["column_filter"] + LINE_BUFFER_READ_AHEAD
+    timing = TimingConfig(hblank=hblank)
+    if 2 + hblank < shortest:
+        with pytest.raises(ValueError, match="line-buffer hazard"):
+            run_p1(img, img, cam, MotionIncrement.stereo(0.1), timing=timing)
+    else:
+        assert run_p1(img, img, cam, MotionIncrement.stereo(0.1), timing=timing).range.shape
 
 
 @pytest.mark.parametrize(

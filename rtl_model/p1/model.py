@@ -917,6 +917,14 @@ MUL_LATENCY = 3
 #: cast's shift (1); the restoring divider registers |N| |D| before its first bit (1).
 DIVIDER_FRONT = {"reciprocal": 10, "restoring": 1}
 
+#: Cycles by which the column filter issues its line-buffer read ahead of its pixel
+#: (``hdl/p1_colfilt.v``: the block RAM's data out is registered before the filter uses
+#: it, at no cost in latency). A column's next read is issued ``width + hblank`` cycles
+#: later and must come after its write-back (``column_filter`` - 1 cycles after the
+#: pixel): lines of ``width + hblank <= column_filter - 1 + LINE_BUFFER_READ_AHEAD``
+#: cycles are rejected.
+LINE_BUFFER_READ_AHEAD = 1
+
 
 def stage_latencies(config: P1Config) -> dict[str, int]:
     """Latency in clock cycles of every stage, as the RTL has them (``hdl/p1_frontend.v``,
@@ -1015,10 +1023,11 @@ def run_p1(
                                 convert=False)  # fmt: skip
     m, n = im1.shape
     lat = stage_latencies(config)
-    if n + timing.hblank <= lat["column_filter"] - 1:
+    if n + timing.hblank <= lat["column_filter"] - 1 + LINE_BUFFER_READ_AHEAD:
         raise ValueError(
             f"line period {n + timing.hblank} cycles is too short for the column filter's "
-            f"read-modify-write latency ({lat['column_filter']} cycles): line-buffer hazard"
+            f"read-modify-write latency ({lat['column_filter']} cycles, its read issued "
+            f"{LINE_BUFFER_READ_AHEAD} ahead): line-buffer hazard"
         )
     regs = frame_registers(camera, motion, ranging, config)
     fm = format_table(config)
