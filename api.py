@@ -56,6 +56,7 @@ from rangefx.tools import report
 from rangefx.tools.errors import UserError, require_memory
 from rangefx.tools.report import atomic_output_dir, atomic_write_text, json_safe
 from rangefx.tools.studies import cases as _cases
+from rangefx.tools.studies.banded import plan_bands, run_in_bands
 from rangefx.tools.studies.evaluation import EvalResult
 from rangefx.tools.studies.flights import GuideResult
 from rangefx.tools.studies.runner import (
@@ -294,6 +295,7 @@ def run(
     estimator: EstimatorConfig | None = None,
     allow_saturated_input: bool = False,
     input_names: tuple[str, str] = ("image1", "image2"),
+    band_lines: int | None = None,
     **design: Any,
 ) -> RunResult:
     """Run a bit-accurate pipeline on ``case`` beside its golden, or a golden method.
@@ -320,6 +322,11 @@ def run(
         Accept grey levels outside the input format (saturated, with a warning on stderr).
     input_names
         Names of the two images in error messages.
+    band_lines
+        A pipeline whose lines are independent (P2): run the frame in bands of this many
+        lines (:func:`rangefx.tools.studies.banded.run_in_bands`, the same result bit for
+        bit). Default: the whole frame if it fits in the memory available, else bands
+        that do; any other pipeline above the bound is refused.
 
     Returns
     -------
@@ -347,8 +354,17 @@ def run(
         dict(zip(input_names, (case.image1, case.image2), strict=True)), cfg.fmt(signal),
         signal, allow=allow_saturated_input,
     )  # fmt: skip
-    result = run_case(pipe, case, cfg, timing or TimingConfig(), taps=taps)
-    golden = golden_case(pipe, case, cfg).result
+    lines = plan_bands(pipe, case.image1.shape, band_lines)
+    if lines is None:
+        result = run_case(pipe, case, cfg, timing or TimingConfig(), taps=taps)
+        golden = golden_case(pipe, case, cfg).result
+    else:
+        try:
+            result, golden = run_in_bands(
+                pipe, case, cfg, timing or TimingConfig(), lines, taps=taps
+            )
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
     return RunResult(pipe.name, case, result, golden, pipeline_figures(result, golden, case.scene))
 
 

@@ -252,6 +252,12 @@ class Pipeline(abc.ABC):
     #: Its example sweep definitions: TOML files, relative to the ``rangefx`` package root
     #: or absolute (:meth:`sweep_example_paths`).
     sweep_examples: ClassVar[tuple[str, ...]] = ()
+    #: The model's lines are independent: a band of lines run alone gives those rows of
+    #: the whole frame's outputs, taps and overflows, and its golden likewise (P2: the
+    #: sweep and G5 run along each line). Then :meth:`run_lines` and
+    #: :meth:`golden_lines` process a large frame in bands
+    #: (:func:`rangefx.tools.studies.banded.run_in_bands`); else they raise ValueError.
+    line_independent: ClassVar[bool] = False
 
     def sweep_example_paths(self) -> tuple[Path, ...]:
         """:attr:`sweep_examples` as absolute paths."""
@@ -390,6 +396,56 @@ class Pipeline(abc.ABC):
     @abc.abstractmethod
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         """The golden itself, on checked arguments (:meth:`golden` is the public entry)."""
+
+    def run_lines(
+        self,
+        case: Case,
+        lines: tuple[int, int],
+        config: WordLengthConfig | None = None,
+        timing: TimingConfig | None = None,
+        *,
+        taps: bool = True,
+        threads: int = 2,
+        log: bool = True,
+    ) -> PipelineResult:
+        """:meth:`run` on the frame's lines ``j0 <= j < j1`` only (a pipeline whose
+        :attr:`line_independent` is set): its arrays have ``j1 - j0`` rows, equal to those
+        rows of the whole frame's run, with the frame's cycle stamps; ``ValueError`` for
+        any other pipeline."""
+        config = self.check_config(self.default_config() if config is None else config)
+        self.check_mode(case)
+        if not self.line_independent:
+            raise ValueError(f"{self.name}'s lines are not independent: it runs whole frames")
+        return self.simulate_lines(case, config, timing or TimingConfig(), taps, threads, log,
+                                   lines)  # fmt: skip
+
+    def simulate_lines(
+        self,
+        case: Case,
+        config: WordLengthConfig,
+        timing: TimingConfig,
+        taps: bool,
+        threads: int,
+        log: bool,
+        lines: tuple[int, int],
+    ) -> PipelineResult:
+        """The model on a band of lines, checked arguments (:meth:`run_lines`): by default
+        :attr:`run_model` with ``lines=`` for a pipeline that sets :attr:`line_independent`
+        (a pipeline whose model takes more overrides this)."""
+        if not self.line_independent or self.run_model is None:
+            raise ValueError(f"{self.name}'s lines are not independent: it runs whole frames")
+        return self.run_model(
+            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
+            timing=timing, taps=taps, threads=threads, log=log, lines=lines,
+        )  # fmt: skip
+
+    def golden_lines(
+        self, case: Case, lines: tuple[int, int], config: WordLengthConfig | None = None
+    ) -> RangeResult:
+        """The golden's range map of the frame's lines ``j0 <= j < j1`` (those rows of
+        :meth:`golden`'s result, a pipeline whose :attr:`line_independent` is set);
+        ``ValueError`` for any other pipeline."""
+        raise ValueError(f"{self.name}'s lines are not independent: it runs whole frames")
 
     def golden_key(self, config: WordLengthConfig) -> tuple[tuple[str, Any], ...]:
         """(field, value) of every design field of ``config`` that :meth:`golden` reads:

@@ -23,6 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from guarantee_tables import SWEEP, write_pair
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from rangefx import api
 from rangefx.rtl_model.config import MAX_NESTING
@@ -544,6 +546,80 @@ def test_issue40_a_sweep_of_10_to_the_8_points_is_refused_at_once(tmp_path, caps
     assert "100000000 points (about" in err and "--max-points 100000" in err
     assert f"at {512 * 512 * SWEEP_SECONDS_PER_PIXEL[pipeline]:.2g} s a point" in err
     assert not (tmp_path / "s").exists()
+
+
+def _grid_of_10_to_the_8(pipeline: str) -> str:
+    """A grid definition of 100^4 points of ``pipeline`` (four of its signals' frac)."""
+    signals = PIPELINES[pipeline].default_config().signals()[1:5]
+    axes = "".join(
+        f'[[axis]]\nsignals = "{s}"\nparam = "frac"\nrange = [-50, 49]\n' for s in signals
+    )
+    return (
+        f'[sweep]\nname = "grid"\npipeline = "{pipeline}"\nscenes = ["lab"]\n'
+        'combine = "grid"\n' + axes
+    )
+
+
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_issue40_a_sweep_refusal_loads_no_model(tmp_path, pipeline):
+    """``rangefx sweep`` of 10^8 points is refused from a light count of the TOML: the
+    refusal path imports neither numba nor any model nor the pipeline registry (numba's
+    first cache load alone took 1-2.6 s; docs/guarantees.md has the end-to-end time)."""
+    p = tmp_path / "grid.toml"
+    p.write_text(_grid_of_10_to_the_8(pipeline))
+    probe = (
+        "import sys\n"
+        "from rangefx.tools.cli.main import main\n"
+        f"status = main(['sweep', {str(p)!r}, '--out', {str(tmp_path / 's')!r}])\n"
+        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in ('numba', 'llvmlite')"
+        " or m.startswith(('rangefx.rtl_model', 'rangefx.golden', 'rangefx.tools.studies')))\n"
+        "print(status, heavy)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert done.stdout.strip() == "2 []", done.stdout + done.stderr
+    assert "100000000 points (about" in done.stderr
+    assert not (tmp_path / "s").exists()
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    combine=st.sampled_from(["grid", "one_at_a_time"]),
+    scenes=st.lists(st.sampled_from(["lab", "runway"]), min_size=1, max_size=3),
+    axes=st.lists(
+        st.one_of(
+            st.tuples(st.just("range"), st.integers(0, 40), st.integers(0, 40), st.integers(1, 7)),
+            st.tuples(st.just("values"), st.sets(st.integers(0, 40), min_size=1, max_size=6)),
+        ),
+        min_size=1,
+        max_size=4,
+    ),
+)
+def test_issue40_the_light_point_count_is_the_full_count(combine, scenes, axes):
+    """The count the refusal uses before any model loads (from the raw TOML) equals the
+    count of the fully parsed definition, for ranges with steps, value lists, both
+    combines and several scenes (a range the full parse rejects is not counted)."""
+    from rangefx.tools.studies.sweep import parse_sweep, point_count
+    from rangefx.tools.sweepbound import light_point_count
+
+    text = f'[sweep]\nname = "n"\nscenes = {json.dumps(scenes)}\ncombine = "{combine}"\n'
+    for axis in axes:
+        if axis[0] == "range":
+            lo, hi, step = axis[1], axis[2], axis[3]
+            body = f"range = [{lo}, {hi}]\nstep = {step}"
+        else:
+            body = f"values = {sorted(axis[1])}"
+        text += f'[[axis]]\nsignals = "row_state"\nparam = "frac"\n{body}\n'
+    light = light_point_count(text)
+    try:
+        full = point_count(parse_sweep(text))
+    except UserError:
+        assert light is None  # the full parse names what is wrong
+        return
+    assert light is not None and light[2] == full
 
 
 @pytest.mark.parametrize("tail", [b"\x00\xff\xfe binary\n\x01\x02", b"[" * 5000 + b"\n"])

@@ -694,6 +694,7 @@ def run_p2(
     taps: bool = True,
     threads: int = 2,
     log: bool = True,
+    lines: tuple[int, int] | None = None,
 ) -> PipelineResult:
     """Run P2 on a registered stereo pair (E1 = ``image1`` left, E2 = ``image2``, camera 2
     displaced ``b`` to the right), integer grey levels; ``riccati`` gives the weights
@@ -704,7 +705,13 @@ def run_p2(
     release the GIL). ``log`` (as ``fipref``'s LoggingMode): keep the pre-quantisation
     min/max of every signal (``minmax``); off, ``minmax`` is empty and the band kernel
     skips the log. Every output, tap and overflow count is the same either way.
-    ``kernel_cpu_s["sweep"]``: CPU seconds of the kernel calls, summed over threads."""
+    ``kernel_cpu_s["sweep"]``: CPU seconds of the kernel calls, summed over threads.
+
+    ``lines=(j0, j1)``: only the frame's lines ``j0 <= j < j1`` (the lines are independent:
+    a band of a large frame; :func:`rangefx.tools.studies.banded.run_in_bands`). Every
+    output has ``j1 - j0`` rows, equal to those rows of the whole frame's run; the cycle
+    stamps, latency and ``total_cycles`` are the frame's, for those lines (the schedule
+    is the whole frame's); overflows and ``minmax`` count those lines only."""
     runtime.check_threads(threads)
     config = config or P2Config.default()
     riccati = riccati or RiccatiConfig()
@@ -715,7 +722,10 @@ def run_p2(
         raise ValueError(f"P2 needs a P2Config, not {type(config).__name__}")
     im1, im2 = runtime.check_image_pair(image1, image2, camera, pipeline="p2", min_shape=(1, 2),
                                         convert=False)  # fmt: skip
-    m, n = im1.shape
+    m, n = frame = im1.shape
+    r0, r1 = (0, m) if lines is None else lines
+    if not 0 <= r0 < r1 <= m:
+        raise ValueError(f"lines must be (j0, j1) with 0 <= j0 < j1 <= {m}, not {lines!r}")
     regs = p2_registers(camera, motion, riccati, config)
     # timing first: an impossible schedule is rejected before any work. Without input
     # gaps the input cycles have a closed form and the bands fill their rows of both
@@ -723,12 +733,15 @@ def run_p2(
     # beats of make_stream(im2, timing) are summed here.
     closed_cycles = timing.gap_prob == 0
     if closed_cycles:
-        in_cycles = np.empty((m, n), dtype=np.int64)
+        in_cycles = np.empty((r1 - r0, n), dtype=np.int64)
         first = line_starts((m, n), timing)
         starts, sched = group_starts(first, first + (n - 1), n, config, timing.hblank)
     else:
         in_cycles = input_cycles((m, n), timing)[-1]
         starts, sched = group_starts(in_cycles[:, 0], in_cycles[:, -1], n, config, timing.hblank)
+        in_cycles = np.ascontiguousarray(in_cycles[r0:r1])
+    # from here on, the band's lines only: row j of every array is the frame's line r0 + j
+    im1, im2, m = im1[r0:r1], im2[r0:r1], r1 - r0
     out_cycles = np.empty((m, n), dtype=np.int64)
     band_ends: list[tuple[int, int]] = []  # each band's (latency, last output cycle)
     fm = runtime.format_table(config)
@@ -760,8 +773,8 @@ def run_p2(
         # the band's rows of the float range map and the cycle maps, on the same thread
         band_ends.append(runtime.finish_band(
             out_range[j0:j1], zf.frac, range_f[j0:j1], in_cycles[j0:j1], out_cycles[j0:j1],
-            in_starts=line_starts((m, n), timing, 0, j0, j1) if closed_cycles else None,
-            out_starts=output_line_starts(starts, sched, j0, j1),
+            in_starts=line_starts(frame, timing, 0, r0 + j0, r0 + j1) if closed_cycles else None,
+            out_starts=output_line_starts(starts, sched, r0 + j0, r0 + j1),
             out_step=sched["forward_period"]))  # fmt: skip
         return stats
 

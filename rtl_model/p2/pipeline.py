@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
 
+from rangefx.golden.ranging import RangeResult
 from rangefx.golden.riccati import RiccatiConfig, range_g5
 from rangefx.golden.taps import p2_golden_taps
 
@@ -37,6 +39,7 @@ class P2Pipeline(Pipeline):
     buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
     run_model = staticmethod(model.run_p2)
     sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p2_lab.toml",)
+    line_independent: ClassVar[bool] = True  # the sweep and G5 run along each line
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:
@@ -47,6 +50,23 @@ class P2Pipeline(Pipeline):
             used = {taps.TAP_SIGNALS[t] for t, s in taps.TAP_STAGE.items() if s == stage}
             groups[stage] = tuple(s for s in P2Config.signals() if s in used)
         return groups
+
+    def golden_lines(
+        self, case: Case, lines: tuple[int, int], config: WordLengthConfig | None = None
+    ) -> RangeResult:
+        self.check_mode(case)
+        j0, j1 = lines
+        if not 0 <= j0 < j1 <= case.image1.shape[0]:
+            raise ValueError(f"lines must be (j0, j1) within the frame's {case.image1.shape[0]}")
+        # a camera has 2 lines or more: a 1-line band is computed with a neighbour
+        lo = min(j0, max(0, j1 - 2))
+        hi = min(max(j1, lo + 2), case.image1.shape[0])
+        camera = replace(case.camera, height=hi - lo)  # G5 reads f and b, not the rows' place
+        g = range_g5(case.image1[lo:hi], case.image2[lo:hi], camera, case.motion,
+                     self.settings(case))  # fmt: skip
+        rows = slice(j0 - lo, j1 - lo)
+        return RangeResult(range=g.range[rows], valid=g.valid[rows],
+                           terms={k: v[rows] for k, v in g.terms.items()})  # fmt: skip
 
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         result = range_g5(case.image1, case.image2, case.camera, case.motion, self.settings(case))

@@ -57,7 +57,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "vectors": ("vectors", "hardware test vectors: gen, check, diff (SPEC §5)"),
     "hdl": ("hdl", "the Verilog of P1: vector replay, synthesis area, timing"),
     "sweep": ("sweep", "word-length sweep of any pipeline (resumable, local or dask)"),
-    "optimise": ("sweep", "cheapest word lengths meeting an accuracy budget"),
+    "optimise": ("optimise", "cheapest word lengths meeting an accuracy budget"),
     "eval": (
         "eval",
         "score G2, G3, G5, G6 (and OpenCV peers) on real stereo data with ground truth",

@@ -11,7 +11,6 @@ reads that setting (:attr:`Pipeline.case_options`). Every such option defaults t
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
 from typing import Any
 
 from rangefx.rtl_model.config import TimingConfig
@@ -20,6 +19,7 @@ from rangefx.rtl_model.registry import PIPELINES, get_pipeline
 from rangefx.rtl_model.runtime import DIVIDERS
 
 from ..errors import UserError
+from .argtypes import int_at_least, out_path
 
 __all__ = [
     "CASE_OPTIONS",
@@ -59,29 +59,6 @@ TIMING_OPTIONS: dict[str, str] = {
     "gap_prob": "--gap-prob",
     "gap_seed": "--gap-seed",
 }
-
-
-def int_at_least(minimum: int, what: str = "value") -> Callable[[str], int]:
-    """An argparse ``type``: an integer ``>= minimum``, else a one-line parser error."""
-
-    def parse(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-        if v < minimum:
-            raise argparse.ArgumentTypeError(f"{what} must be >= {minimum}, not {v}")
-        return v
-
-    return parse
-
-
-def out_path(text: str) -> str:
-    """An argparse ``type`` for ``--out``: an empty (or blank) path names no place to write
-    (``Path("")`` would be the working directory), a one-line parser error."""
-    if not text.strip():
-        raise argparse.ArgumentTypeError("an empty path names no file or directory")
-    return text
 
 
 def add_pipeline_arg(p: argparse.ArgumentParser, *, default: str | None = "p1") -> None:

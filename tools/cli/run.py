@@ -22,14 +22,16 @@ from rangefx.rtl_model.registry import PIPELINES
 from .. import report
 from ..errors import UserError
 from ..report import json_safe
+from ..studies.banded import require_input_memory
 from ..studies.cases import image_pixels, load_image
-from ..studies.runner import load_config, require_run_memory
+from ..studies.runner import load_config
 from .options import (
     TIMING_OPTIONS,
     add_design_args,
     add_timing_args,
     apply_case_options,
     design_from_args,
+    int_at_least,
     out_path,
     pipeline_from_args,
     reject_options,
@@ -87,7 +89,8 @@ def _case(args: argparse.Namespace) -> Case:
         for path in (args.left, args.right):  # before decoding: a 12000x12000 pair is refused
             pixels = image_pixels(path)
             if pixels is not None:
-                require_run_memory(f"run on {path} ({pixels} pixels)", pixels)
+                pipe = PIPELINES.get(args.pipeline)  # None: a golden method
+                require_input_memory(pipe, f"run on {path} ({pixels} pixels)", pixels)
         return api.image_case(args.left, args.right, f_px=args.f_px, baseline=args.baseline)
     return api.scene_case(args.scene or "lab", seed=args.seed)
 
@@ -102,7 +105,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UserError("--method applies to --pipeline golden only")
         return run_pipeline(pipeline_from_args(args), case, args)
     why = f"applies to the fixed-point pipelines only (--pipeline {'|'.join(PIPELINES)})"
-    reject_options(args, {"config": "--config", "variant": "--variant"}, why)
+    reject_options(
+        args, {"config": "--config", "variant": "--variant", "band_lines": "--band-lines"}, why
+    )
     reject_options(args, {"divider": "--divider", **TIMING_OPTIONS}, why)
     method = args.method or DEFAULT_METHOD
     used = METHOD_OPTIONS.get(method, tuple(METHOD_FLAGS))
@@ -134,7 +139,7 @@ def run_pipeline(pipeline: Pipeline, case: Case, args: argparse.Namespace) -> in
     config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
     run = api.run(
         case, config, pipeline=pipeline, timing=timing_from_args(args), taps=bool(args.out),
-        allow_saturated_input=args.allow_saturated_input,
+        allow_saturated_input=args.allow_saturated_input, band_lines=args.band_lines,
         input_names=(args.left or "image1", args.right or "image2"),
     )  # fmt: skip
     result, figures, name = run.result, run.figures, pipeline.name
@@ -204,5 +209,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     g.add_argument(
         "--allow-saturated-input", action="store_true",
         help="accept grey levels outside the input format (saturated, with a warning)",
+    )  # fmt: skip
+    g.add_argument(
+        "--band-lines", type=int_at_least(1), metavar="N",
+        help="a pipeline whose lines are independent (P2): run the frame in bands of N "
+        "lines, the same result bit for bit (default: the whole frame if it fits in the "
+        "memory available, else bands that do)",
     )  # fmt: skip
     p.set_defaults(func=cmd_run)

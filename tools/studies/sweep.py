@@ -84,6 +84,7 @@ from ..errors import UserError
 from ..interrupts import raise_if_interrupted
 from ..report.lock import output_lock
 from ..report.outdir import refuse_links
+from ..sweepbound import MAX_AXIS_VALUE, MAX_POINTS, count_points
 from .buildup import buildup_for
 from .cases import scene_case
 from .runner import compare_ranges
@@ -136,11 +137,6 @@ PARAMS: tuple[str, ...] = (
 )
 COMBINES = ("grid", "one_at_a_time")
 PARETO_METRICS = ("median_rel_range_diff", "p95_rel_range_diff", "truth_median_rel_error")
-#: Points a sweep may have unless ``--max-points`` raises it (``rangefx sweep``).
-MAX_POINTS = 100_000
-#: Largest magnitude of an integer axis value: no format of the int64 models has a
-#: word, fraction or integer part (or a change of one) beyond it.
-MAX_AXIS_VALUE = 128
 
 
 def _err(where: str, msg: str) -> UserError:
@@ -516,11 +512,7 @@ def _combos(defn: SweepDef) -> list[tuple[tuple[str, Any], ...]]:
 
 def point_count(defn: SweepDef) -> int:
     """Points of ``defn`` (scenes times axis combinations), counted without listing them."""
-    if defn.combine == "grid":
-        combos = math.prod(len(a.values) for a in defn.axes)
-    else:
-        combos = 1 + sum(len(a.values) for a in defn.axes)
-    return combos * len(defn.scenes)
+    return count_points(defn.combine, (len(a.values) for a in defn.axes), len(defn.scenes))
 
 
 def expand(defn: SweepDef, max_points: int = MAX_POINTS) -> list[Point]:

@@ -28,6 +28,7 @@ from ..interrupts import raise_if_interrupted
 from ..report import atomic_write_text
 from ..report.lock import output_lock
 from ..report.outdir import refuse_links
+from ..sweepbound import DEFAULT_SIZE, SWEEP_SECONDS_PER_PIXEL, refuse_too_many_points
 from .sweep import MAX_POINTS, RESULTS_NAME, SweepDef, SweepOutcome, load_sweep
 
 __all__ = [
@@ -95,7 +96,7 @@ def sweep_in_dir(
                 f"output directory {str(out)!r} is not empty and holds no sweep results; "
                 "choose a new directory"
             )
-        m, n = defn.size or (512, 512)  # the presets' default size
+        m, n = defn.size or DEFAULT_SIZE
         check_point_count(defn, m * n, max_points, 1 if scheduler else workers)
         require_memory(
             f"sweep {defn.name!r}: size [{m}, {n}] with --workers {workers}",
@@ -163,13 +164,6 @@ def _sweep_locked(
 #: Peak bytes per pixel of one point in flight (scene, golden and fixed-point taps with the
 #: sqnr metrics; about 1.2 KiB measured on lab, doubled for headroom).
 SWEEP_BYTES_PER_PIXEL = 2048
-#: Seconds of one point per pixel, per pipeline, with the golden, truth, sqnr and overflow
-#: metrics on lab at 256x256 (AMD EPYC, 2 cores): P1 a median of 0.057 s a point on the
-#: idle machine (``rangefx sweep`` of row_state.frac 6..11); P2 and P3 by their ratio to
-#: P1 in one run of ``rangefx sweep --workers 1`` of 6-7 points each on the shared
-#: machine (P1 0.166 s, P2 0.089 s, P3 0.191 s: ratios 0.54 and 1.15). A pipeline not
-#: listed is estimated at the slowest's cost.
-SWEEP_SECONDS_PER_PIXEL: dict[str, float] = {"p1": 0.9e-6, "p2": 0.48e-6, "p3": 1.04e-6}
 
 
 def check_point_count(defn: SweepDef, pixels: int, max_points: int, workers: int) -> None:
@@ -177,17 +171,7 @@ def check_point_count(defn: SweepDef, pixels: int, max_points: int, workers: int
     ``max_points`` points, with its count and estimated time."""
     from .sweep import point_count
 
-    count = point_count(defn)
-    if count > max_points:
-        per_pixel = SWEEP_SECONDS_PER_PIXEL.get(
-            defn.pipeline, max(SWEEP_SECONDS_PER_PIXEL.values())
-        )
-        hours = count * pixels * per_pixel / workers / 3600
-        raise UserError(
-            f"sweep {defn.name!r}: {count} points (about {hours:.3g} hours at "
-            f"{pixels * per_pixel:.2g} s a point with {workers} workers), more "
-            f"than --max-points {max_points}; narrow the axes or raise --max-points"
-        )
+    refuse_too_many_points(defn.name, defn.pipeline, point_count(defn), pixels, max_points, workers)
 
 
 #: The sweep directory's own record: which definition it holds and which files rangefx
