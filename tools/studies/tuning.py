@@ -204,7 +204,7 @@ def optimise_on_scenes(
     fmax_min, timing_stage, timing_speed
         P1: keep a narrowing only if the RTL (``timing_stage`` ``"top"`` or
         ``"frontend"``) still places and routes at ``>= fmax_min`` MHz on an LFE5U-85F of
-        speed grade ``timing_speed`` (:func:`rangefx.tools.studies.timing.fmax_floor`;
+        speed grade ``timing_speed`` (:func:`rangefx.tools.studies.timing.fmax_measure`;
         the start must meet it too). None: no clock-rate floor.
 
     Raises
