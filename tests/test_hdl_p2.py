@@ -96,9 +96,9 @@ def _check_exact(report: replay.ReplayReport, m: int, n: int, groups: int) -> No
 
 
 CASES = [  # (id, divider, lanes, crop, timing, groups)
-    ("recip-L11-short", "reciprocal", 0, CROP, PLAIN, 1),
+    ("recip-L12-short", "reciprocal", 0, CROP, PLAIN, 1),
     ("recip-L13-gaps", "reciprocal", 13, TALL, GAPS, 2),
-    ("recip-L11-gaps-3groups", "reciprocal", 0, TALL, GAPS, 3),
+    ("recip-L12-gaps-3groups", "reciprocal", 0, TALL, GAPS, 3),
     ("restoring-L33", "restoring", 0, CROP, TimingConfig(hblank=2), 1),
 ]
 
@@ -212,8 +212,8 @@ def test_cli_replays_a_p2_directory(tmp_path, capsys):
 
 
 def test_overrun_flag_when_the_lanes_cannot_sustain_the_rate(tmp_path):
-    """Vectors at one pixel per clock with 11 lanes, the RTL compiled with a divider 12
-    cycles slower (loop latency 23 > 11 lanes): the sweep cannot keep up, and the
+    """Vectors at one pixel per clock with 12 lanes, the RTL compiled with a divider 11
+    cycles slower (loop latency 23 > 12 lanes): the sweep cannot keep up, and the
     hardware raises ``overrun`` (the model's assertion) instead of sweeping overwritten
     lines silently."""
     vec, _vs = _vectors(tmp_path, P2Config.default(), TALL)
