@@ -1,4 +1,4 @@
-"""``rangefx hdl``: the Verilog of P1 (``hdl/``, docs/hdl.md).
+"""``rangefx hdl``: the Verilog of P1 and P2 (``hdl/``, docs/hdl.md).
 
 * ``replay``: build ``hdl/p1_top.v`` with a P1 vector directory's parameters, replay its
   input streams under Icarus or Verilator (cocotb + cocotbext-axi) and check every
@@ -9,6 +9,9 @@
   stage, for a word-length config and a target (:mod:`rangefx.tools.studies.synth`).
 * ``timing``: Yosys + nextpnr place and route of the whole P1 on a device: Fmax per clock
   (median over seeds), critical path, utilisation (:mod:`rangefx.tools.studies.timing`).
+
+``synth`` and ``timing`` take ``--pipeline p1|p2``: P2's whole ``p2_top`` through the same
+code (:data:`rangefx.tools.studies.synth.RTL_TOPS`); a pipeline without RTL is one error.
 
 One function per subcommand adds its parser (``add_replay_parser``, ``add_synth_parser``,
 ``add_timing_parser``); ``add_parser`` registers the group.
