@@ -19,6 +19,10 @@ circuit is the design without its probes. (nextpnr-ecp5's ``--out-of-context`` w
 drop the pins instead, but it also skips global clock routing, which changes the paths
 it times.)
 
+P2's whole ``p2_top`` is timed the same way (:data:`TIMED_TOPS`: each pipeline's wrapper
+module, sources and stages; :func:`time_top`), through
+:func:`rangefx.vectors.hdl.p2_timing_wrapper` (its overflow counters unconnected).
+
 Results are cached per seed under ``$RANGEFX_CACHE/timing`` (the synthesis cache's
 sibling): the key is the SHA-256 of the Verilog sources and the generated wrapper (which
 holds every parameter), the tools' versions and command lines, the device, package, speed
