@@ -229,11 +229,11 @@ def test_hdl_synth_and_timing_take_the_filter_form_and_pole(command, monkeypatch
     class Stop(Exception):
         pass
 
-    def capture(config, *args, **kwargs):
-        seen.append((config.filter_form, config.pole))
+    def capture(pipeline, config, *args, **kwargs):
+        seen.append((pipeline, config.filter_form, config.pole))
         raise Stop
 
-    monkeypatch.setattr(hdl, "synth_p1" if command == "synth" else "time_p1", capture)
+    monkeypatch.setattr(hdl, "synth_pipeline" if command == "synth" else "time_top", capture)
     with pytest.raises(Stop):
         main(["hdl", command, "--filter-form", "direct", "--pole", "0.375", "--json"])
-    assert seen == [("direct", 0.375)]
+    assert seen == [("p1", "direct", 0.375)]

@@ -1,4 +1,4 @@
-"""``rangefx hdl``: the Verilog of P1 (``hdl/``, docs/hdl.md).
+"""``rangefx hdl``: the Verilog of P1 and P2 (``hdl/``, docs/hdl.md).
 
 * ``replay``: build ``hdl/p1_top.v`` with a P1 vector directory's parameters, replay its
   input streams under Icarus or Verilator (cocotb + cocotbext-axi) and check every
@@ -10,6 +10,9 @@
 * ``timing``: Yosys + nextpnr place and route of the whole P1 on a device: Fmax per clock
   (median over seeds), critical path, utilisation (:mod:`rangefx.tools.studies.timing`).
 
+``synth`` and ``timing`` take ``--pipeline p1|p2``: P2's whole ``p2_top`` through the same
+code (:data:`rangefx.tools.studies.synth.RTL_TOPS`); a pipeline without RTL is one error.
+
 One function per subcommand adds its parser (``add_replay_parser``, ``add_synth_parser``,
 ``add_timing_parser``); ``add_parser`` registers the group.
 """
@@ -20,13 +23,11 @@ import argparse
 import json
 
 from rangefx.rtl_model.p1.config import FILTER_FORMS
-from rangefx.rtl_model.registry import get_pipeline
 from rangefx.vectors.replay import SIMULATORS
 
-from ..errors import UserError
 from ..studies.runner import load_config
-from ..studies.synth import AREA_KEYS, STAGES, TARGETS, synth_p1
-from ..studies.timing import DEVICES, TimingResult, time_p1
+from ..studies.synth import AREA_KEYS, STAGES, TARGETS, rtl_top, synth_pipeline
+from ..studies.timing import DEVICES, TimingResult, time_top
 from ..studies.timing import STAGES as TIMING_STAGES
 from ..studies.timing import TARGETS as TIMING_TARGETS
 from .options import add_design_args, design_from_args, int_at_least, pipeline_from_args
@@ -45,7 +46,8 @@ __all__ = [
 
 def add_parser(sub) -> None:
     """Register ``rangefx hdl`` and its subcommands on ``sub``."""
-    p = sub.add_parser("hdl", help="the Verilog of P1: vector replay, synthesis area, timing")
+    p = sub.add_parser("hdl", help="the Verilog of P1 and P2: vector replay, synthesis area, "
+                       "timing")  # fmt: skip
     hs = p.add_subparsers(dest="hdl_command", required=True)
     add_replay_parser(hs)
     add_synth_parser(hs)
@@ -117,20 +119,22 @@ def _text(r: dict) -> str:
 
 
 def cmd_synth(args: argparse.Namespace) -> int:
-    pipeline = get_pipeline("p1")
+    pipeline = pipeline_from_args(args)
+    rtl = rtl_top(pipeline.name)  # one line for a pipeline without RTL, before any work
     config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
-    parts = ("top", *STAGES) if args.stage == "all" else (args.stage,)
+    parts = ("top", *rtl.stages) if args.stage == "all" else (args.stage,)
     shape = (args.height, args.width)
-    report = synth_p1(config, args.target, shape, args.mode, parts, use_cache=not args.no_cache,
-                      probes=not args.no_probes)  # fmt: skip
-    report = {"config": config.name, **report}
+    report = synth_pipeline(pipeline.name, config, args.target, shape, args.mode, parts,
+                            use_cache=not args.no_cache, probes=not args.no_probes)  # fmt: skip
+    report = {"pipeline": pipeline.name, "config": config.name, **report}
     if args.json:
         print(json.dumps(report))
         return 0
-    print(f"P1 {args.mode} {shape[0]}x{shape[1]}, config {config.name}, Yosys {args.target}:")
+    print(f"{pipeline.name.upper()} {args.mode} {shape[0]}x{shape[1]}, config {config.name}, "
+          f"Yosys {args.target}:")  # fmt: skip
     print(f"  {'':<22} " + " ".join(f"{k:>6}" for k in AREA_KEYS) + "  cached")
-    if report["headline"] == "p1_top":
-        print(f"  {'whole p1_top':<22} " + " ".join(f"{report[k]:>6}" for k in AREA_KEYS)
+    if report["headline"] == rtl.module:
+        print(f"  {'whole ' + rtl.module:<22} " + " ".join(f"{report[k]:>6}" for k in AREA_KEYS)
               + f"  {'yes' if report['cached'] else 'no'}")  # fmt: skip
     if "probes" in report:
         p = report["probes"]
@@ -159,15 +163,19 @@ def add_filter_args(p) -> None:
 
 def add_synth_parser(hs) -> None:
     """``hdl synth``: added to the ``hdl`` group's subparsers ``hs``."""
-    s = hs.add_parser("synth", help="Yosys area of the whole P1 RTL, its probes and its stages")
+    s = hs.add_parser("synth", help="Yosys area of the whole P1 or P2 RTL, its probes and "
+                      "its stages")  # fmt: skip
+    s.add_argument("--pipeline", default="p1", help="pipeline with RTL in hdl/: p1 or p2 "
+                   "(default p1)")  # fmt: skip
     add_design_args(s, estimator=False)
     add_filter_args(s)
     s.add_argument("--target", choices=tuple(TARGETS), default="xcup",
                    help="Yosys flow: synth_xilinx -family xc7|xcup, synth_ecp5, synth_ice40 "
                    "(default xcup)")  # fmt: skip
     s.add_argument("--stage", choices=("top", *STAGES, "all"), default="all",
-                   help="what to synthesise: top (the whole p1_top, and its probes apart), "
-                   "frontend (one stream, x-derivative included), range, or all")  # fmt: skip
+                   help="what to synthesise: top (the whole p1_top or p2_top, and its probes "
+                   "apart), P1's frontend (one stream, x-derivative included) or range, or all "
+                   "(P2: the top)")  # fmt: skip
     s.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
                    help="stereo: two frontend stages, motion: one (default stereo)")  # fmt: skip
     s.add_argument("--width", type=int_at_least(2, "--width"), default=512,
@@ -185,11 +193,10 @@ def add_synth_parser(hs) -> None:
 
 def cmd_timing(args: argparse.Namespace) -> int:
     pipeline = pipeline_from_args(args)
-    if pipeline.name != "p1":
-        raise UserError(f"--pipeline {args.pipeline}: only P1 has RTL in hdl/")
+    rtl_top(pipeline.name)  # one line for a pipeline without RTL, before any work
     config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
-    result = time_p1(
-        config, target=args.target, device=args.device, package=args.package,
+    result = time_top(
+        pipeline.name, config, target=args.target, device=args.device, package=args.package,
         speed=args.speed, seeds=args.seeds, freq_mhz=args.freq, shape=(args.height, args.width),
         mode=args.mode, stage=args.stage, use_cache=not args.no_cache,
     )  # fmt: skip
@@ -202,8 +209,9 @@ def cmd_timing(args: argparse.Namespace) -> int:
 
 def _timing_text(r: TimingResult) -> str:
     lines = [
-        f"P1 {r.stage} {r.mode} {r.shape[0]}x{r.shape[1]}, config {r.config}, {r.target} "
-        f"{r.device} {r.package} speed {r.speed} ({r.pins} pins), aiming at {r.freq_mhz:g} MHz:"
+        f"{r.pipeline.upper()} {r.stage} {r.mode} {r.shape[0]}x{r.shape[1]}, config {r.config}, "
+        f"{r.target} {r.device} {r.package} speed {r.speed} ({r.pins} pins), aiming at "
+        f"{r.freq_mhz:g} MHz:"
     ]
     for clock, fmax in r.fmax_mhz.items():
         each = ", ".join(f"{s.fmax_mhz.get(clock, 0):.1f}" for s in r.seeds)
@@ -224,8 +232,9 @@ def _timing_text(r: TimingResult) -> str:
 def add_timing_parser(hs) -> None:
     """``hdl timing``: added to the ``hdl`` group's subparsers ``hs``."""
     t = hs.add_parser("timing", help="place-and-route Fmax, critical path and utilisation "
-                      "of the P1 RTL (Yosys + nextpnr)")  # fmt: skip
-    t.add_argument("--pipeline", default="p1", help="pipeline with RTL in hdl/ (p1)")
+                      "of the P1 or P2 RTL (Yosys + nextpnr)")  # fmt: skip
+    t.add_argument("--pipeline", default="p1", help="pipeline with RTL in hdl/: p1 or p2 "
+                   "(default p1)")  # fmt: skip
     add_design_args(t, estimator=False)
     add_filter_args(t)
     t.add_argument("--target", choices=tuple(TIMING_TARGETS), default="ecp5",
@@ -242,7 +251,7 @@ def add_timing_parser(hs) -> None:
     t.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
                    help="stereo: two front ends, motion: one and the frame store")  # fmt: skip
     t.add_argument("--stage", choices=TIMING_STAGES, default="top",
-                   help="top: the whole P1 (default), frontend: one stream's")  # fmt: skip
+                   help="top: the whole P1 or P2 (default), frontend: one P1 stream's")  # fmt: skip
     t.add_argument("--width", type=int_at_least(2, "--width"), default=512,
                    help="line width the line buffers and counters are sized for (512)")  # fmt: skip
     t.add_argument("--height", type=int_at_least(2, "--height"), default=512,

@@ -29,7 +29,7 @@ import os
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -40,10 +40,13 @@ from rangefx.vectors.hdl import (
     FRONTEND_SOURCES,
     HDL_DIR,
     HDL_SOURCES,
+    P2_OVERFLOW_PORTS,
+    P2_SOURCES,
     RANGE_SOURCES,
     TOPLEVEL,
     config_top_parameters,
     frontend_parameters,
+    p2_config_parameters,
     range_parameters,
     write_recip_rom,
 )
@@ -52,15 +55,21 @@ from ..errors import UserError
 
 __all__ = [
     "AREA_KEYS",
+    "RTL_TOPS",
     "STAGES",
     "STAGE_SIGNALS",
     "TARGETS",
+    "RtlTop",
     "SynthArea",
     "area_from_cells",
     "cache_dir",
     "proxy_area",
     "proxy_ratios",
+    "rtl_top",
     "synth_p1",
+    "synth_p2",
+    "synth_pipeline",
+    "synth_pipeline_top",
     "synth_record",
     "synth_stage",
     "synth_top",
@@ -76,7 +85,59 @@ STAGES: dict[str, tuple[str, tuple[str, ...]]] = {
 _TOPS: dict[str, tuple[str, tuple[str, ...]]] = {
     "top": (TOPLEVEL, HDL_SOURCES),
     "top+probes": (TOPLEVEL, HDL_SOURCES),
+    "p2_top": ("p2_top", P2_SOURCES),
+    "p2_top+probes": ("p2_top", P2_SOURCES),
 }
+
+
+@dataclass(frozen=True)
+class RtlTop:
+    """One pipeline's whole top in ``hdl/`` as synthesis and timing see it: the top
+    ``module`` and its ``sources``; ``parameters(config, shape, mode)``, its Verilog
+    parameters for a word-length config (the reciprocal ROM named ``recip_rom.mem`` in the
+    work directory, so no path enters a cache key); ``probe_ports``, the Yosys selection of
+    the top's own ports that are probes (overflow counters), turned into internal wires
+    for the headline so that Yosys removes what drives them; ``stage``, the synthesis
+    cache's name of the headline (``stage + "+probes"``: with the probes kept); and
+    ``modes``, the modes the top implements; ``stages``, the parts synthesised alone as
+    its breakdown (:data:`STAGES`; none for P2)."""
+
+    pipeline: str
+    module: str
+    sources: tuple[str, ...]
+    parameters: Callable[[object, tuple[int, int], str], dict]
+    stage: str
+    probe_ports: str = ""
+    modes: tuple[str, ...] = ("stereo", "motion")
+    stages: tuple[str, ...] = ()
+
+
+def _p1_top_parameters(config: P1Config, shape: tuple[int, int], mode: str) -> dict:
+    params = config_top_parameters(config, shape, mode, "recip_rom.mem")
+    if config.divider == "reciprocal":
+        params["ROM_FILE"] = '"recip_rom.mem"'  # in the work directory: no path in the key
+    return params
+
+
+def _p2_top_parameters(config, shape: tuple[int, int], mode: str) -> dict:
+    return p2_config_parameters(config, shape, "recip_rom.mem")
+
+
+#: The pipelines with RTL in ``hdl/``; a pipeline not here has none (:func:`rtl_top`).
+RTL_TOPS: dict[str, RtlTop] = {
+    "p1": RtlTop("p1", TOPLEVEL, HDL_SOURCES, _p1_top_parameters, "top", stages=tuple(STAGES)),
+    # p2_top has the counters as its own ports (the bench reads them): they are dropped
+    "p2": RtlTop("p2", "p2_top", P2_SOURCES, _p2_top_parameters, "p2_top",
+                 " ".join(f"p2_top/{p}" for p in P2_OVERFLOW_PORTS), ("stereo",)),
+}  # fmt: skip
+
+
+def rtl_top(pipeline: str) -> RtlTop:
+    """The :class:`RtlTop` of ``pipeline``; :class:`UserError` (one line) if it has no RTL."""
+    if pipeline not in RTL_TOPS:
+        raise UserError(f"pipeline {pipeline} has no RTL in hdl/ (only "
+                        f"{', '.join(RTL_TOPS)}): nothing to synthesise or time")  # fmt: skip
+    return RTL_TOPS[pipeline]
 
 
 @dataclass(frozen=True)
@@ -236,13 +297,20 @@ def _verilog_constant(value: object) -> str:
 
 
 def _yosys_script(
-    top: str, sources: tuple[str, ...], params: Mapping, target: str, keep_probes: bool = False
+    top: str,
+    sources: tuple[str, ...],
+    params: Mapping,
+    target: str,
+    keep_probes: bool = False,
+    drop_ports: str = "",
 ) -> str:
     lines = [f"read_verilog -defer -I{HDL_DIR} " + " ".join(str(HDL_DIR / s) for s in sources)]
     sets = " ".join(f"-set {k} {_verilog_constant(v)}" for k, v in params.items())
     lines += [f"chparam {sets} {top}", f"hierarchy -top {top}"]
     if keep_probes:  # every module's outputs (taps, overflow counters) survive flattening
         lines.append("setattr -set keep 1 */o:*")
+    if drop_ports:  # the top's probe ports become wires: Yosys removes what drives them
+        lines.append(f"delete -port {drop_ports}")
     lines += [TARGETS[target].command, "tee -q -o stat.json stat -json"]
     return "\n".join(lines) + "\n"
 
@@ -283,21 +351,44 @@ def synth_top(
     counters drive nothing, so Yosys removes them); True: with every module's outputs
     kept. In motion mode the frame store is sized for ``shape``.
     """
-    params = config_top_parameters(config, shape, mode, "recip_rom.mem")
-    if config.divider == "reciprocal":
-        params["ROM_FILE"] = '"recip_rom.mem"'  # in the work directory: no path in the key
-    return _synthesise(config, "top+probes" if probes else "top", target, params,
-                       use_cache=use_cache, timeout_s=timeout_s)  # fmt: skip
+    return synth_pipeline_top("p1", config, target, shape, mode, probes=probes,
+                              use_cache=use_cache, timeout_s=timeout_s)  # fmt: skip
+
+
+def synth_pipeline_top(
+    pipeline: str,
+    config,
+    target: str = "xcup",
+    shape: tuple[int, int] = (512, 512),
+    mode: str = "stereo",
+    *,
+    probes: bool = False,
+    use_cache: bool = True,
+    timeout_s: float = 3600.0,
+) -> tuple[SynthArea, bool]:
+    """Yosys area of ``pipeline``'s whole top (:data:`RTL_TOPS`) synthesised flat for
+    ``config`` on ``shape`` frames; returns ``(area, from_cache)``. ``probes`` False: the
+    design without its taps and overflow counters; True: with every module's outputs
+    kept. :class:`UserError` for a pipeline without RTL or a mode its top lacks."""
+    rtl = rtl_top(pipeline)
+    if mode not in rtl.modes:
+        raise UserError(f"{pipeline} has no {mode} mode in hdl/ (it has {', '.join(rtl.modes)})")
+    params = rtl.parameters(config, shape, mode)
+    stage = rtl.stage + "+probes" if probes else rtl.stage
+    return _synthesise(config, stage, target, params, use_cache=use_cache, timeout_s=timeout_s,
+                       drop_ports="" if probes else rtl.probe_ports)  # fmt: skip
 
 
 def _synthesise(
     config: P1Config, stage: str, target: str, params: Mapping, *, use_cache: bool,
-    timeout_s: float,
+    timeout_s: float, drop_ports: str = "",
 ) -> tuple[SynthArea, bool]:  # fmt: skip
     if target not in TARGETS:
         raise UserError(f"unknown synthesis target {target!r}; choose from {', '.join(TARGETS)}")
     version = yosys_version()
-    key = _key(stage, target, params, version)
+    key = _key(
+        stage, target, dict(params) | ({"drop_ports": drop_ports} if drop_ports else {}), version
+    )
     cached = cache_dir() / f"{stage}-{target}-{key}.json"
     if use_cache and cached.is_file():
         try:
@@ -310,7 +401,8 @@ def _synthesise(
         work = Path(tmp)
         if config.divider == "reciprocal":
             write_recip_rom(config, work / "recip_rom.mem")
-        script = _yosys_script(top, sources, params, target, keep_probes=stage == "top+probes")
+        keep = stage.endswith("+probes")
+        script = _yosys_script(top, sources, params, target, keep, drop_ports)
         (work / "synth.ys").write_text(script)
         try:
             run = subprocess.run(["yosys", "-q", "-s", "synth.ys"], cwd=work, capture_output=True,
@@ -476,3 +568,63 @@ def synth_record(
     rec = {f"synth_{k}": area[k] for k in AREA_KEYS}
     rec["synth_cost"] = area["lut"] + area["ff"]
     return rec
+
+
+def synth_p2(
+    config,
+    target: str = "xcup",
+    shape: tuple[int, int] = (512, 512),
+    *,
+    use_cache: bool = True,
+    probes: bool = True,
+) -> dict:
+    """Area of the whole P2 (``hdl/p2_top.v``: input stage, line and sweep buffers, the
+    lane-interleaved sweep with its divider, the forward pass and thresholds), the
+    headline without its overflow counters (:func:`synth_pipeline_top`), and, when
+    ``probes``, what the counters add (``probes``: the top with them kept, minus the
+    headline). P2's RTL has no separately synthesisable stages.
+
+    Returns a JSON-able dict: ``target``, ``shape``, ``mode`` (stereo), ``headline``
+    (``p2_top``), its ``lut``, ``ff``, ``carry``, ``dsp``, ``bram``, ``cached``, ``cells``,
+    ``probes``, ``stages`` (empty), ``proxy`` (``rtl_model/p2/cost.py``: register bits,
+    DSP slices, RAMB18 of the line and sweep buffers) and ``proxy_ratio`` against the
+    headline (:func:`proxy_ratios`)."""
+    from rangefx.rtl_model.p2.cost import config_cost
+
+    whole, hit = synth_pipeline_top("p2", config, target, shape, use_cache=use_cache)
+    head = {k: getattr(whole, k) for k in AREA_KEYS}
+    out: dict = {"target": target, "shape": list(shape), "mode": "stereo", "headline": "p2_top",
+                 **head, "cached": hit, "cells": whole.cells}  # fmt: skip
+    if probes:
+        kept, k_hit = synth_pipeline_top("p2", config, target, shape, probes=True,
+                                         use_cache=use_cache)  # fmt: skip
+        out["probes"] = {k: getattr(kept, k) - head[k] for k in AREA_KEYS} | {"cached": k_hit}
+    cost = config_cost(config, shape)
+    proxy = {"register_bits": cost.register_bits, "dsp": cost.dsp, "bram18": cost.bram18}
+    return out | {"stages": {}, "stages_sum": head, "proxy": proxy,
+                  "proxy_ratio": proxy_ratios(proxy, head)}  # fmt: skip
+
+
+def synth_pipeline(
+    pipeline: str,
+    config,
+    target: str = "xcup",
+    shape: tuple[int, int] = (512, 512),
+    mode: str = "stereo",
+    parts: tuple[str, ...] = ("top",),
+    *,
+    use_cache: bool = True,
+    probes: bool = True,
+) -> dict:
+    """``rangefx hdl synth`` of any pipeline with RTL (:data:`RTL_TOPS`): P1's
+    :func:`synth_p1` (the top and its stages as ``parts`` names), P2's :func:`synth_p2`
+    (the whole top only). :class:`UserError` (one line) for a pipeline without RTL, a
+    stage or mode its RTL does not have."""
+    rtl = rtl_top(pipeline)
+    if mode not in rtl.modes:
+        raise UserError(f"{pipeline} has no {mode} mode in hdl/ (it has {', '.join(rtl.modes)})")
+    if pipeline == "p1":
+        return synth_p1(config, target, shape, mode, parts, use_cache=use_cache, probes=probes)
+    if tuple(parts) != ("top",):
+        raise UserError(f"{pipeline}'s RTL is synthesised whole (--stage top), not by stage")
+    return synth_p2(config, target, shape, use_cache=use_cache, probes=probes)

@@ -19,6 +19,10 @@ circuit is the design without its probes. (nextpnr-ecp5's ``--out-of-context`` w
 drop the pins instead, but it also skips global clock routing, which changes the paths
 it times.)
 
+P2's whole ``p2_top`` is timed the same way (:data:`TIMED_TOPS`: each pipeline's wrapper
+module, sources and stages; :func:`time_top`), through
+:func:`rangefx.vectors.hdl.p2_timing_wrapper` (its overflow counters unconnected).
+
 Results are cached per seed under ``$RANGEFX_CACHE/timing`` (the synthesis cache's
 sibling): the key is the SHA-256 of the Verilog sources and the generated wrapper (which
 holds every parameter), the tools' versions and command lines, the device, package, speed
@@ -36,27 +40,31 @@ import subprocess
 import sys
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.vectors.hdl import (
     HDL_DIR,
     HDL_SOURCES,
-    config_top_parameters,
+    P2_SOURCES,
     frontend_parameters,
+    p2_timing_wrapper,
     register_port_widths,
     write_recip_rom,
 )
 
 from ..errors import UserError
 from .synth import cache_dir as synth_cache_dir
+from .synth import rtl_top
 
 __all__ = [
     "DEVICES",
     "STAGES",
+    "TIMED_TOPS",
     "CriticalPath",
     "SeedTiming",
+    "TimedTop",
     "TimingOptions",
     "TimingResult",
     "cache_dir",
@@ -65,6 +73,7 @@ __all__ = [
     "nextpnr_command",
     "parse_nextpnr_report",
     "time_p1",
+    "time_top",
     "timing_record",
     "timing_wrapper",
     "yosys_command",
@@ -155,9 +164,11 @@ class TimingResult:
     cells: dict[str, int]
     pins: int
     tools: dict[str, str] = field(default_factory=dict)
+    pipeline: str = "p1"
 
     def to_dict(self) -> dict:
         return {
+            "pipeline": self.pipeline,
             "config": self.config, "target": self.target, "device": self.device,
             "package": self.package, "speed": self.speed, "freq_mhz": self.freq_mhz,
             "shape": list(self.shape), "mode": self.mode, "stage": self.stage,
@@ -338,9 +349,9 @@ def _clock(name: str) -> str:
     return name.split()[-1].removeprefix("$glbnet$").split("$")[0] if name else name
 
 
-def _key(*parts: object) -> str:
+def _key(*parts: object, sources: Sequence[str] = HDL_SOURCES) -> str:
     h = hashlib.sha256(json.dumps([str(p) for p in parts]).encode())
-    for path in (*(HDL_DIR / s for s in HDL_SOURCES), *sorted(HDL_DIR.glob("*.vh"))):
+    for path in (*(HDL_DIR / s for s in sources), *sorted(HDL_DIR.glob("*.vh"))):
         h.update(path.read_bytes())
     return h.hexdigest()[:32]
 
@@ -357,8 +368,46 @@ def _run(cmd: Sequence[str], cwd: Path, what: str, timeout_s: float) -> None:
         raise UserError(f"{what} failed (exit {run.returncode}): {' | '.join(errors[:2])}")
 
 
-def time_p1(
-    config: P1Config,
+@dataclass(frozen=True)
+class TimedTop:
+    """What place and route times of one pipeline's RTL: the generated wrapper's
+    ``module`` (host registers through a serial chain, probes unconnected), the Verilog
+    ``sources`` it instantiates, and per stage the wrapper builder (parameters ->
+    ``(text, pins)``); a stage's parameters are :func:`_stage_parameters`'."""
+
+    module: str
+    sources: tuple[str, ...]
+    wrappers: Mapping[str, Callable[[Mapping[str, int | str]], tuple[str, int]]]
+
+
+#: Pipelines whose RTL can be timed (the pipelines of :data:`rangefx.tools.studies.synth.RTL_TOPS`).
+TIMED_TOPS: dict[str, TimedTop] = {
+    "p1": TimedTop(
+        "p1_timing_top", HDL_SOURCES, {"top": timing_wrapper, "frontend": frontend_wrapper}
+    ),
+    "p2": TimedTop("p2_timing_top", P2_SOURCES, {"top": p2_timing_wrapper}),
+}
+
+
+def _stage_parameters(pipeline: str, config, shape: tuple[int, int], mode: str, stage: str) -> dict:
+    """Verilog parameters of a timed stage: the whole top's (:class:`RtlTop`), or P1's
+    one-stream front end (the ROM in the work directory: no path in the cache key)."""
+    if stage == "top":
+        return rtl_top(pipeline).parameters(config, shape, mode)
+    params = frontend_parameters(config, shape[1])
+    if config.divider == "reciprocal":
+        params["ROM_FILE"] = '"recip_rom.mem"'
+    return params
+
+
+def time_p1(config: P1Config, **options) -> TimingResult:
+    """:func:`time_top` of P1 (``options`` as its keywords)."""
+    return time_top("p1", config, **options)
+
+
+def time_top(
+    pipeline: str,
+    config,
     *,
     target: str = "ecp5",
     device: str = "85k",
@@ -372,19 +421,24 @@ def time_p1(
     use_cache: bool = True,
     timeout_s: float = 3600.0,
 ) -> TimingResult:
-    """Synthesise, place and route the P1 RTL for ``config`` and return its timing.
+    """Synthesise, place and route ``pipeline``'s RTL (:data:`TIMED_TOPS`) for ``config``
+    and return its timing.
 
     ``seeds``: nextpnr runs with seeds 1..``seeds``; ``freq_mhz``: the frequency nextpnr's
     timing-driven placement and routing aim at (it does not cap the reported Fmax);
-    ``stage``: ``top`` (the whole P1, :func:`timing_wrapper`) or ``frontend`` (one
+    ``stage``: ``top`` (the whole top: P1's :func:`timing_wrapper`, P2's
+    :func:`rangefx.vectors.hdl.p2_timing_wrapper`) or, P1 only, ``frontend`` (one
     stream's front end alone, :func:`frontend_wrapper`: a small, fast check).
 
     Raises
     ------
     UserError
-        An unknown target, device, package or speed grade, a missing tool, or a tool
-        failing on the design (its error lines are in the message).
+        A pipeline without RTL, an unknown target, device, package, speed grade, mode or
+        stage, a missing tool, or a tool failing on the design (its error lines are in
+        the message).
     """
+    rtl = rtl_top(pipeline)  # one line if the pipeline has no RTL
+    timed = TIMED_TOPS[pipeline]
     if target not in TARGETS:
         raise UserError(f"unknown timing target {target!r}; choose from {', '.join(TARGETS)}")
     if device not in DEVICES:
@@ -397,27 +451,26 @@ def time_p1(
         raise UserError(f"speed grade {speed} is not one of {dev.speeds}")
     if seeds < 1:
         raise UserError(f"--seeds must be at least 1, not {seeds}")
-    if mode not in ("stereo", "motion"):
-        raise UserError(f"unknown P1 mode {mode!r}; choose stereo or motion")
-    if stage not in STAGES:
-        raise UserError(f"unknown stage {stage!r}; choose from {', '.join(STAGES)}")
+    if mode not in rtl.modes:
+        raise UserError(f"unknown {pipeline.upper()} mode {mode!r}; choose "
+                        f"{' or '.join(rtl.modes)}")  # fmt: skip
+    if stage not in timed.wrappers:
+        raise UserError(f"unknown {pipeline.upper()} stage {stage!r}; choose from "
+                        f"{', '.join(timed.wrappers)}")  # fmt: skip
     yosys, nextpnr = yosys_command(), nextpnr_command(target)
     tools = {"yosys": _version(yosys, "-V"), "nextpnr": _version(nextpnr, "--version")}
-    if stage == "top":
-        params = config_top_parameters(config, shape, mode, "recip_rom.mem")
-    else:
-        params = frontend_parameters(config, shape[1])
-    if config.divider == "reciprocal":
-        params["ROM_FILE"] = '"recip_rom.mem"'  # relative: the key holds no temporary path
-    wrapper, pins = (timing_wrapper if stage == "top" else frontend_wrapper)(params)
-    synth_key = _key(wrapper, TARGETS[target], yosys, tools["yosys"])
+    # relative ROM name: the key holds no temporary path
+    params = _stage_parameters(pipeline, config, shape, mode, stage)
+    wrapper, pins = timed.wrappers[stage](params)
+    command = TARGETS[target].replace("-top p1_timing_top", f"-top {timed.module}")
+    synth_key = _key(wrapper, command, yosys, tools["yosys"], sources=timed.sources)
     root = cache_dir()
     synth_file = root / f"synth-{target}-{synth_key}.json"
     runs: list[SeedTiming] = []
     todo: list[int] = []
     pnr_args = [dev.flag, "--package", package, "--speed", str(speed), "--freq", f"{freq_mhz:g}"]
     for seed in range(1, seeds + 1):
-        key = _key(synth_key, nextpnr, tools["nextpnr"], pnr_args, seed)
+        key = _key(synth_key, nextpnr, tools["nextpnr"], pnr_args, seed, sources=timed.sources)
         entry = root / f"pnr-{target}-{key}.json"
         hit = _load(entry) if use_cache else None
         if hit is not None:
@@ -432,14 +485,16 @@ def time_p1(
             work = Path(tmp)
             if config.divider == "reciprocal":
                 write_recip_rom(config, work / "recip_rom.mem")
-            (work / "p1_timing_top.v").write_text(wrapper)
-            sources = " ".join(str(HDL_DIR / s) for s in HDL_SOURCES)
-            script = (f"read_verilog -I{HDL_DIR} {sources} p1_timing_top.v\n"
-                      f"{TARGETS[target]}\ntee -q -o stat.json stat -json\n")  # fmt: skip
+            (work / f"{timed.module}.v").write_text(wrapper)
+            sources = " ".join(str(HDL_DIR / s) for s in timed.sources)
+            script = (f"read_verilog -I{HDL_DIR} {sources} {timed.module}.v\n"
+                      f"{command}\ntee -q -o stat.json stat -json\n")  # fmt: skip
             (work / "synth.ys").write_text(script)
-            _run([*yosys, "-q", "-s", "synth.ys"], work, f"yosys ({target}) on p1_top", timeout_s)
+            _run([*yosys, "-q", "-s", "synth.ys"], work, f"yosys ({target}) on {rtl.module}",
+                 timeout_s)  # fmt: skip
             stat = json.loads((work / "stat.json").read_text())
-            top = stat["modules"].get("\\p1_timing_top") or next(iter(stat["modules"].values()))
+            top = (stat["modules"].get(f"\\{timed.module}")
+                   or next(iter(stat["modules"].values())))  # fmt: skip
             cells = {str(k).lstrip("\\$"): int(v) for k, v in top["num_cells_by_type"].items()
                      if not str(k).endswith("scopeinfo")}  # debug info, no hardware  # fmt: skip
             _store(synth_file, {"cells": cells, "tools": tools, "params": params})
@@ -450,12 +505,15 @@ def time_p1(
                 (work / "report.json").unlink(missing_ok=True)
                 _run(cmd, work, f"nextpnr-{target} (seed {seed})", timeout_s)
                 report = json.loads((work / "report.json").read_text())
-                key = _key(synth_key, nextpnr, tools["nextpnr"], pnr_args, seed)
+                key = _key(
+                    synth_key, nextpnr, tools["nextpnr"], pnr_args, seed, sources=timed.sources
+                )
                 _store(root / f"pnr-{target}-{key}.json", report)
                 fmax, paths, util = parse_nextpnr_report(report)
                 runs[seed - 1] = SeedTiming(seed, fmax, paths, util, cached=False)
-    return _summarise(config, target, device, package, speed, freq_mhz, shape, mode, stage,
-                      runs, cells, pins, tools)  # fmt: skip
+    result = _summarise(config, target, device, package, speed, freq_mhz, shape, mode, stage,
+                        runs, cells, pins, tools)  # fmt: skip
+    return replace(result, pipeline=pipeline)
 
 
 def _summarise(config, target, device, package, speed, freq_mhz, shape, mode, stage, runs,
