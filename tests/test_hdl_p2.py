@@ -23,8 +23,7 @@ from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p2 import P2_TAPS
 from rangefx.rtl_model.p2.config import P2Config
-from rangefx.tools.studies.cases import crop_case
-from rangefx.tools.studies.cases import scene_case
+from rangefx.tools.studies.cases import crop_case, scene_case
 from rangefx.vectors import replay
 from rangefx.vectors.generate import build_vectors, write_vectors
 from rangefx.vectors.hdl import HDL_DIR, QUANT_CODES
