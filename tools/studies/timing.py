@@ -556,9 +556,9 @@ def _store(path: Path, data: Mapping) -> None:
 @dataclass(frozen=True)
 class TimingOptions:
     """What a study times (``rangefx sweep`` ``timing`` table, ``rangefx optimise
-    --fmax-min``): the ``stage`` (``top``: the whole P1; ``frontend``: one stream's front
-    end, a small design for quick checks), the device, package and speed grade, and the
-    nextpnr seeds whose median Fmax is taken (:func:`time_p1`)."""
+    --fmax-min``): the ``stage`` (``top``: the pipeline's whole top; ``frontend``, P1
+    only: one stream's front end, a small design for quick checks), the device, package
+    and speed grade, and the nextpnr seeds whose median Fmax is taken (:func:`time_top`)."""
 
     stage: str = "top"
     speed: int = 6
