@@ -723,7 +723,8 @@ def sweep(
     restart
         Delete the results of another definition held in ``out`` and start over.
     cost
-        ``"proxy"`` (``cost_bits``) or ``"synth"`` (adds the Yosys area of P1 per point).
+        ``"proxy"`` (``cost_bits``) or ``"synth"`` (adds the Yosys area of the
+        pipeline's RTL per point: P1 or P2).
     progress
         Show a progress bar on stderr.
     """

@@ -117,13 +117,15 @@ def test_sweep_synth_metrics_make_lut_plus_ff_the_pareto_cost():
     assert parse_sweep(head + axis).cost_key == "synth_cost"
     assert parse_sweep(head.replace(', "synth"', "") + axis).cost_key == "cost_bits"
     p2 = head + 'pipeline = "p2"\n' + axis.replace("row_r2", "p2_a")
-    with pytest.raises(UserError, match="only P1 has it"):
-        parse_sweep(p2)
-    # the place-and-route Fmax is a metric of P1's sweeps too, and of no other pipeline's
+    assert parse_sweep(p2).cost_key == "synth_cost"  # P2 has RTL too
+    p3 = head + 'pipeline = "p3"\n' + axis.replace("row_r2", "p3_grad")
+    with pytest.raises(UserError, match="synth metrics need RTL: p3 has none"):
+        parse_sweep(p3)
+    # the place-and-route Fmax is a metric of the sweeps of every pipeline with RTL
     timing = head.replace('"synth"', '"timing"')
     assert "timing" in parse_sweep(timing + axis).metrics
-    with pytest.raises(UserError, match="timing metrics need RTL"):
-        parse_sweep(timing + 'pipeline = "p2"\n' + axis.replace("row_r2", "p2_a"))
+    with pytest.raises(UserError, match="timing metrics need RTL: p3 has none"):
+        parse_sweep(timing + 'pipeline = "p3"\n' + axis.replace("row_r2", "p3_grad"))
 
 
 @pytest.mark.skipif(shutil.which("yosys") is None, reason="yosys is not installed")

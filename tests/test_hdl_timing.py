@@ -213,8 +213,8 @@ def test_optimise_fmax_min_on_the_command_line(monkeypatch, capsys):
     calls = []
     start = P1Config.default()
 
-    def fake_record(cfg, shape, mode, options):
-        calls.append((tuple(shape), mode, options.stage, options.speed))
+    def fake_record(cfg, shape, mode, options, pipeline="p1"):
+        calls.append((pipeline, tuple(shape), mode, options.stage, options.speed))
         return {"fmax_mhz": _fmax_by_row_r2(start)(cfg)}
 
     monkeypatch.setattr(timing, "timing_record", fake_record)
@@ -228,7 +228,7 @@ def test_optimise_fmax_min_on_the_command_line(monkeypatch, capsys):
     assert out["fmax"] == {"minimum_mhz": 80.0, "stage": "frontend", "speed": 8, "seeds": 1,
                            "device": "85k", "package": "CABGA381", "start": 100.0,
                            "optimised": 100.0}  # fmt: skip
-    assert calls and set(calls) == {((32, 40), "stereo", "frontend", 8)}
+    assert calls and set(calls) == {("p1", (32, 40), "stereo", "frontend", 8)}
     assert {s["signal"] for s in out["steps"] if not s["kept"]} == {"row_r2"}
 
 
@@ -236,7 +236,7 @@ def test_optimise_fmax_min_on_the_command_line(monkeypatch, capsys):
     ("argv", "message"),
     [
         (["--fmax-min", "-5"], "--fmax-min: the Fmax floor must be a positive number"),
-        (["--fmax-min", "100", "--pipeline", "p2"], "--fmax-min: only P1 has RTL"),
+        (["--fmax-min", "100", "--pipeline", "p3"], "--fmax-min: pipeline p3 has no RTL"),
     ],
 )
 def test_a_bad_fmax_floor_is_one_error_line(argv, message, monkeypatch, capsys):

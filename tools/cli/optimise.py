@@ -157,15 +157,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=_positive_int, default=2, help="concurrent runs (default 2)")
     p.add_argument("--cost", choices=("proxy", "synth"), default="proxy",
                    help="cost minimised: proxy (cost_bits, default) or synth (Yosys LUT + FF "
-                   "of the whole P1: a narrowing that does not lower it is not kept)")  # fmt: skip
+                   "of the pipeline's whole RTL top, P1 or P2: a narrowing that does not "
+                   "lower it is not kept)")  # fmt: skip
     p.add_argument("--synth-target", choices=("xc7", "xcup", "ecp5", "ice40"), default="xcup",
                    help="Yosys target of --cost synth (default xcup)")  # fmt: skip
     p.add_argument("--fmax-min", type=float, metavar="MHZ",
-                   help="P1: keep a narrowing only if the RTL still places and routes at "
+                   help="P1, P2: keep a narrowing only if the RTL still places and routes at "
                    ">= MHZ (Yosys + nextpnr-ecp5, LFE5U-85F, one seed, cached; the start must "
                    "meet it too)")  # fmt: skip
     p.add_argument("--timing-stage", choices=("top", "frontend"), default="top",
-                   help="what --fmax-min times: all of P1 (default) or one front end")  # fmt: skip
+                   help="what --fmax-min times: the whole top (default) or P1's one "
+                   "front end")  # fmt: skip
     p.add_argument("--timing-speed", type=int, choices=(6, 7, 8), default=6,
                    help="ECP5 speed grade of --fmax-min (default 6)")  # fmt: skip
     p.add_argument(

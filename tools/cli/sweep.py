@@ -63,8 +63,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--example", action="store_true", help="print the example definition's path")
     p.add_argument("--cost", choices=("proxy", "synth"), default="proxy",
                    help="cost axis of the Pareto fronts: proxy (cost_bits, default) or synth "
-                   "(Yosys xcup LUT + FF of the P1 RTL per point, cached; adds the synth "
-                   "metrics)")  # fmt: skip
+                   "(Yosys xcup LUT + FF of the pipeline's RTL per point, P1 or P2, cached; "
+                   "adds the synth metrics)")  # fmt: skip
     p.add_argument(
         "--restart", action="store_true",
         help="delete the results of an earlier sweep in --out (another definition) and start over",

@@ -118,9 +118,10 @@ __all__ = [
 RESULTS_NAME = "results.jsonl"
 METRIC_GROUPS: tuple[str, ...] = ("golden", "truth", "sqnr", "overflows")
 #: Metric groups a definition (or ``rangefx sweep --cost synth``) must ask for: ``synth``,
-#: the Yosys area of P1's RTL (:func:`rangefx.tools.studies.synth.synth_record`), which
-#: also makes ``synth_cost`` (LUT + FF) the cost axis of the Pareto fronts; ``timing``,
-#: the place-and-route Fmax of P1's RTL (:func:`rangefx.tools.studies.timing.timing_record`;
+#: the Yosys area of the pipeline's RTL (any pipeline of
+#: :data:`rangefx.tools.studies.synth.RTL_TOPS`; :func:`rangefx.tools.studies.synth.synth_record`),
+#: which also makes ``synth_cost`` (LUT + FF) the cost axis of the Pareto fronts; ``timing``,
+#: the place-and-route Fmax of that RTL (:func:`rangefx.tools.studies.timing.timing_record`;
 #: what is timed: the ``[sweep]`` key ``timing``, a table of
 #: :class:`~rangefx.tools.studies.timing.TimingOptions` fields, e.g.
 #: ``timing = { stage = "frontend", speed = 8, seeds = 3 }``).
@@ -248,14 +249,23 @@ class SweepDef:
                 f"sweep: unknown metrics {bad}; choose from {(*METRIC_GROUPS, *OPTIONAL_METRICS)}"
             )
         rtl = [m for m in OPTIONAL_METRICS if m in self.metrics]
-        if rtl and self.pipeline != "p1":
-            raise ValueError(
-                f"sweep: the {rtl[0]} metrics need RTL: only P1 has it, not {self.pipeline}"
-            )
+        if rtl:
+            from .synth import RTL_TOPS  # on use: it loads the HDL glue
+
+            if self.pipeline not in RTL_TOPS:
+                raise ValueError(f"sweep: the {rtl[0]} metrics need RTL: {self.pipeline} has "
+                                 f"none in hdl/ (only {', '.join(RTL_TOPS)})")  # fmt: skip
         if self.timing:
             if "timing" not in self.metrics:
                 raise ValueError("sweep: a 'timing' table needs the 'timing' metrics")
             self.timing_options()  # its fields' errors now, not at the first point
+        if "timing" in self.metrics:
+            from .timing import TIMED_TOPS
+
+            stage, stages = self.timing_options().stage, TIMED_TOPS[self.pipeline].wrappers
+            if stage not in stages:
+                raise ValueError(f"sweep: {self.pipeline} has no timing stage {stage!r} "
+                                 f"(it has {', '.join(stages)})")  # fmt: skip
         if self.combine not in COMBINES:
             raise ValueError(f"sweep: combine must be one of {COMBINES}, not {self.combine!r}")
         if not self.axes:
@@ -609,12 +619,12 @@ def evaluate_point(spec: Mapping[str, Any]) -> dict[str, Any]:
     if "synth" in metrics:
         from .synth import synth_record
 
-        rec.update(synth_record(config, case.shape, case.mode))
+        rec.update(synth_record(config, case.shape, case.mode, pipeline=pipe.name))
     if "timing" in metrics:
         from .timing import TimingOptions, timing_record
 
         options = TimingOptions(**spec.get("timing", {}))
-        rec.update(timing_record(config, case.shape, case.mode, options))
+        rec.update(timing_record(config, case.shape, case.mode, options, pipe.name))
     rec["seconds"] = time.perf_counter() - t0
     return _finite(rec)
 

@@ -558,12 +558,14 @@ def proxy_ratios(proxy: Mapping[str, int], area: Mapping[str, int]) -> dict[str,
 
 
 def synth_record(
-    config: P1Config, shape: tuple[int, int], mode: str, target: str = "xcup"
+    config, shape: tuple[int, int], mode: str, target: str = "xcup", pipeline: str = "p1"
 ) -> dict[str, int]:
-    """A sweep point's synthesis figures (the whole ``p1_top`` without its probes,
-    :func:`synth_top`): ``synth_lut``, ``synth_ff``, ``synth_carry``, ``synth_dsp``,
-    ``synth_bram`` and the cost the studies minimise, ``synth_cost`` = LUT + FF."""
-    whole, _hit = synth_top(config, target, shape, mode)
+    """A study's synthesis figures of one config (``rangefx sweep`` metric ``synth``,
+    ``rangefx optimise --cost synth``): the whole top of ``pipeline`` (:data:`RTL_TOPS`)
+    without its probes (:func:`synth_pipeline_top`): ``synth_lut``, ``synth_ff``,
+    ``synth_carry``, ``synth_dsp``, ``synth_bram`` and the cost the studies minimise,
+    ``synth_cost`` = LUT + FF."""
+    whole, _hit = synth_pipeline_top(pipeline, config, target, shape, mode)
     area = whole.as_dict()
     rec = {f"synth_{k}": area[k] for k in AREA_KEYS}
     rec["synth_cost"] = area["lut"] + area["ff"]

@@ -68,6 +68,7 @@ __all__ = [
     "TimingOptions",
     "TimingResult",
     "cache_dir",
+    "check_timed",
     "fmax_measure",
     "frontend_wrapper",
     "nextpnr_command",
@@ -555,9 +556,9 @@ def _store(path: Path, data: Mapping) -> None:
 @dataclass(frozen=True)
 class TimingOptions:
     """What a study times (``rangefx sweep`` ``timing`` table, ``rangefx optimise
-    --fmax-min``): the ``stage`` (``top``: the whole P1; ``frontend``: one stream's front
-    end, a small design for quick checks), the device, package and speed grade, and the
-    nextpnr seeds whose median Fmax is taken (:func:`time_p1`)."""
+    --fmax-min``): the ``stage`` (``top``: the pipeline's whole top; ``frontend``, P1
+    only: one stream's front end, a small design for quick checks), the device, package
+    and speed grade, and the nextpnr seeds whose median Fmax is taken (:func:`time_top`)."""
 
     stage: str = "top"
     speed: int = 6
@@ -585,23 +586,42 @@ class TimingOptions:
 
 
 def timing_record(
-    config: P1Config,
+    config,
     shape: tuple[int, int],
     mode: str,
     options: TimingOptions | None = None,
+    pipeline: str = "p1",
 ) -> dict[str, float]:
-    """A study's timing figures of one config (``rangefx sweep`` metric ``timing``,
-    ``rangefx optimise --fmax-min``; :func:`time_p1` with ``options``, default: the whole
-    P1 on an LFE5U-85F speed 6, one seed): ``fmax_mhz`` (the clock's median over the
-    seeds) and the critical path's ``critical_logic_ns`` and ``critical_routing_ns``."""
+    """A study's timing figures of one config of ``pipeline`` (``rangefx sweep`` metric
+    ``timing``, ``rangefx optimise --fmax-min``; :func:`time_top` with ``options``,
+    default: the whole top on an LFE5U-85F speed 6, one seed): ``fmax_mhz`` (the clock's
+    median over the seeds) and the critical path's ``critical_logic_ns`` and
+    ``critical_routing_ns``."""
     o = options or TimingOptions()
-    r = time_p1(config, device=o.device, package=o.package, speed=o.speed, seeds=o.seeds,
-                shape=shape, mode=mode, stage=o.stage)  # fmt: skip
+    r = time_top(pipeline, config, device=o.device, package=o.package, speed=o.speed,
+                 seeds=o.seeds, shape=shape, mode=mode, stage=o.stage)  # fmt: skip
     clock = next(iter(r.fmax_mhz))
     path = r.critical_path.get(clock)
     return {"fmax_mhz": r.fmax_mhz[clock],
             "critical_logic_ns": path.logic_ns if path else float("nan"),
             "critical_routing_ns": path.routing_ns if path else float("nan")}  # fmt: skip
+
+
+def check_timed(pipeline: str, mode: str, stage: str, what: str) -> None:
+    """:class:`UserError` (one line, led by ``what``) unless ``pipeline`` has RTL
+    (:data:`TIMED_TOPS`) with ``mode`` and a timed ``stage``: a study's check before its
+    first point, not after minutes of runs."""
+    if pipeline not in TIMED_TOPS:
+        raise UserError(f"{what}: pipeline {pipeline} has no RTL in hdl/ (only "
+                        f"{', '.join(TIMED_TOPS)}): nothing to time")  # fmt: skip
+    modes = rtl_top(pipeline).modes
+    if mode not in modes:
+        raise UserError(f"{what}: {pipeline} has no {mode} mode in hdl/ (it has "
+                        f"{', '.join(modes)})")  # fmt: skip
+    stages = TIMED_TOPS[pipeline].wrappers
+    if stage not in stages:
+        raise UserError(f"{what}: {pipeline} has no timing stage {stage!r} (it has "
+                        f"{', '.join(stages)})")  # fmt: skip
 
 
 def fmax_measure(
@@ -615,12 +635,11 @@ def fmax_measure(
     :func:`timing_record`'s on ``shape`` and ``mode`` with ``options`` (cached per design
     and seed, so a config met twice is placed once). A pipeline without RTL or a missing
     tool is a :class:`UserError` now, before any run."""
-    if pipeline != "p1":
-        raise UserError(f"--fmax-min: only P1 has RTL in hdl/, not {pipeline}")
-    yosys_command(), nextpnr_command()  # one error line now if a tool is missing
     opts = options or TimingOptions()
+    check_timed(pipeline, mode, opts.stage, "--fmax-min")
+    yosys_command(), nextpnr_command()  # one error line now if a tool is missing
 
-    def measure(config: P1Config) -> float:
-        return timing_record(config, shape, mode, opts)["fmax_mhz"]
+    def measure(config) -> float:
+        return timing_record(config, shape, mode, opts, pipeline)["fmax_mhz"]
 
     return measure

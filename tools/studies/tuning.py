@@ -125,17 +125,22 @@ def _figures(figs: dict[str, Any]) -> dict[str, Any]:
 
 
 def _synth_cost(pipe: Pipeline, target: str, case: Case) -> Callable[[Any], float]:
-    """``cost="synth"``: the Yosys LUT + FF of the whole P1 on the first tuning scene's
-    shape and mode (:func:`rangefx.tools.studies.synth.synth_p1`, cached per stage)."""
-    from .synth import synth_p1, yosys_version
+    """``cost="synth"``: the Yosys LUT + FF of the pipeline's whole top (any pipeline of
+    :data:`rangefx.tools.studies.synth.RTL_TOPS`) on the first tuning scene's shape and
+    mode (:func:`rangefx.tools.studies.synth.synth_record`, cached per design)."""
+    from .synth import RTL_TOPS, synth_record, yosys_version
 
-    if pipe.name != "p1":
-        raise UserError(f"--cost synth: only P1 has RTL in hdl/, not {pipe.name}")
+    if pipe.name not in RTL_TOPS:
+        raise UserError(f"--cost synth: pipeline {pipe.name} has no RTL in hdl/ (only "
+                        f"{', '.join(RTL_TOPS)}): nothing to synthesise")  # fmt: skip
+    modes = RTL_TOPS[pipe.name].modes
+    if case.mode not in modes:
+        raise UserError(f"--cost synth: {pipe.name} has no {case.mode} mode in hdl/ (it has "
+                        f"{', '.join(modes)})")  # fmt: skip
     yosys_version()  # a one-line error when yosys is missing, before any run
 
     def cost(config) -> float:
-        area = synth_p1(config, target, case.shape, case.mode)
-        return float(area["lut"] + area["ff"])
+        return float(synth_record(config, case.shape, case.mode, target, pipe.name)["synth_cost"])
 
     return cost
 
