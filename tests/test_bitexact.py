@@ -76,6 +76,9 @@ def mode_config(
     base = pipeline.default_config(**design)
     rng = np.random.default_rng(seed)
     keep = fixed_signals(pipeline)
+    # a value the host writes from the design alone must fit its register (a config that
+    # does not is refused at load): such a signal loses fraction bits only
+    values = {signal: abs(v) for *_, v, signal in base.design_register_values()}
     formats = {}
     for name in base.signals():
         f = base.fmt(name)
@@ -83,6 +86,8 @@ def mode_config(
         word, frac = f.word, f.frac
         if narrow and name not in keep:
             d_int, d_frac = int(rng.integers(*int_drop)), int(rng.integers(0, 4))
+            if name in values and values[name] >= 2.0 ** (f.word - f.frac - f.signed - d_int):
+                d_int = 0
             word = max(2, word - d_int - d_frac)
             frac -= d_frac
         formats[name] = FixedFormat(f.signed, word, frac, quant, ovf)

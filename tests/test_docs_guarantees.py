@@ -159,7 +159,9 @@ def _setup_40(d: Path) -> None:
     (d / "bias.toml").write_text(text.replace("bias = 16.0", "bias = 1e300"))
     assert main(["config", "show", "--pipeline", "p3", "--out", str(d / "p3.toml")]) == 0
     text = (d / "p3.toml").read_text()
-    (d / "tg.toml").write_text(text.replace("threshold_g = 2.0", "threshold_g = 1e300"))
+    tg = re.sub(r"(?m)^threshold_g = \S+", "threshold_g = 1e300", text)
+    assert tg != text, "P3's config names no threshold_g"
+    (d / "tg.toml").write_text(tg)
     (d / "int64.toml").write_text(
         SWEEP.format(name="i", size="[24, 32]", value=6).replace(
             "values = [6]", "range = [0, 9223372036854775807]"

@@ -55,7 +55,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "config": ("config", "a pipeline's word-length config: show, or propose"),
     "bench": ("bench", "throughput of every pipeline (Mpixel/s) beside golden"),
     "vectors": ("vectors", "hardware test vectors: gen, check, diff (SPEC §5)"),
-    "hdl": ("hdl", "the Verilog of P1: vector replay, synthesis area, timing"),
+    "hdl": ("hdl", "the Verilog of P1 and P2: vector replay, synthesis area, timing"),
     "sweep": ("sweep", "word-length sweep of any pipeline (resumable, local or dask)"),
     "optimise": ("optimise", "cheapest word lengths meeting an accuracy budget"),
     "eval": (
