@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from guarantee_tables import SWEEP as SWEEP_TEMPLATE
 
 import rangefx
 from rangefx import api
@@ -24,19 +25,7 @@ from rangefx.tools.report import MARKER_NAME
 from rangefx.vectors.generate import MANIFEST_NAME, load_manifest
 
 CROP = (248, 256, 240, 256)  # 8x16 pixels of lab
-SWEEP = """
-[sweep]
-name = "api"
-scenes = ["lab"]
-size = [24, 32]
-combine = "one_at_a_time"
-metrics = ["golden", "overflows"]
-
-[[axis]]
-signals = "row_state"
-param = "frac"
-values = [6, 8]
-"""
+SWEEP = SWEEP_TEMPLATE.format(name="api", values="[6, 8]")
 
 
 def _pair(tmp_path: Path) -> tuple[Path, Path]:
