@@ -541,7 +541,9 @@ def test_issue40_a_sweep_of_10_to_the_8_points_is_refused_at_once(tmp_path, caps
     )
     t0 = time.perf_counter()
     assert main(["sweep", str(p), "--out", str(tmp_path / "s")]) == 2
-    assert time.perf_counter() - t0 < 2.0
+    # a bound on a runaway count (enumerating 10^8 points takes minutes), not the < 2 s
+    # of docs/guarantees.md, which is measured by hand: load stretches any figure
+    assert time.perf_counter() - t0 < 30.0
     err = _one_line_error(capsys)
     assert "100000000 points (about" in err and "--max-points 100000" in err
     assert f"at {512 * 512 * SWEEP_SECONDS_PER_PIXEL[pipeline]:.2g} s a point" in err
