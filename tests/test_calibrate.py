@@ -22,7 +22,7 @@ TRUTH = {
     "ecp5": {"lut": {"register_bits": 3.0, "restoring_cells": 2.0, "intercept": 900.0},
              "ff": {"register_bits": 2.0, "restoring_cells": 1.5, "intercept": 100.0},
              "dsp": {"dsp": 2.0, "intercept": 0.0},
-             "bram": {"bram18": 1.0, "intercept": 3.0}},
+             "bram": {"bram18": 1.0, "recip_roms": 1.0, "intercept": 3.0}},
     "xcup": {"lut": {"register_bits": 4.0, "restoring_cells": 0.5, "intercept": 800.0},
              "ff": {"register_bits": 5.0, "restoring_cells": 3.0, "intercept": 700.0},
              "dsp": {"dsp": 1.0, "intercept": 2.0},

@@ -40,7 +40,7 @@ Calibrated area (``Pipeline.estimated_area``)
     LUT, FF, DSP and BRAM of the whole ``p1_top`` as Yosys synthesises it, each an
     intercept plus a slope per proxy term of :data:`AREA_FEATURES` (:func:`area_terms`:
     LUT and FF on the register bits and the restoring dividers' cells, DSP on the DSP
-    slices, BRAM on the RAMB18), fitted per target by ``python -m
+    slices, BRAM on the RAMB18 and the reciprocal seed ROMs), fitted per target by ``python -m
     rangefx.tools.studies.calibrate --pipeline p1 --write`` and stored in
     ``synth_calibration.toml`` beside this file with the commit and hash of the RTL.
 """
@@ -74,7 +74,7 @@ AREA_FEATURES: dict[str, tuple[str, ...]] = {
     "lut": ("register_bits", "restoring_cells"),
     "ff": ("register_bits", "restoring_cells"),
     "dsp": ("dsp",),
-    "bram": ("bram18",),
+    "bram": ("bram18", "recip_roms"),
 }
 #: The configs the calibration synthesises (``Pipeline.calibration_configs``): fitted on
 #: the default and three narrowed configs of both variants and dividers; held out: the
@@ -229,12 +229,16 @@ def area_terms(config: P1Config, shape: tuple[int, int], mode: str = "stereo") -
     """The proxy terms the area calibration fits on: :func:`config_cost`'s and
     ``restoring_cells``, the restoring dividers' quotient bits x divisor bits (the
     ``paper`` variant's ``s1 r2 / r1`` per stream, the range stage's ``num / den``; 0
-    with the reciprocal divider, whose area is its products and seed ROM)."""
+    with the reciprocal divider, whose area is its products and seed ROM) and
+    ``recip_roms``, the reciprocal dividers' seed ROMs (a block RAM each on ECP5, LUTs on
+    xcup; the proxy's RAMB18 count only the line buffers)."""
     terms = config_cost(config, shape, mode).as_dict()
+    dividers = 1 + (_streams(mode) if config.variant == "paper" else 0)
+    roms = dividers if config.divider == "reciprocal" else 0
     cells = 0
     if config.divider == "restoring":
         f = config.formats
         if config.variant == "paper":
             cells += restoring_cells(f["div_quot"].word, f["row_r1"].word, _streams(mode))
         cells += restoring_cells(f["range"].word, f["den"].word)
-    return terms | {"restoring_cells": cells}
+    return terms | {"restoring_cells": cells, "recip_roms": roms}

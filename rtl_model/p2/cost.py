@@ -56,7 +56,7 @@ AREA_FEATURES: dict[str, tuple[str, ...]] = {
     "lut": ("register_bits", "restoring_cells"),
     "ff": ("register_bits", "restoring_cells"),
     "dsp": ("dsp",),
-    "bram": ("bram18",),
+    "bram": ("bram18", "recip_roms"),
 }
 #: The configs the calibration synthesises (``Pipeline.calibration_configs``): fitted on
 #: the default, the hand-narrowed config, more lanes and the restoring divider; held out:
@@ -146,10 +146,12 @@ def config_cost(config: P2Config, shape: tuple[int, int], mode: str = "stereo") 
 def area_terms(config: P2Config, shape: tuple[int, int], mode: str = "stereo") -> dict[str, int]:
     """The proxy terms the area calibration fits on: :func:`config_cost`'s and
     ``restoring_cells``, the restoring divider's quotient bits x divisor bits (``r = 1 /
-    den``; 0 with the reciprocal divider)."""
+    den``; 0 with the reciprocal divider) and ``recip_roms``, the reciprocal divider's seed
+    ROM (1, else 0)."""
     terms = config_cost(config, shape, mode).as_dict()
     f = config.formats
     cells = (
         restoring_cells(f["p2_r"].word, f["p2_den"].word) if config.divider == "restoring" else 0
     )
-    return terms | {"restoring_cells": cells}
+    roms = 1 if config.divider == "reciprocal" else 0
+    return terms | {"restoring_cells": cells, "recip_roms": roms}

@@ -19,7 +19,8 @@ target each area class is fitted by least squares as an intercept plus a slope p
   the reciprocal divider has three products and a ROM instead),
 * DSP on the proxy's DSP slices (the slope absorbs the device's multiplier tiling: 18 x
   18 on ECP5, 27 x 18 on xcup),
-* BRAM on the proxy's RAMB18 (the intercept is the reciprocal divider's seed ROM).
+* BRAM on the proxy's RAMB18 (line buffers) and ``recip_roms`` (the reciprocal
+  dividers' seed ROMs, block RAM on ECP5, which the RAMB18 count leaves out).
 
 A term constant over the fit configs cannot be told from the intercept: it gets no
 slope, and a class whose every term is constant is the mean ratio to its first term.
