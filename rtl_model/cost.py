@@ -8,7 +8,11 @@ multipliers with these; ``docs/wordlength.md`` states the models.
 from __future__ import annotations
 
 import math
+import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 from .config import exact_bits
 from .fixedpoint import FixedFormat
@@ -19,8 +23,11 @@ __all__ = [
     "Multiplier",
     "bram18_blocks",
     "dsp_slices",
+    "estimate_area",
+    "load_area_calibration",
     "operand_bits",
     "reciprocal_multipliers",
+    "restoring_cells",
     "sum_bits",
 ]
 
@@ -123,3 +130,33 @@ class CostReport:
             "bram18": self.bram18,
             "dsp": self.dsp,
         }
+
+
+def restoring_cells(quotient_bits: int, divisor_bits: int, count: int = 1) -> int:
+    """Cells of ``count`` restoring dividers (``hdl/fx_divide.v``): one conditional
+    subtraction of the divisor's width per quotient bit, each with its remainder
+    register, so area grows as quotient bits x divisor bits (the reciprocal divider's is
+    its three products and seed ROM instead)."""
+    return count * quotient_bits * divisor_bits
+
+
+def load_area_calibration(path: str | Path) -> dict[str, Any]:
+    """A pipeline's area calibration file (``rtl_model/<pipeline>/synth_calibration.toml``,
+    written by ``python -m rangefx.tools.studies.calibrate --write``): ``meta`` (the RTL's
+    commit and hash, Yosys, the configs fitted on and held out) and ``targets`` {target:
+    {area class: {``intercept``, proxy term: coefficient, ...}}}."""
+    with open(path, "rb") as fh:
+        return tomllib.load(fh)
+
+
+def estimate_area(
+    terms: Mapping[str, float], coefficients: Mapping[str, Mapping[str, float]]
+) -> dict[str, int]:
+    """Each area class of ``coefficients`` ({class: {``intercept``: c, term: slope, ...}})
+    as ``round(max(0, c + sum of slope * terms[term]))``."""
+    out = {}
+    for cls, coef in coefficients.items():
+        value = coef.get("intercept", 0.0)
+        value += sum(k * terms[t] for t, k in coef.items() if t != "intercept")
+        out[cls] = max(0, round(value))
+    return out

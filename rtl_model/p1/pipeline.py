@@ -53,6 +53,11 @@ class P1Pipeline(Pipeline):
     case_options: ClassVar[tuple[str, ...]] = ("threshold_e", "threshold_g", "range_max")
     buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
     sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p1_lab.toml",)
+    area_features: ClassVar[dict[str, tuple[str, ...]]] = cost.AREA_FEATURES
+    calibration_configs: ClassVar[dict[str, tuple[str | None, dict[str, Any], bool]]] = (
+        cost.CALIBRATION_CONFIGS
+    )
+    area_calibration: ClassVar[str] = "rtl_model/p1/synth_calibration.toml"
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:
@@ -106,6 +111,11 @@ class P1Pipeline(Pipeline):
         self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
     ) -> CostReport:
         return cost.config_cost(self.check_config(config), shape, mode)
+
+    def area_terms(
+        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
+    ) -> dict[str, float]:
+        return dict(cost.area_terms(self.check_config(config), shape, mode))
 
     def rejected_weight(self, signal: str) -> int:
         return sum(cost.REGISTER_INSTANCES[signal])

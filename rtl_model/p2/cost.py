@@ -20,17 +20,58 @@ Buffers
 DSP slices
     ``KA (d_k + d_k+1)``, ``A^2``, ``c S~``, ``r S~``, ``S~ ΔĜ``, ``r h``; forward
     ``S~ u``, ``r w``, ``A λ``, ``A z``; the reciprocal divider's three products.
+Calibrated area (``Pipeline.estimated_area``)
+    LUT, FF, DSP and BRAM of the whole ``p2_top`` as Yosys synthesises it, as P1's: an
+    intercept plus a slope per proxy term of :data:`AREA_FEATURES` (:func:`area_terms`),
+    fitted per target by ``python -m rangefx.tools.studies.calibrate --pipeline p2
+    --write`` into ``synth_calibration.toml`` beside this file.
 """
 
 from __future__ import annotations
 
-from ..cost import CostReport, Multiplier, bram18_blocks, reciprocal_multipliers, sum_bits
+from ..cost import (
+    CostReport,
+    Multiplier,
+    bram18_blocks,
+    reciprocal_multipliers,
+    restoring_cells,
+    sum_bits,
+)
 from ..cost import operand_bits as _bits
 from ..fixedpoint import FixedFormat
 from .config import P2_SIGNALS, P2Config
 from .model import buffer_bits
 
-__all__ = ["config_cost", "multipliers", "register_bits"]
+__all__ = [
+    "AREA_FEATURES",
+    "CALIBRATION_CONFIGS",
+    "area_terms",
+    "config_cost",
+    "multipliers",
+    "register_bits",
+]
+
+#: Area class of the synthesis -> the proxy terms (:func:`area_terms` keys) it is fitted on.
+AREA_FEATURES: dict[str, tuple[str, ...]] = {
+    "lut": ("register_bits", "restoring_cells"),
+    "ff": ("register_bits", "restoring_cells"),
+    "dsp": ("dsp",),
+    "bram": ("bram18", "recip_roms"),
+}
+#: The configs the calibration synthesises (``Pipeline.calibration_configs``): fitted on
+#: the default, the hand-narrowed config, more lanes and the restoring divider; held out:
+#: their combinations and a shorter reciprocal.
+_NARROWED = "tools/studies/sweeps/p2_hand_narrowed.toml"
+CALIBRATION_CONFIGS: dict[str, tuple[str | None, dict, bool]] = {
+    "default": (None, {}, True),
+    "narrowed": (_NARROWED, {}, True),
+    "default-lanes16": (None, {"lanes": 16}, True),
+    "default-restoring": (None, {"divider": "restoring"}, True),
+    "narrowed-lanes16": (_NARROWED, {"lanes": 16}, False),
+    "narrowed-restoring": (_NARROWED, {"divider": "restoring"}, False),
+    "default-lanes24": (None, {"lanes": 24}, False),
+    "narrowed-recip16": (_NARROWED, {"recip_bits": 16}, False),
+}
 
 #: Host registers held in a datapath signal's format: signal -> extra words.
 _HOST_WORDS = {"p2_c": 1, "p2_st": 1, "p2_d": 1, "p2_z": 1}
@@ -100,3 +141,17 @@ def config_cost(config: P2Config, shape: tuple[int, int], mode: str = "stereo") 
         bram18=bram,
         dsp=sum(m.dsp for m in multipliers(config)),
     )
+
+
+def area_terms(config: P2Config, shape: tuple[int, int], mode: str = "stereo") -> dict[str, int]:
+    """The proxy terms the area calibration fits on: :func:`config_cost`'s and
+    ``restoring_cells``, the restoring divider's quotient bits x divisor bits (``r = 1 /
+    den``; 0 with the reciprocal divider) and ``recip_roms``, the reciprocal divider's seed
+    ROM (1, else 0)."""
+    terms = config_cost(config, shape, mode).as_dict()
+    f = config.formats
+    cells = (
+        restoring_cells(f["p2_r"].word, f["p2_den"].word) if config.divider == "restoring" else 0
+    )
+    roms = 1 if config.divider == "reciprocal" else 0
+    return terms | {"restoring_cells": cells, "recip_roms": roms}

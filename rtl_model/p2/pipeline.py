@@ -40,6 +40,11 @@ class P2Pipeline(Pipeline):
     run_model = staticmethod(model.run_p2)
     sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p2_lab.toml",)
     line_independent: ClassVar[bool] = True  # the sweep and G5 run along each line
+    area_features: ClassVar[dict[str, tuple[str, ...]]] = cost.AREA_FEATURES
+    calibration_configs: ClassVar[dict[str, tuple[str | None, dict[str, Any], bool]]] = (
+        cost.CALIBRATION_CONFIGS
+    )
+    area_calibration: ClassVar[str] = "rtl_model/p2/synth_calibration.toml"
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:
@@ -97,6 +102,11 @@ class P2Pipeline(Pipeline):
         self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
     ) -> CostReport:
         return cost.config_cost(self.check_config(config), shape, mode)
+
+    def area_terms(
+        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
+    ) -> dict[str, float]:
+        return dict(cost.area_terms(self.check_config(config), shape, mode))
 
     def buildup_profiles(self, result: PipelineResult, golden: GoldenReference) -> Profiles:
         return buildup.buildup_profiles(result, golden, self.tap_specs(result.config, result.mode))

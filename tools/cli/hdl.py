@@ -27,9 +27,9 @@ from rangefx.vectors.replay import SIMULATORS
 
 from ..studies.runner import load_config
 from ..studies.synth import AREA_KEYS, STAGES, TARGETS, rtl_top, synth_pipeline
-from ..studies.timing import DEVICES, TimingResult, time_top
 from ..studies.timing import STAGES as TIMING_STAGES
 from ..studies.timing import TARGETS as TIMING_TARGETS
+from ..studies.timing import TimingResult, time_top
 from .options import add_design_args, design_from_args, int_at_least, pipeline_from_args
 
 __all__ = [
@@ -210,7 +210,8 @@ def cmd_timing(args: argparse.Namespace) -> int:
 def _timing_text(r: TimingResult) -> str:
     lines = [
         f"{r.pipeline.upper()} {r.stage} {r.mode} {r.shape[0]}x{r.shape[1]}, config {r.config}, "
-        f"{r.target} {r.device} {r.package} speed {r.speed} ({r.pins} pins), aiming at "
+        f"{r.target} {r.device} {r.package}{'' if r.speed is None else f' speed {r.speed}'} "
+        f"({r.pins} pins), aiming at "
         f"{r.freq_mhz:g} MHz:"
     ]
     for clock, fmax in r.fmax_mhz.items():
@@ -222,10 +223,12 @@ def _timing_text(r: TimingResult) -> str:
                 f"    critical path {p.delay_ns:.2f} ns ({p.logic_ns:.2f} logic, "
                 f"{p.routing_ns:.2f} routing): {p.from_cell} -> {p.to_cell}"
             )
-    keys = ("LUT4", "TRELLIS_FF", "CCU2C", "MULT18X18D", "DP16KD")
-    lines.append("  cells: " + ", ".join(f"{k} {r.cells.get(k, 0)}" for k in keys))
-    util = ("TRELLIS_COMB", "TRELLIS_FF", "MULT18X18D", "DP16KD", "TRELLIS_IO")
-    lines.append("  placed: " + ", ".join(f"{k} {r.utilisation.get(k, 0)}" for k in util))
+    family = TIMING_TARGETS[r.target]
+    # a cell key counts every cell it prefixes (SB_DFF: SB_DFFE, SB_DFFSR, ...)
+    cells = {k: sum(v for c, v in r.cells.items() if c.startswith(k)) for k in family.cell_keys}
+    lines.append("  cells: " + ", ".join(f"{k} {v}" for k, v in cells.items()))
+    lines.append("  placed: " + ", ".join(f"{k} {r.utilisation.get(k, 0)}"
+                                          for k in family.bel_keys))  # fmt: skip
     return "\n".join(lines)
 
 
@@ -238,12 +241,16 @@ def add_timing_parser(hs) -> None:
     add_design_args(t, estimator=False)
     add_filter_args(t)
     t.add_argument("--target", choices=tuple(TIMING_TARGETS), default="ecp5",
-                   help="FPGA family: ecp5 (Yosys synth_ecp5, nextpnr-ecp5)")  # fmt: skip
-    t.add_argument("--device", choices=tuple(DEVICES), default="85k",
-                   help="device: LFE5U-25F, -45F, -85F (default 85k)")  # fmt: skip
-    t.add_argument("--package", default="CABGA381", help="package (default CABGA381)")
-    t.add_argument("--speed", type=int, choices=(6, 7, 8), default=6,
-                   help="speed grade (default 6, the slowest)")  # fmt: skip
+                   help="FPGA family: ecp5 (Yosys synth_ecp5, nextpnr-ecp5; default) or "
+                   "ice40 (synth_ice40, nextpnr-ice40)")  # fmt: skip
+    devices = {d: t for t, f in TIMING_TARGETS.items() for d in f.devices}
+    t.add_argument("--device", choices=tuple(devices),
+                   help="ecp5: 25k, 45k, 85k (LFE5U-25F/-45F/-85F; default 85k); ice40: up5k, "
+                   "hx8k (default up5k)")  # fmt: skip
+    t.add_argument("--package", help="package (default: the device's first: CABGA381 on "
+                   "ECP5, sg48 on the UP5K, ct256 on the HX8K)")  # fmt: skip
+    t.add_argument("--speed", type=int, choices=(6, 7, 8),
+                   help="ECP5 speed grade (default 6, the slowest); iCE40 has none")  # fmt: skip
     t.add_argument("--seeds", type=int_at_least(1, "--seeds"), default=3,
                    help="nextpnr runs (seeds 1..N); Fmax is their median (default 3)")  # fmt: skip
     t.add_argument("--freq", type=float, default=148.5,

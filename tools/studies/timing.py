@@ -34,6 +34,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import json
+import re
 import shutil
 import statistics
 import subprocess
@@ -60,6 +61,7 @@ from .synth import rtl_top
 
 __all__ = [
     "DEVICES",
+    "ICE40_DEVICES",
     "STAGES",
     "TIMED_TOPS",
     "CriticalPath",
@@ -67,11 +69,13 @@ __all__ = [
     "TimedTop",
     "TimingOptions",
     "TimingResult",
+    "TimingTarget",
     "cache_dir",
     "check_timed",
     "fmax_measure",
     "frontend_wrapper",
     "nextpnr_command",
+    "overfull_resources",
     "parse_nextpnr_report",
     "time_p1",
     "time_top",
@@ -83,22 +87,71 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Device:
-    """A device nextpnr places on: its nextpnr flag, packages and speed grades."""
+    """A device nextpnr places on: its nextpnr flag, packages (the first is the default),
+    speed grades (none on iCE40: nextpnr-ice40 times each family at its one grade) and
+    its part name."""
 
     flag: str
     packages: tuple[str, ...]
     speeds: tuple[int, ...]
+    part: str = ""
 
 
 #: nextpnr-ecp5 devices by the name ``--device`` takes (the LUT count in thousands).
 DEVICES: dict[str, Device] = {
-    "25k": Device("--25k", ("CABGA256", "CABGA381", "CSFBGA285"), (6, 7, 8)),
-    "45k": Device("--45k", ("CABGA256", "CABGA381", "CABGA554", "CSFBGA285"), (6, 7, 8)),
-    "85k": Device("--85k", ("CABGA381", "CABGA554", "CABGA756", "CSFBGA285"), (6, 7, 8)),
+    "25k": Device("--25k", ("CABGA381", "CABGA256", "CSFBGA285"), (6, 7, 8), "LFE5U-25F"),
+    "45k": Device("--45k", ("CABGA381", "CABGA256", "CABGA554", "CSFBGA285"), (6, 7, 8),
+                  "LFE5U-45F"),
+    "85k": Device("--85k", ("CABGA381", "CABGA554", "CABGA756", "CSFBGA285"), (6, 7, 8),
+                  "LFE5U-85F"),
+}  # fmt: skip
+#: nextpnr-ice40 devices: the UltraPlus UP5K (5,280 logic cells, 30 RAM40 4 Kbit blocks,
+#: 8 SB_MAC16; 39 I/O in SG48) and the HX8K (7,680 logic cells, 32 RAM40, no multiplier;
+#: 206 I/O in CT256).
+ICE40_DEVICES: dict[str, Device] = {
+    "up5k": Device("--up5k", ("sg48", "uwg30"), (), "iCE40UP5K"),
+    "hx8k": Device("--hx8k", ("ct256", "cb132", "tq144:4k", "bg121"), (), "iCE40HX8K"),
 }
-#: Yosys' synthesis command of each target; ``synth_ecp5`` maps multipliers to
-#: MULT18X18D and the line buffers and reciprocal ROM to DP16KD.
-TARGETS = {"ecp5": "synth_ecp5 -top p1_timing_top -json design.json"}
+
+
+@dataclass(frozen=True)
+class TimingTarget:
+    """An FPGA family the flow places on: its devices (and the default one), the Yosys
+    script lines that synthesise ``{top}`` for a device, nextpnr's flag that lets the
+    generated wrapper's ports stand unconstrained, and the Yosys cells and nextpnr bels
+    the text report names (LUT, FF, carry, multiplier, block RAM)."""
+
+    devices: Mapping[str, Device]
+    default_device: str
+    synth: Callable[[str, Device], str]
+    unconstrained: str
+    cell_keys: tuple[str, ...]
+    bel_keys: tuple[str, ...]
+
+
+def _ecp5_synth(top: str, device: Device) -> str:
+    # synth_ecp5 maps the multipliers to MULT18X18D, line buffers and the ROM to DP16KD
+    return f"synth_ecp5 -top {top} -json design.json"
+
+
+def _ice40_synth(top: str, device: Device) -> str:
+    # iCE40 has no LUT RAM: the delay lines' ram_style "distributed" (ECP5/Xilinx LUT RAM)
+    # would leave Yosys no mapping, so it is dropped and they go to RAM40 or flip-flops;
+    # -dsp maps multipliers to SB_MAC16 where the device has them (UP5K, not HX8K)
+    dsp = " -dsp" if device.flag == "--up5k" else ""
+    return (f"hierarchy -top {top}\nsetattr -unset ram_style m:*\n"
+            f"synth_ice40{dsp} -top {top} -json design.json")  # fmt: skip
+
+
+#: The families ``hdl timing --target`` places on.
+TARGETS: dict[str, TimingTarget] = {
+    "ecp5": TimingTarget(DEVICES, "85k", _ecp5_synth, "--lpf-allow-unconstrained",
+                         ("LUT4", "TRELLIS_FF", "CCU2C", "MULT18X18D", "DP16KD"),
+                         ("TRELLIS_COMB", "TRELLIS_FF", "MULT18X18D", "DP16KD", "TRELLIS_IO")),
+    "ice40": TimingTarget(ICE40_DEVICES, "up5k", _ice40_synth, "--pcf-allow-unconstrained",
+                          ("SB_LUT4", "SB_DFF", "SB_CARRY", "SB_MAC16", "SB_RAM40_4K"),
+                          ("ICESTORM_LC", "ICESTORM_RAM", "ICESTORM_DSP", "SB_IO")),
+}  # fmt: skip
 #: What can be timed: the whole P1 (``top``) or one stream's front end alone.
 STAGES = ("top", "frontend")
 
@@ -153,7 +206,7 @@ class TimingResult:
     target: str
     device: str
     package: str
-    speed: int
+    speed: int | None
     freq_mhz: float
     shape: tuple[int, int]
     mode: str
@@ -357,12 +410,26 @@ def _key(*parts: object, sources: Sequence[str] = HDL_SOURCES) -> str:
     return h.hexdigest()[:32]
 
 
-def _run(cmd: Sequence[str], cwd: Path, what: str, timeout_s: float) -> None:
+def overfull_resources(log: str) -> list[tuple[str, int, int]]:
+    """The resources a design needs more of than the device has, from nextpnr's
+    "Device utilisation" lines (``Info:    ICESTORM_DSP:    15/    8   187%``):
+    ``(bel type, used, available)`` in the log's order."""
+    found = re.findall(r"^Info:\s+(\w+):\s+(\d+)/\s*(\d+)\s+\d+%", log, flags=re.M)
+    return [(name, int(u), int(a)) for name, u, a in found if int(u) > int(a)]
+
+
+def _run(cmd: Sequence[str], cwd: Path, what: str, timeout_s: float, fits: str = "") -> None:
+    """Run a tool; :class:`UserError` if it fails: with ``fits`` (what is placed where),
+    a design that does not fit is named with the resources it overfills."""
     try:
         run = subprocess.run(list(cmd), cwd=cwd, capture_output=True, text=True,
                              timeout=timeout_s, check=False)  # fmt: skip
     except subprocess.TimeoutExpired:
         raise UserError(f"{what} took over {timeout_s:.0f} s") from None
+    over = overfull_resources(run.stderr + run.stdout) if run.returncode != 0 and fits else []
+    if over:
+        used = ", ".join(f"{n} {u}/{a} ({100 * u // a if a else 'inf'} %)" for n, u, a in over)
+        raise UserError(f"{fits} does not fit: {used}")
     if run.returncode != 0:
         lines = (run.stderr + run.stdout).strip().splitlines()
         errors = [ln for ln in lines if "ERROR" in ln] or lines[-2:]
@@ -411,9 +478,9 @@ def time_top(
     config,
     *,
     target: str = "ecp5",
-    device: str = "85k",
-    package: str = "CABGA381",
-    speed: int = 6,
+    device: str | None = None,
+    package: str | None = None,
+    speed: int | None = None,
     seeds: int = 3,
     freq_mhz: float = 148.5,
     shape: tuple[int, int] = (512, 512),
@@ -425,7 +492,10 @@ def time_top(
     """Synthesise, place and route ``pipeline``'s RTL (:data:`TIMED_TOPS`) for ``config``
     and return its timing.
 
-    ``seeds``: nextpnr runs with seeds 1..``seeds``; ``freq_mhz``: the frequency nextpnr's
+    ``target``: a family of :data:`TARGETS`; ``device``, ``package``: its default device
+    (ECP5: ``85k``, iCE40: ``up5k``) and that device's first package when ``None``;
+    ``speed``: the ECP5 speed grade (default 6, the slowest), ``None`` on iCE40 (no
+    grades). ``seeds``: nextpnr runs with seeds 1..``seeds``; ``freq_mhz``: the frequency nextpnr's
     timing-driven placement and routing aim at (it does not cap the reported Fmax);
     ``stage``: ``top`` (the whole top: P1's :func:`timing_wrapper`, P2's
     :func:`rangefx.vectors.hdl.p2_timing_wrapper`) or, P1 only, ``frontend`` (one
@@ -435,20 +505,29 @@ def time_top(
     ------
     UserError
         A pipeline without RTL, an unknown target, device, package, speed grade, mode or
-        stage, a missing tool, or a tool failing on the design (its error lines are in
-        the message).
+        stage, a missing tool, a design that does not fit the device (the resources over
+        100 % named), or a tool failing on the design (its error lines are in the
+        message).
     """
     rtl = rtl_top(pipeline)  # one line if the pipeline has no RTL
     timed = TIMED_TOPS[pipeline]
     if target not in TARGETS:
         raise UserError(f"unknown timing target {target!r}; choose from {', '.join(TARGETS)}")
-    if device not in DEVICES:
-        raise UserError(f"unknown device {device!r}; choose from {', '.join(DEVICES)}")
-    dev = DEVICES[device]
+    family = TARGETS[target]
+    device = family.default_device if device is None else device
+    if device not in family.devices:
+        raise UserError(f"unknown {target} device {device!r}; choose from "
+                        f"{', '.join(family.devices)}")  # fmt: skip
+    dev = family.devices[device]
+    package = dev.packages[0] if package is None else package
     if package not in dev.packages:
         raise UserError(f"package {package!r} is not one of the {device} device's: "
                         f"{', '.join(dev.packages)}")  # fmt: skip
-    if speed not in dev.speeds:
+    if speed is None and dev.speeds:
+        speed = dev.speeds[0]
+    if not dev.speeds and speed is not None:
+        raise UserError(f"the {dev.part} has no speed grades: drop --speed {speed}")
+    if dev.speeds and speed not in dev.speeds:
         raise UserError(f"speed grade {speed} is not one of {dev.speeds}")
     if seeds < 1:
         raise UserError(f"--seeds must be at least 1, not {seeds}")
@@ -463,13 +542,14 @@ def time_top(
     # relative ROM name: the key holds no temporary path
     params = _stage_parameters(pipeline, config, shape, mode, stage)
     wrapper, pins = timed.wrappers[stage](params)
-    command = TARGETS[target].replace("-top p1_timing_top", f"-top {timed.module}")
+    command = family.synth(timed.module, dev)
     synth_key = _key(wrapper, command, yosys, tools["yosys"], sources=timed.sources)
     root = cache_dir()
     synth_file = root / f"synth-{target}-{synth_key}.json"
     runs: list[SeedTiming] = []
     todo: list[int] = []
-    pnr_args = [dev.flag, "--package", package, "--speed", str(speed), "--freq", f"{freq_mhz:g}"]
+    grade = ["--speed", str(speed)] if dev.speeds else []
+    pnr_args = [dev.flag, "--package", package, *grade, "--freq", f"{freq_mhz:g}"]
     for seed in range(1, seeds + 1):
         key = _key(synth_key, nextpnr, tools["nextpnr"], pnr_args, seed, sources=timed.sources)
         entry = root / f"pnr-{target}-{key}.json"
@@ -500,11 +580,13 @@ def time_top(
                      if not str(k).endswith("scopeinfo")}  # debug info, no hardware  # fmt: skip
             _store(synth_file, {"cells": cells, "tools": tools, "params": params})
             for seed in todo:
+                # not -q: on a failure the log's utilisation names what does not fit
                 cmd = [*nextpnr, *pnr_args, "--seed", str(seed), "--json", "design.json",
                        "--report", "report.json", "--timing-allow-fail",
-                       "--lpf-allow-unconstrained", "-q"]  # fmt: skip
+                       family.unconstrained]  # fmt: skip
                 (work / "report.json").unlink(missing_ok=True)
-                _run(cmd, work, f"nextpnr-{target} (seed {seed})", timeout_s)
+                _run(cmd, work, f"nextpnr-{target} (seed {seed})", timeout_s,
+                     fits=f"{pipeline} {stage} on the {dev.part} ({package})")  # fmt: skip
                 report = json.loads((work / "report.json").read_text())
                 key = _key(
                     synth_key, nextpnr, tools["nextpnr"], pnr_args, seed, sources=timed.sources
