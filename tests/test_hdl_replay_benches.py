@@ -5,7 +5,7 @@
   blanking and input gaps exactly (every tap value and cycle, the AXI output, the
   overflow counts of the manifest) and writes the same dump as the plain Verilog bench
   (``hdl/tb_top.v``).
-* The AXI4-Stream output check compares cycles for P2 as for P1.
+* The AXI4-Stream output check compares cycles (every pipeline with RTL).
 * Mutants of P2's RTL, patched in a copy of ``hdl/`` and replayed through the CLI or
   ``rangefx.api.replay``, are reported at the first mismatch computed without the RTL:
   a rounding mode of the sweep engine (the model of the same change gives the first
@@ -108,17 +108,14 @@ def test_the_cocotb_bench_replays_exactly_and_writes_the_plain_benchs_dump(
     assert got[2] == want[2]
 
 
-def _p2_dump(tmp_path):
-    config = P2Config.default()
-    vec, _vs = _vectors(tmp_path, "p2", config, CROPS["p2"], GAPS)
-    run = replay.simulate(vec, tmp_path / "work", "icarus", "plain")
-    return vec, run["dump"]
-
-
-def test_the_p2_axi_output_check_compares_cycles(tmp_path):
-    """P2's output beats one cycle late, values unchanged (an extra register before
-    ``m_axis``): the AXI check fails on its own, every word a cycle mismatch."""
-    vec, dump = _p2_dump(tmp_path)
+@pytest.mark.parametrize("pipeline", list(RTL_TOPS))
+def test_the_axi_output_check_compares_cycles(pipeline, tmp_path):
+    """The RTL's output beats one cycle late, values unchanged (as an extra register
+    before ``m_axis`` would give): the AXI check fails on its own, every word a cycle
+    mismatch, the taps exact."""
+    config = get_pipeline(pipeline).default_config()
+    vec, _vs = _vectors(tmp_path, pipeline, config, CROPS[pipeline], GAPS)
+    dump = replay.simulate(vec, tmp_path / "work", "icarus", "plain")["dump"]
     assert replay.compare(vec, dump).ok
     out = dict(np.load(dump / "m_axis.npz"))
     out["cycles"] = out["cycles"] + 1
@@ -126,10 +123,9 @@ def test_the_p2_axi_output_check_compares_cycles(tmp_path):
     report = replay.compare(vec, dump)
     assert report.value_mismatches == 0 and report.cycle_mismatches == 0  # the taps
     m, n = load_manifest(vec)["shape"]
-    assert (report.m_axis["cycle_mismatches"], report.m_axis["value_mismatches"]) == (m * n, 0)
-    assert report.m_axis["first_mismatch"]["got_cycle"] == (
-        report.m_axis["first_mismatch"]["cycle"] + 1
-    )
+    axis = report.m_axis
+    assert (axis["cycle_mismatches"], axis["value_mismatches"]) == (m * n, 0)
+    assert axis["first_mismatch"]["got_cycle"] == axis["first_mismatch"]["cycle"] + 1
     assert not report.ok
 
 
@@ -267,3 +263,12 @@ def test_the_rtl_raises_overrun_exactly_past_the_line_buffer_read_bound(past, tm
     run = replay.simulate(vec, tmp_path / "work", "icarus", "plain", T_DIV=t_div + 1)
     status = run["status"]
     assert (status["overrun"], status["line_too_long"], status["align_error"]) == (past, 0, 0)
+
+
+def test_the_cocotb_bench_under_verilator_is_one_error_line(tmp_path, capsys):
+    """cocotb 2.1 cannot drive Verilator 5.006: refused before any build, one line."""
+    vec, _vs = _vectors(tmp_path, "p2", P2Config.default(), CROPS["p2"], TimingConfig())
+    assert main(["hdl", "replay", str(vec), "--sim", "verilator", "--bench", "cocotb"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rangefx: error: the cocotb bench"), err
+    assert "--bench plain" in err[0]
