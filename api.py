@@ -605,14 +605,17 @@ def replay(
     directory: str | Path,
     simulator: str = "icarus",
     *,
+    bench: str = "auto",
     dump: str | Path | None = None,
     time_model: bool = False,
 ) -> ReplayResult:
-    """Replay a P1 vector directory through the Verilog of P1 under ``simulator``
-    (``icarus`` or ``verilator``, with cocotb) and compare every tap with the model.
+    """Replay a P1 or P2 vector directory through its Verilog under ``simulator``
+    (``icarus`` or ``verilator``) and compare every tap with the model.
 
-    ``dump``: keep the RTL's dumps (``<tap>.mem``, ``taps.npz``, ``status.json``) in this
-    directory (atomically). ``time_model``: also time the model on the same case."""
+    ``bench``: ``cocotb``, ``plain`` (the Verilog bench) or ``auto`` (cocotb under Icarus,
+    plain under Verilator). ``dump``: keep the RTL's dumps (``<tap>.mem``, ``taps.npz``,
+    ``status.json``) in this directory (atomically). ``time_model``: also time the model
+    on the same case."""
     import shutil
     import tempfile
 
@@ -630,7 +633,7 @@ def replay(
         )
     with tempfile.TemporaryDirectory(prefix="rangefx-hdl-") as tmp:
         try:
-            sim = simulate(vec, tmp, simulator)
+            sim = simulate(vec, tmp, simulator, bench)
         except (SimulatorMissing, ValueError) as exc:
             raise UserError(str(exc)) from None
         try:
@@ -646,6 +649,7 @@ def replay(
     figures = {
         "dir": str(vec),
         "sim": simulator,
+        "bench": sim["bench"],
         "mode": manifest["mode"],
         "shape": [m, n],
         **rep.as_dict(),

@@ -1,14 +1,13 @@
 """HDL replay of P2 (``hdl/p2_top.v``, ``rangefx hdl replay``, docs/hdl.md "P2").
 
-Vectors of small lab crops are replayed through ``hdl/p2_top.v`` with its plain Verilog
-bench (``hdl/tb_p2_top.v``) under Icarus (and Verilator when installed): every tap is
+Vectors of small lab crops are replayed through ``hdl/p2_top.v`` with the cocotb bench
+under Icarus (and the plain Verilog bench under Verilator when installed): every tap is
 checked value for value and cycle for cycle (in cycle order: the lanes' interleaved
 order), the AXI4-Stream output word for word, cycle for cycle and group for group, the
 overflow counters against the manifest; both dividers, lanes at and above the loop
 latency, blanking and input gaps, short last groups, and a mixed-modes narrowed config
-that overflows on several signals. Two RTL mutants (a rounding mode in the sweep engine,
-a lane's delay in the sweep engine off by one) are reported at the first sample that
-differs, with the count the model of the mutant predicts.
+that overflows on several signals. The mutants and the line-buffer read bound:
+``tests/test_hdl_replay_benches.py``.
 """
 
 from __future__ import annotations
@@ -16,7 +15,6 @@ from __future__ import annotations
 import functools
 import shutil
 
-import numpy as np
 import pytest
 
 from rangefx.rtl_model.config import TimingConfig
@@ -26,7 +24,7 @@ from rangefx.rtl_model.p2.config import P2Config
 from rangefx.tools.studies.cases import crop_case, scene_case
 from rangefx.vectors import replay
 from rangefx.vectors.generate import build_vectors, write_vectors
-from rangefx.vectors.hdl import HDL_DIR, QUANT_CODES
+from rangefx.vectors.hdl import HDL_DIR
 
 if shutil.which("iverilog") is None or shutil.which("vvp") is None:
     pytest.skip("Icarus Verilog (iverilog) is not installed", allow_module_level=True)
@@ -120,74 +118,6 @@ def test_overflow_counts_equal_the_models(tmp_path):
     counted = {s: o["rtl"] for s, o in report.overflows.items() if o["rtl"]}
     assert len(counted) >= 5, counted
     assert all(o["rtl"] == o["model"] for o in report.overflows.values()), report.overflows
-
-
-def _first_difference(expected: dict, mutant: dict, cycles: dict) -> tuple[str, int, int]:
-    """The earliest (cycle, tap) sample where two runs' taps differ: (tap, row, col)."""
-    best = None
-    for tap in P2_TAPS:
-        bad = np.argwhere(expected[tap] != mutant[tap])
-        for j, i in bad:
-            key = (int(cycles[tap][j, i]), tap, int(j), int(i))
-            best = key if best is None or key < best else best
-    assert best is not None
-    return best[1], best[2], best[3]
-
-
-def test_rounding_mutant_is_reported_at_the_first_differing_sample(tmp_path):
-    """``ST_Q`` (the S~ cast of the sweep engine) compiled as TRN instead of RND: the
-    replay reports the first sample (by cycle) where the model of that mutant differs,
-    with the number of differing samples of each tap the mutant's model predicts."""
-    config = P2Config.default()
-    vec, vs = _vectors(tmp_path, config, TALL, GAPS)
-    mutant_cfg = config.with_formats(p2_st=_fmt("u26.8", Quant.TRN))
-    _, mvs = _vectors(tmp_path, mutant_cfg, TALL, GAPS, name="mutant")
-    report = _replay(vec, tmp_path, ST_Q=QUANT_CODES["TRN"])
-    assert not report.ok
-    m, n = TALL[1] - TALL[0], TALL[3] - TALL[2]
-    want, got = vs.result.taps, mvs.result.taps
-    cycles = {t: _tap_cycles(vec, t, m, n) for t in P2_TAPS}
-    tap, row, col = _first_difference(want, got, cycles)
-    first = report.first_mismatch
-    assert (first["tap"], first["row"], first["col"]) == (tap, row, col), first
-    assert report.cycle_mismatches == 0
-    for t in P2_TAPS:
-        count = int(np.count_nonzero(want[t] != got[t]))
-        assert report.taps[t]["value_mismatches"] == count, t
-    assert report.taps["s"]["value_mismatches"] > 0
-
-
-def _tap_cycles(vec, tap: str, m: int, n: int) -> np.ndarray:
-    from rangefx.vectors.generate import load_manifest, tap_cycles
-
-    manifest = load_manifest(vec)
-    entry = next(e for e in manifest["files"] if e["tap"] == tap and e["path"].endswith(".mem"))
-    return tap_cycles(vec, manifest, tap, int(entry["first_valid_cycle"])).reshape(m, n)
-
-
-def test_lane_delay_mutant_is_reported_at_the_first_write_back(tmp_path, monkeypatch):
-    """The sweep engine's lane tags delayed one cycle too many beside the divider (the
-    RTL text patched): the write-back of every slot leaves a cycle late, so the first
-    mismatch is the frame's first write-back sample (row 0, column n-1, got one cycle
-    late) and every sample of the write-back taps is a cycle mismatch."""
-    vec, _vs = _vectors(tmp_path, P2Config.default(), CROP)
-    hdl = tmp_path / "hdl"
-    shutil.copytree(HDL_DIR, hdl)
-    text = (hdl / "p2_top.v").read_text()
-    old = "fx_delay #(TAGW, T_DIV) u_tagd"
-    assert text.count(old) == 1
-    (hdl / "p2_top.v").write_text(text.replace(old, "fx_delay #(TAGW, T_DIV + 1) u_tagd"))
-    monkeypatch.setattr(replay, "HDL_DIR", hdl)
-    report = _replay(vec, tmp_path)
-    m, n = CROP[1] - CROP[0], CROP[3] - CROP[2]
-    first = report.first_mismatch
-    assert first["tap"] in ("a", "c", "den", "r", "s", "h", "q"), first
-    assert (first["row"], first["col"]) == (0, n - 1), first
-    assert first["got_cycle"] == first["cycle"] + 1, first
-    for t in ("a", "c", "den", "r", "s", "h", "q"):
-        assert report.taps[t]["cycle_mismatches"] == m * n, t
-    for t in ("d", "g_hat"):
-        assert report.taps[t]["cycle_mismatches"] == 0, t
 
 
 @pytest.mark.skipif(shutil.which("verilator") is None, reason="Verilator is not installed")

@@ -1,20 +1,18 @@
-"""Replay a P1 vector directory through the Verilog (``hdl/``) and check every tap of the
-RTL (both front ends, the range stage) value for value and cycle for cycle
-(``rangefx hdl replay``, docs/hdl.md).
+"""Replay a P1 or P2 vector directory through the Verilog (``hdl/``) and check every tap of
+the RTL value for value and cycle for cycle (``rangefx hdl replay``, docs/hdl.md).
 
-:func:`simulate` builds ``hdl/p1_top.v`` with the directory's parameters
-(:func:`rangefx.vectors.hdl.top_parameters`) under Icarus or Verilator through
-``cocotb_tools.runner`` and runs the bench ``hdl/test_p1_top.py`` into a dump directory;
+:func:`simulate` builds the pipeline's top (``hdl/p1_top.v``, ``hdl/p2_top.v``) with the
+directory's parameters (:func:`rangefx.vectors.hdl.top_parameters`, ``p2_parameters``)
+and runs one of two benches, both written against one protocol for both tops: the
+cocotb bench ``hdl/test_top.py`` (through ``cocotb_tools.runner``; Icarus) or the plain
+Verilog bench ``hdl/tb_top.v`` with a generated ``bench.vh`` (Icarus or Verilator);
 :func:`compare` checks the dump against the vectors: per tap the samples, value
 mismatches, cycle mismatches (a sample's cycle against the manifest's: its input beat
 plus the declared latency) and the first mismatch; the AXI4-Stream output against the
 ``valid`` and ``range`` taps, word for word and cycle for cycle; the overflow counters
-against the manifest's counts.
-
-A P2 directory (the manifest's pipeline) runs ``hdl/p2_top.v`` with its plain Verilog
-bench ``hdl/tb_p2_top.v`` under Icarus or Verilator (:func:`simulate` dispatches); every
-tap is compared in cycle order (P2's lanes leave interleaved, one sample per cycle per
-tap), the AXI4-Stream output with one TLAST per lane group (docs/hdl.md, "P2").
+against the manifest's counts. P2's taps are compared in cycle order (its lanes leave
+interleaved, one sample per cycle per tap), its output with one TLAST per lane group
+(docs/hdl.md, "P2").
 
 Before a run, every file of the directory the replay reads (the streams, the taps, the
 reciprocal ROM) is checked against the manifest's size and SHA-256 (:func:`verify_files`):
@@ -46,6 +44,7 @@ from .hdl import (
     OVERFLOW_SIGNALS,
     P2_FLAGS,
     P2_SOURCES,
+    P2_TOPLEVEL,
     RANGE_TAP_GROUPS,
     TOPLEVEL,
     bench_header,
@@ -58,6 +57,8 @@ from .hdl import (
 )
 
 __all__ = [
+    "BENCHES",
+    "DEFAULT_BENCH",
     "OVERFLOW_SIGNALS",
     "SIMULATORS",
     "ReplayReport",
@@ -69,7 +70,11 @@ __all__ = [
 
 #: Simulators the replay runs on, and the executable each needs.
 SIMULATORS = {"icarus": "iverilog", "verilator": "verilator"}
-_BENCH = "test_p1_top"
+#: The benches: cocotb (``hdl/test_top.py``) and the plain Verilog one (``hdl/tb_top.v``).
+BENCHES = ("cocotb", "plain")
+#: The bench ``auto`` picks per simulator (cocotb 2.1 cannot drive Verilator 5.006).
+DEFAULT_BENCH = {"icarus": "cocotb", "verilator": "plain"}
+_BENCH = "test_top"
 
 
 class SimulatorMissing(RuntimeError):
@@ -133,59 +138,78 @@ def _rtl_taps(manifest: Mapping) -> list[str]:
 
 
 def simulate(
-    directory: str | Path, work: str | Path, sim: str = "icarus", **overrides: int
+    directory: str | Path,
+    work: str | Path,
+    sim: str = "icarus",
+    bench: str = "auto",
+    **overrides: int,
 ) -> dict:
     """Build and run the bench on ``directory``; the dump goes to ``work/dump``.
 
+    ``bench``: ``cocotb`` (``hdl/test_top.py``), ``plain`` (``hdl/tb_top.v``) or ``auto``
+    (:data:`DEFAULT_BENCH`: cocotb under Icarus, the plain bench under Verilator).
     ``overrides`` replace Verilog parameters (a mutation test compiles ``R2_Q=0``, say).
-    Returns ``{"sim_s", "build_s", "dump", "status"}``.
+    Returns ``{"sim_s", "build_s", "dump", "status", "bench"}``.
 
     Raises
     ------
     SimulatorMissing
         ``sim``'s executable or cocotb is not installed.
     ValueError
-        The directory is not P1 vectors; the simulation failed (its log is named).
+        The directory is not P1 or P2 vectors; the bench cannot run on ``sim``; the
+        simulation failed (its log is named).
     """
     if sim not in SIMULATORS:
         raise ValueError(f"unknown simulator {sim!r}; choose from {', '.join(SIMULATORS)}")
+    bench = DEFAULT_BENCH[sim] if bench == "auto" else bench
+    if bench not in BENCHES:
+        raise ValueError(f"unknown bench {bench!r}; choose from auto, {', '.join(BENCHES)}")
+    if bench == "cocotb" and sim == "verilator":
+        raise ValueError("the cocotb bench needs Verilator >= 5.036 (cocotb 2.1); "
+                         "use --bench plain with --sim verilator")  # fmt: skip
     if shutil.which(SIMULATORS[sim]) is None:
         raise SimulatorMissing(f"{sim}: '{SIMULATORS[sim]}' is not installed (not on PATH)")
     vec = Path(directory).resolve()
     manifest = load_manifest(vec)
+    if manifest.get("pipeline") not in ("p1", "p2"):
+        raise ValueError(f"{vec}: the RTL implements P1 and P2, not {manifest.get('pipeline')!r}")
     verify_files(vec, manifest)
     rom_file = _rom_file(vec, manifest)
     work = Path(work).resolve()
     dump = work / "dump"
-    if manifest.get("pipeline") == "p2":
-        timings = _run_p2_bench(vec, manifest, rom_file, work, dump, sim, overrides)
-    elif sim == "verilator":
-        timings = _run_verilator(vec, manifest, rom_file, work, dump, overrides)
-    else:
-        timings = _run_cocotb(vec, manifest, rom_file, work, dump, sim, overrides)
+    run = _run_cocotb if bench == "cocotb" else _run_plain
+    timings = run(vec, manifest, rom_file, work, dump, sim, overrides)
     if not (dump / "status.json").exists():
         raise ValueError(f"the {sim} simulation wrote no dump: {_log_tail(work / 'sim.log')}")
     status = json.loads((dump / "status.json").read_text())
-    return {**timings, "dump": dump, "status": status}
+    return {**timings, "dump": dump, "status": status, "bench": bench}
+
+
+def _top(manifest: Mapping, rom_file: Path | None, overrides: Mapping[str, int]) -> tuple:
+    """The pipeline's top: (its module, its sources, its Verilog parameters)."""
+    if manifest["pipeline"] == "p2":
+        params = p2_parameters(manifest, rom_file) | dict(overrides)
+        return P2_TOPLEVEL, P2_SOURCES, params
+    return TOPLEVEL, HDL_SOURCES, top_parameters(manifest, rom_file) | dict(overrides)
 
 
 def _run_cocotb(
     vec: Path, manifest: Mapping, rom_file: Path | None, work: Path, dump: Path, sim: str,
     overrides: Mapping[str, int],
 ) -> dict:  # fmt: skip
-    """The cocotb bench (``hdl/test_p1_top.py``, cocotbext-axi) through cocotb's runner."""
+    """The cocotb bench (``hdl/test_top.py``, cocotbext-axi) through cocotb's runner."""
     try:
         from cocotb_tools.runner import get_results, get_runner
     except ImportError:
         raise SimulatorMissing("cocotb is not installed (pip install 'rangefx[hdl]')") from None
-    params = top_parameters(manifest, rom_file) | dict(overrides)
+    toplevel, sources, params = _top(manifest, rom_file, overrides)
     build = work / f"build_{sim}"
     runner = get_runner(sim)
     t0 = time.perf_counter()
     try:
         runner.build(
-            sources=[HDL_DIR / s for s in HDL_SOURCES],
-            hdl_toplevel=TOPLEVEL,
+            sources=[HDL_DIR / s for s in sources],
+            hdl_toplevel=toplevel,
             includes=[HDL_DIR],
             parameters=params,
             build_dir=build,
@@ -199,11 +223,16 @@ def _run_cocotb(
     env = {
         "RANGEFX_VECTORS": str(vec),
         "RANGEFX_DUMP": str(dump),
+        # the bench reads P2's bit fields (m_axis_tdata[Z_W]) from the built parameters
+        "RANGEFX_PARAMS": json.dumps(params),
         "PYTHONPATH": os.pathsep.join([str(HDL_DIR), *sys.path]),
+        # no pytest assertion rewriting: it would load the checkout's pytest config, whose
+        # warning filter imports numba into the simulator (2-15 s a run, measured)
+        "COCOTB_REWRITE_ASSERTION_FILES": "",
     }
     try:
         results = runner.test(
-            hdl_toplevel=TOPLEVEL,
+            hdl_toplevel=toplevel,
             test_module=_BENCH,
             test_dir=HDL_DIR,
             build_dir=build,
@@ -225,41 +254,46 @@ def _run_cocotb(
 _LEAD = 8
 
 
-def _run_verilator(
-    vec: Path, manifest: Mapping, rom_file: Path | None, work: Path, dump: Path,
+def _run_plain(
+    vec: Path, manifest: Mapping, rom_file: Path | None, work: Path, dump: Path, sim: str,
     overrides: Mapping[str, int],
 ) -> dict:  # fmt: skip
-    """The Verilog bench ``hdl/tb_p1_top.v`` built with ``verilator --binary`` (cocotb 2.1
-    needs Verilator >= 5.036; this one drives any Verilator 5)."""
-    build = work / "build_verilator"
+    """The plain Verilog bench ``hdl/tb_top.v`` with the pipeline's generated ``bench.vh``,
+    under Icarus (``iverilog -g2005``, ``vvp``) or Verilator (``--binary``: cocotb 2.1
+    needs Verilator >= 5.036; this drives any Verilator 5); its text parsed into the dump."""
+    build = work / f"build_{sim}"
     build.mkdir(parents=True, exist_ok=True)
-    header = bench_header(manifest, rom_file, _LEAD, overrides)
-    (build / "p1_bench.vh").write_text(header)
-    cmd = [
-        "verilator", "--binary", "-O3", "-j", "2", "-Wno-fatal", "-Wno-lint", "-Wno-style",
-        "--top-module", "tb_p1_top", f"-I{build}", f"-I{HDL_DIR}", "--Mdir", str(build / "obj"),
-        "-o", "tb", *(str(HDL_DIR / s) for s in HDL_SOURCES), str(HDL_DIR / "tb_p1_top.v"),
-    ]  # fmt: skip
+    _toplevel, top_sources, _params = _top(manifest, rom_file, overrides)
+    header = p2_bench_header if manifest["pipeline"] == "p2" else bench_header
+    (build / "bench.vh").write_text(header(manifest, rom_file, _LEAD, overrides))
+    sources = [str(HDL_DIR / s) for s in (*top_sources, "tb_top.v")]
+    exe = build / ("obj" if sim == "verilator" else ".") / "tb"
+    if sim == "verilator":
+        cmd = ["verilator", "--binary", "-O3", "-j", "2", "-Wno-fatal", "-Wno-lint",
+               "-Wno-style", "--top-module", "tb_top", f"-I{build}", f"-I{HDL_DIR}",
+               "--Mdir", str(build / "obj"), "-o", "tb", *sources]  # fmt: skip
+    else:
+        cmd = ["iverilog", "-g2005", "-o", str(exe), f"-I{build}", f"-I{HDL_DIR}", *sources]
     t0 = time.perf_counter()
     with open(work / "build.log", "w") as log:
         rc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=build).returncode
     if rc != 0:
-        raise ValueError(f"building the RTL with verilator failed: {_log_tail(work / 'build.log')}")
+        raise ValueError(f"building the RTL with {sim} failed: {_log_tail(work / 'build.log')}")
     t1 = time.perf_counter()
     streams = stream_entries(manifest)
     out = work / "tb_out.txt"
     args = [f"+STREAM{k}={vec / e['path']}" for k, e in enumerate(streams)] + [f"+OUT={out}"]
+    run = [str(exe), *args] if sim == "verilator" else ["vvp", "-n", str(exe), *args]
     with open(work / "sim.log", "w") as log:
-        rc = subprocess.run([str(build / "obj" / "tb"), *args], stdout=log,
-                            stderr=subprocess.STDOUT, cwd=build).returncode  # fmt: skip
+        rc = subprocess.run(run, stdout=log, stderr=subprocess.STDOUT, cwd=build).returncode
     t2 = time.perf_counter()
     if rc != 0 or not out.exists():
-        raise ValueError(f"the verilator simulation failed: {_log_tail(work / 'sim.log')}")
+        raise ValueError(f"the {sim} simulation failed: {_log_tail(work / 'sim.log')}")
     dump.mkdir(parents=True, exist_ok=True)
     try:
         _dump_from_text(out, vec, manifest, dump)
     except AssertionError as exc:
-        raise ValueError(f"the verilator bench: {exc}") from None
+        raise ValueError(f"the {sim} bench: {exc}") from None
     return {"build_s": t1 - t0, "sim_s": t2 - t1}
 
 
@@ -269,14 +303,16 @@ def _number(text: str, base: int) -> int | None:
 
 
 def _dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None:
-    """Parse the Verilog bench's lines (``hdl/tb_p1_top.v``) into the dump; x/z values
-    become ``None`` (mismatches), overflow flags with x/z bits a count of ``None``."""
-    streams = list(frontend_instances(manifest))
+    """Parse the plain bench's lines (``hdl/tb_top.v``) into the dump; x/z values become
+    ``None`` (mismatches), counters or flags with x/z bits a count of ``None``. Counters
+    are summed per signal (P1: over both front ends and the range stage's flag groups)."""
+    p1 = manifest["pipeline"] == "p1"
+    streams = list(frontend_instances(manifest)) if p1 else []
     signal_of = {e["tap"]: e["signal"] for e in manifest["files"]}
     samples: dict[str, list[tuple[int, int | None]]] = {}
     inputs: list[int] = []
     beats: list[tuple[int, int | None, int, int]] = []
-    overflows: dict[str, int | None] = dict.fromkeys(OVERFLOW_SIGNALS, 0)
+    overflows: dict[str, int | None] = dict.fromkeys(OVERFLOW_SIGNALS, 0) if p1 else {}
     flags: dict[str, int | None] = {}
     cycles = 0
 
@@ -304,74 +340,6 @@ def _dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None
                     add(signal_of[tap], None if bits is None else bits >> k & 1)
             elif kind == "O":
                 add(part[2], _number(part[3], 10))
-            elif kind == "F":
-                flags[part[1]] = _number(part[2], 10)
-    write_dump(dump, vec, manifest, samples, inputs, beats, overflows, flags, cycles)
-
-
-def _run_p2_bench(
-    vec: Path, manifest: Mapping, rom_file: Path | None, work: Path, dump: Path, sim: str,
-    overrides: Mapping[str, int],
-) -> dict:  # fmt: skip
-    """P2's plain Verilog bench ``hdl/tb_p2_top.v`` under Icarus (``iverilog -g2005``,
-    ``vvp``) or Verilator (``--binary``); its text output parsed into the dump."""
-    build = work / f"build_{sim}"
-    build.mkdir(parents=True, exist_ok=True)
-    (build / "p2_bench.vh").write_text(p2_bench_header(manifest, rom_file, _LEAD, overrides))
-    sources = [str(HDL_DIR / s) for s in (*P2_SOURCES, "tb_p2_top.v")]
-    exe = build / ("obj" if sim == "verilator" else ".") / "tb"
-    if sim == "verilator":
-        cmd = ["verilator", "--binary", "-O3", "-j", "2", "-Wno-fatal", "-Wno-lint",
-               "-Wno-style", "--top-module", "tb_p2_top", f"-I{build}", f"-I{HDL_DIR}",
-               "--Mdir", str(build / "obj"), "-o", "tb", *sources]  # fmt: skip
-    else:
-        cmd = ["iverilog", "-g2005", "-o", str(exe), f"-I{build}", f"-I{HDL_DIR}", *sources]
-    t0 = time.perf_counter()
-    with open(work / "build.log", "w") as log:
-        rc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=build).returncode
-    if rc != 0:
-        raise ValueError(f"building the RTL with {sim} failed: {_log_tail(work / 'build.log')}")
-    t1 = time.perf_counter()
-    streams = stream_entries(manifest)
-    out = work / "tb_out.txt"
-    args = [f"+STREAM{k}={vec / e['path']}" for k, e in enumerate(streams)] + [f"+OUT={out}"]
-    run = [str(exe), *args] if sim == "verilator" else ["vvp", "-n", str(exe), *args]
-    with open(work / "sim.log", "w") as log:
-        rc = subprocess.run(run, stdout=log, stderr=subprocess.STDOUT, cwd=build).returncode
-    t2 = time.perf_counter()
-    if rc != 0 or not out.exists():
-        raise ValueError(f"the {sim} simulation failed: {_log_tail(work / 'sim.log')}")
-    dump.mkdir(parents=True, exist_ok=True)
-    try:
-        _p2_dump_from_text(out, vec, manifest, dump)
-    except AssertionError as exc:
-        raise ValueError(f"the {sim} bench: {exc}") from None
-    return {"build_s": t1 - t0, "sim_s": t2 - t1}
-
-
-def _p2_dump_from_text(out: Path, vec: Path, manifest: Mapping, dump: Path) -> None:
-    """Parse ``hdl/tb_p2_top.v``'s lines into the dump (x/z values: ``None``)."""
-    samples: dict[str, list[tuple[int, int | None]]] = {}
-    inputs: list[int] = []
-    beats: list[tuple[int, int | None, int, int]] = []
-    overflows: dict[str, int | None] = {}
-    flags: dict[str, int | None] = {}
-    cycles = 0
-    with open(out) as f:
-        for text in f:
-            part = text.split()
-            kind = part[0]
-            if kind == "T":
-                samples.setdefault(part[2], []).append((int(part[3]), _number(part[4], 16)))
-                cycles = max(cycles, int(part[3]) + 1)
-            elif kind == "I":
-                inputs.append(int(part[1]))
-            elif kind == "M":
-                tuser, tlast = _number(part[3], 10), _number(part[4], 10)
-                user = -1 if tuser is None else tuser
-                beats.append((int(part[1]), _number(part[2], 16), user, tlast is None or tlast))
-            elif kind == "O":
-                overflows[part[2]] = _number(part[3], 10)
             elif kind == "F":
                 flags[part[1]] = _number(part[2], 10)
     write_dump(dump, vec, manifest, samples, inputs, beats, overflows, flags, cycles)

@@ -1,9 +1,10 @@
 """``rangefx hdl``: the Verilog of P1 and P2 (``hdl/``, docs/hdl.md).
 
-* ``replay``: build ``hdl/p1_top.v`` with a P1 vector directory's parameters, replay its
-  input streams under Icarus or Verilator (cocotb + cocotbext-axi) and check every
-  front-end tap value for value and cycle for cycle, the AXI4-Stream output and the
-  overflow counters against the manifest (exit 0 when all match, 1 otherwise).
+* ``replay``: build ``hdl/p1_top.v`` or ``hdl/p2_top.v`` with a vector directory's
+  parameters, replay its input streams under Icarus or Verilator (the cocotb bench or the
+  plain Verilog bench) and check every tap value for value and cycle for cycle, the
+  AXI4-Stream output and the overflow counters against the manifest (exit 0 when all
+  match, 1 otherwise).
 * ``synth``: Yosys area (LUT, FF, carry, DSP, BRAM) of the whole P1 synthesised flat
   without its probes (the headline), what the taps and overflow counters add, and each
   stage, for a word-length config and a target (:mod:`rangefx.tools.studies.synth`).
@@ -23,7 +24,7 @@ import argparse
 import json
 
 from rangefx.rtl_model.p1.config import FILTER_FORMS
-from rangefx.vectors.replay import SIMULATORS
+from rangefx.vectors.replay import BENCHES, SIMULATORS
 
 from ..studies.runner import load_config
 from ..studies.synth import AREA_KEYS, STAGES, TARGETS, rtl_top, synth_pipeline
@@ -55,12 +56,17 @@ def add_parser(sub) -> None:
 
 
 def add_replay_parser(hs) -> None:
-    """``rangefx hdl replay DIR [--sim S] [--dump OUT] [--time-model] [--json]``."""
+    """``rangefx hdl replay DIR [--sim S] [--bench B] [--dump OUT] [--time-model] [--json]``."""
     r = hs.add_parser(
         "replay", help="replay a P1 or P2 vector directory through hdl/p1_top.v or p2_top.v"
     )
     r.add_argument("dir", help="P1 or P2 vector directory (rangefx vectors gen)")
     r.add_argument("--sim", choices=tuple(SIMULATORS), default="icarus", help="HDL simulator")
+    r.add_argument(
+        "--bench", choices=("auto", *BENCHES), default="auto",
+        help="cocotb (hdl/test_top.py, Icarus) or plain (the Verilog bench hdl/tb_top.v); "
+        "auto: cocotb under Icarus, plain under Verilator",
+    )  # fmt: skip
     r.add_argument("--dump", help="keep the RTL dumps (<tap>.mem, taps.npz, status.json) here")
     r.add_argument(
         "--time-model", action="store_true",
@@ -74,7 +80,9 @@ def add_replay_parser(hs) -> None:
 def cmd_replay(args: argparse.Namespace) -> int:
     from rangefx import api
 
-    result = api.replay(args.dir, args.sim, dump=args.dump, time_model=args.time_model)
+    result = api.replay(
+        args.dir, args.sim, bench=args.bench, dump=args.dump, time_model=args.time_model
+    )
     if args.json:
         print(json.dumps(result.figures, indent=1))
     else:
@@ -83,8 +91,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _text(r: dict) -> str:
+    shape = f"{r['shape'][0]}x{r['shape'][1]}"
     lines = [
-        f"{r['dir']}: {r['sim']} replay of {r['mode']} {r['shape'][0]}x{r['shape'][1]}, "
+        f"{r['dir']}: {r['sim']} replay ({r['bench']} bench) of {r['mode']} {shape}, "
         f"{r['cycles']} cycles in {r['sim_s']:.2f} s ({r['mcycles_per_s']:.4f} Mcycles/s)"
     ]
     for tap, t in r["taps"].items():
