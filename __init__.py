@@ -158,10 +158,11 @@ os.environ.setdefault("NUMBA_CACHE_LOCATOR_CLASSES", NUMBA_LOCATORS)
 
 #: Names of :mod:`rangefx.api` this package gives as its own attributes (imported lazily).
 API_NAMES = (
-    "Case", "CheckReport", "DiffReport", "EvalResult", "GuideResult", "OptimiseReport",
-    "ReplayResult", "RunResult", "SweepResult", "UserError", "VectorsResult", "check_vectors",
+    "Case", "CheckReport", "DegreesResult", "DemoResult", "DiffReport", "EvalResult",
+    "GuideResult", "HdlReport", "OptimiseReport", "ReplayResult", "RunResult", "SweepResult",
+    "TrackResult", "UserError", "VectorsResult", "check_vectors", "degrees", "demo",
     "diff_vectors", "evaluate", "generate_vectors", "guide", "image_case", "optimise",
-    "real_pair_case", "replay", "run", "scene_case", "sweep",
+    "real_pair_case", "replay", "run", "scene_case", "sweep", "synth", "timing", "track",
 )  # fmt: skip
 
 

@@ -16,9 +16,14 @@ Test vectors
     :func:`replay` (the vectors through the Verilog of P1 in a simulator).
 Word-length studies
     :func:`sweep` (resumable), :func:`optimise` (with held-out verification).
+Hardware
+    :func:`synth` (Yosys area of a pipeline's RTL), :func:`timing` (Fmax after place and
+    route).
 Beyond
-    :func:`evaluate` (the golden methods and pipelines on the real pair with ground
-    truth), :func:`guide` (chapter-6 guidance on obstacles a pipeline ranged).
+    :func:`demo` (the main job on the lab scene), :func:`evaluate` (the golden methods
+    and pipelines on the real pair with ground truth), :func:`guide` (chapter-6 guidance
+    on obstacles a pipeline ranged), :func:`track` (G1, irradiance tracking at one
+    pixel), :func:`degrees` (the G3 ranging polynomial of degree 1 to 4).
 
 Each returns a typed result with ``to_dict()`` (the figures the command's ``--json``
 prints) and ``write(dir)`` (the files the command's ``--out`` writes; atomically: a
@@ -39,7 +44,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -47,14 +52,13 @@ from typing import Any
 import numpy as np
 
 from rangefx.golden.estimator import EstimatorConfig
-from rangefx.golden.geometry import MotionIncrement, PinholeCamera
-from rangefx.golden.ranging import RangeResult
+from rangefx.golden.ranging import RangeResult, RangingConfig
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
 from rangefx.rtl_model.pipeline import Case, Pipeline, PipelineResult
 from rangefx.rtl_model.registry import PIPELINES, get_pipeline
 from rangefx.tools import report
 from rangefx.tools.errors import UserError, require_memory
-from rangefx.tools.report import atomic_output_dir, atomic_write_text, json_safe
+from rangefx.tools.report import atomic_output_dir, atomic_write_bytes, atomic_write_text, json_safe
 from rangefx.tools.studies import cases as _cases
 from rangefx.tools.studies.banded import plan_bands, run_in_bands
 from rangefx.tools.studies.evaluation import EvalResult
@@ -67,6 +71,8 @@ from rangefx.tools.studies.runner import (
     run_case,
 )
 from rangefx.tools.studies.sweep import SweepDef, SweepOutcome
+from rangefx.tools.studies.timing import TimingResult
+from rangefx.tools.studies.tracking import DegreesResult, TrackResult
 from rangefx.tools.studies.tuning import DEFAULT_MARGIN, OptimiseReport
 from rangefx.vectors.generate import (
     FORMATS,
@@ -86,16 +92,22 @@ __all__ = [
     "PIPELINES",
     "Case",
     "CheckReport",
+    "DegreesResult",
+    "DemoResult",
     "DiffReport",
     "EvalResult",
     "GuideResult",
+    "HdlReport",
     "OptimiseReport",
     "ReplayResult",
     "RunResult",
     "SweepResult",
+    "TrackResult",
     "UserError",
     "VectorsResult",
     "check_vectors",
+    "degrees",
+    "demo",
     "diff_vectors",
     "evaluate",
     "generate_vectors",
@@ -107,6 +119,9 @@ __all__ = [
     "run",
     "scene_case",
     "sweep",
+    "synth",
+    "timing",
+    "track",
 ]
 
 #: The golden method :func:`run` runs with ``pipeline="golden"`` and no ``method``.
@@ -146,6 +161,7 @@ def scene_case(
     seed: int = 0,
     size: Sequence[int] | None = None,
     crop: Sequence[int] | None = None,
+    settings: Mapping[str, Any] | None = None,
 ) -> Case:
     """The case of a synthetic scene preset (``lab``: stereo, ``runway``: motion, ...).
 
@@ -161,15 +177,22 @@ def scene_case(
         ``(r0, r1, c0, c1)``: rows ``r0:r1`` and columns ``c0:c1`` of the rendered scene
         (the camera's principal point moves with the crop, so every pixel keeps its
         coordinates: :func:`rangefx.tools.studies.cases.crop_case`).
+    settings
+        Settings key -> settings replacing the scene's measured presets (``"ranging"``:
+        a :class:`~rangefx.golden.ranging.RangingConfig` for P1, P3 and the golden
+        methods; ``"riccati"``: a :class:`~rangefx.golden.riccati.RiccatiConfig` for P2;
+        a registered pipeline's own ``settings_key``).
 
     Returns
     -------
     Case
-        Images, camera, motion, mode (the scene's kind), the scene's measured settings
-        and the scene with its truth (``case.scene``).
+        Images, camera, motion, mode (the scene's kind), every pipeline's settings in
+        ``case.settings`` (the scene's measured presets, :meth:`Case.from_scene`) and the
+        scene with its truth (``case.scene``).
     """
     case = _cases.scene_case(name, size, seed)
-    return _cases.crop_case(case, list(crop) if crop is not None else None)
+    case = _cases.crop_case(case, list(crop) if crop is not None else None)
+    return case.with_settings(settings) if settings else case
 
 
 def real_pair_case(name: str = "motorcycle", factor: int | None = None) -> Case:
@@ -183,29 +206,28 @@ def image_case(
     left: np.ndarray | str | Path,
     right: np.ndarray | str | Path,
     *,
-    f_px: float | None = None,
-    baseline: float | None = None,
-    camera: PinholeCamera | None = None,
-    motion: MotionIncrement | None = None,
     threshold_e: float | None = None,
     threshold_g: float | None = None,
     range_max: float | None = None,
+    **geometry: Any,
 ) -> Case:
-    """A stereo case from your own image pair.
+    """A stereo case from your own image pair: :meth:`Case.from_images`, with one-line
+    :class:`UserError` for a mistake.
 
     Parameters
     ----------
     left, right
         E1 (left camera) and E2 (right camera): 2-D arrays of grey levels, or paths of
         ``.npy`` or image files.
-    f_px, baseline
-        Focal length in pixels (principal point at the centre) and stereo baseline (the
-        range's unit), unless ``camera`` and ``motion`` are given.
-    camera, motion
-        A :class:`~rangefx.golden.geometry.PinholeCamera` and a
-        :class:`~rangefx.golden.geometry.MotionIncrement` instead.
     threshold_e, threshold_g, range_max
-        The pipelines' thresholds (grey levels) and largest range, where not the defaults.
+        The thresholds (grey levels) and largest range, applied to the settings of every
+        registered pipeline that reads them (its ``case_options``).
+    **geometry
+        :meth:`Case.from_images`'s keywords: ``f_px`` and ``baseline`` (focal length in
+        pixels, principal point at the centre, and stereo baseline in the range's unit),
+        or ``camera`` (a :class:`~rangefx.golden.geometry.PinholeCamera`) and ``motion``
+        (a :class:`~rangefx.golden.geometry.MotionIncrement`); ``settings`` (settings
+        key -> settings, as :func:`scene_case`; absent keys: the defaults); ``label``.
 
     Returns
     -------
@@ -213,9 +235,10 @@ def image_case(
         The fixed-point pipelines need integer grey levels: :func:`run` refuses an image
         with fractions, naming it.
     """
-    case = _cases.image_case(
-        left, right, f_px=f_px, baseline=baseline, camera=camera, motion=motion
-    )
+    try:
+        case = Case.from_images(left, right, **geometry)
+    except (TypeError, ValueError) as exc:
+        raise UserError(str(exc)) from None
     return _cases.with_thresholds(
         case, threshold_e=threshold_e, threshold_g=threshold_g, range_max=range_max
     )
@@ -268,7 +291,7 @@ class RunResult:
         what ``rangefx run --out`` writes."""
         res = self.result
         if self.method is not None:
-            range_max, title = self.case.ranging.range_max, self.method
+            range_max, title = _method_ranging(self.case).range_max, self.method
         else:
             pipe = get_pipeline(self.pipeline)
             range_max, title = pipe.range_max(self.case), f"{self.pipeline.upper()} range"
@@ -368,13 +391,19 @@ def run(
     return RunResult(pipe.name, case, result, golden, pipeline_figures(result, golden, case.scene))
 
 
+def _method_ranging(case: Case) -> RangingConfig:
+    """The golden methods' thresholds and ``range_max``: the case's ``"ranging"`` settings
+    (those of P1 and P3, which share them)."""
+    return case.setting("ranging", RangingConfig)
+
+
 def _run_method(case: Case, method: str, estimator: EstimatorConfig) -> RunResult:
     from rangefx.golden.methods import run_method
 
     try:
         result = run_method(
             method, case.image1, case.image2, case.camera, case.motion,
-            estimator=estimator, ranging=case.ranging,
+            estimator=estimator, ranging=_method_ranging(case),
         )  # fmt: skip
     except ValueError as exc:
         raise UserError(str(exc)) from None
@@ -783,13 +812,26 @@ def optimise(
         Maximum median relative range error and minimum validity agreement against the
         golden, on every tuning scene.
     margin
-        Guard band in ``[0, 1)`` applied while tuning (default
-        :data:`rangefx.tools.studies.tuning.DEFAULT_MARGIN`).
+        Guard band in ``[0, 1)`` (default
+        :data:`rangefx.tools.studies.tuning.DEFAULT_MARGIN`): while tuning, candidates meet
+        the budget tightened by it (:meth:`~rangefx.tools.studies.optimiser.Budget.tightened`);
+        the result is reported against the budget itself.
     verify
         A held-out scene (``plane``, or a preset that is not a tuning scene).
-    size, signals, tune_registers, workers, cost, synth_target, progress
+    size
+        ``(height, width)`` the synthetic scenes are rendered at (default 512x512).
+    signals, tune_registers, workers
+        As :func:`rangefx.tools.studies.optimiser.optimise`.
+    cost, synth_target
+        ``"proxy"`` minimises ``cost_bits``; ``"synth"`` the Yosys LUT + FF of the
+        pipeline's whole RTL on ``synth_target``.
     fmax_min, timing_stage, timing_speed
-        As ``rangefx optimise`` (:func:`rangefx.tools.studies.tuning.optimise_on_scenes`).
+        Keep a narrowing only if the RTL (``timing_stage`` ``"top"`` or, P1,
+        ``"frontend"``) still places and routes at ``>= fmax_min`` MHz on an LFE5U-85F of
+        speed grade ``timing_speed`` (:func:`rangefx.tools.studies.timing.fmax_measure`;
+        the start must meet it too). None: no clock-rate floor.
+    progress
+        Show a progress bar on stderr.
 
     Returns
     -------
@@ -907,3 +949,321 @@ def guide(
         guidance_interval=guidance_interval, replan_interval=replan_interval,
         layout_sweep=layout_sweep, stress=stress, pipeline=pipeline, seed=seed, jobs=jobs,
     )  # fmt: skip
+
+
+def track(
+    xp: float = 40.0,
+    zp: float = 30.0,
+    *,
+    duration: float = 5.0,
+    taus: Sequence[float] = (0.1, 0.4),
+    fraction: float = 0.1,
+    threshold: float = 0.1,
+    noise: float = 0.0,
+    seed: int = 0,
+) -> TrackResult:
+    """Range one pixel by irradiance tracking (G1, report ch. 2) on the chapter-2 scene.
+
+    Parameters
+    ----------
+    xp, zp
+        The pixel, from the image centre (``xp`` right, ``zp`` up).
+    duration
+        Simulated time, s.
+    taus
+        Time constants (s) of the low-pass filters applied to the raw range.
+    fraction
+        The frame interval as a fraction of the sampling bound of eq 9.
+    threshold
+        Smallest ``|h dE_M/dt|`` (grey levels per frame) that updates the range.
+    noise, seed
+        Sensor noise sigma (grey levels) and its seed.
+
+    Returns
+    -------
+    TrackResult
+        ``result.run`` the time series, ``result.to_dict()`` the figures (sampling bound,
+        final and tail errors, raw and filtered), ``result.write(dir)`` Figs 3-7
+        look-alikes, ``tracking.csv`` and ``summary.json``.
+
+    Raises
+    ------
+    UserError
+        A non-positive duration, a pixel outside the scene or a bad filter setting.
+    """
+    from rangefx.tools.studies.tracking import track_pixel
+
+    return track_pixel(
+        xp, zp, duration=duration, taus=taus, fraction=fraction, threshold=threshold,
+        noise=noise, seed=seed,
+    )  # fmt: skip
+
+
+def degrees(
+    scene: str = "lab",
+    *,
+    variant: str = "consistent",
+    order: int | None = None,
+    size: Sequence[int] | None = None,
+    seed: int = 0,
+) -> DegreesResult:
+    """Range a scene preset with the SPIE ranging polynomial (G3) of degree 1 to 4.
+
+    Parameters
+    ----------
+    scene
+        A preset of :data:`rangefx.golden.scenes.SCENE_NAMES`.
+    variant
+        The causal estimator: ``"consistent"`` or ``"paper"``.
+    order
+        The estimator order for every degree (degrees up to it); default: two settings,
+        order equal to the degree and order 4 for every degree (the same derivatives, so
+        only the polynomial changes).
+    size, seed
+        ``(height, width)`` to render at, and the scene's noise seed.
+
+    Returns
+    -------
+    DegreesResult
+        ``result.to_dict()['settings']``: setting -> ``degree<d>`` -> per-object table,
+        valid fraction and median relative error; ``result.write(dir)`` ``table.md`` and
+        ``summary.json``.
+    """
+    from rangefx.tools.studies.tracking import degree_tables
+
+    return degree_tables(scene, variant=variant, order=order, size=size, seed=seed)
+
+
+@dataclass(frozen=True)
+class DemoResult:
+    """The demo's figures and files (:func:`demo`).
+
+    ``summary`` is ``summary.json``: the golden methods' per-object tables, every
+    pipeline beside its golden, the end-to-end flight and the paper estimator's
+    diagnostics; ``warnings`` the end-to-end flight's; ``files`` every file the demo
+    wrote (relative path -> bytes: range maps, histograms, tables, ``guide/``)."""
+
+    summary: dict[str, Any]
+    warnings: tuple[str, ...]
+    files: Mapping[str, bytes] = field(repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The figures as JSON-able values (``rangefx demo --json``)."""
+        return json_safe(self.summary)
+
+    def write(self, out: str | Path) -> Path:
+        """Write every file of the demo into directory ``out``, atomically."""
+        with atomic_output_dir(Path(out)) as tmp:
+            self.write_into(tmp)
+        return Path(out)
+
+    def write_into(self, directory: Path) -> None:
+        """Write every file into ``directory``, an output directory being written (the
+        temporary one of :func:`rangefx.tools.report.atomic_output_dir`)."""
+        for name, data in self.files.items():
+            (directory / name).parent.mkdir(parents=True, exist_ok=True)
+            atomic_write_bytes(directory / name, data)
+
+
+def demo(
+    *,
+    seed: int = 0,
+    pole: float | None = None,
+    bias: float | None = None,
+    pipelines: Sequence[str] | None = None,
+    step: Callable[[str], None] | None = None,
+) -> DemoResult:
+    """The main job on the ``lab`` scene: the golden methods, every registered pipeline
+    beside its golden, and the end-to-end chain (runway, P1 in motion mode, obstacles,
+    guidance).
+
+    Parameters
+    ----------
+    seed
+        The scene's noise seed.
+    pole, bias
+        The filter pole ``c`` per pixel and the input bias ``B`` (eq 19), for the golden
+        estimator and the pipelines that have them alike (default 0.5 and 16).
+    pipelines
+        The fixed-point pipelines to run (default: every registered one).
+    step
+        Called with the name of each step of
+        :data:`rangefx.tools.studies.demo.DEMO_STEPS` as it starts (a progress bar).
+
+    Returns
+    -------
+    DemoResult
+        What ``rangefx demo --out DIR`` writes, in memory: ``result.write(dir)``.
+    """
+    import tempfile
+
+    from rangefx.tools.studies.demo import demo_into
+
+    changes = {k: v for k, v in (("pole", pole), ("bias", bias)) if v is not None}
+    try:
+        estimator = EstimatorConfig(**changes)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    for name in pipelines or ():
+        _pipeline(name)
+    with tempfile.TemporaryDirectory(prefix="rangefx-demo-") as tmp:
+        summary, notes = demo_into(
+            Path(tmp), seed=seed, est=estimator, design=changes, pipelines=pipelines,
+            step=step or (lambda name: None),
+        )  # fmt: skip
+        files = {
+            p.relative_to(tmp).as_posix(): p.read_bytes()
+            for p in sorted(Path(tmp).rglob("*"))
+            if p.is_file()
+        }
+    return DemoResult(summary, tuple(notes), files)
+
+
+@dataclass(frozen=True)
+class HdlReport:
+    """Figures of the Verilog of a pipeline: its Yosys area (:func:`synth`) or its timing
+    after place and route (:func:`timing`). ``figures`` is what ``rangefx hdl synth
+    --json`` / ``rangefx hdl timing --json`` prints; ``result`` the study's own result
+    (a :class:`rangefx.tools.studies.timing.TimingResult` for timing, else None)."""
+
+    kind: str
+    figures: dict[str, Any]
+    result: TimingResult | None = field(default=None, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The figures as JSON-able values."""
+        return json_safe(self.figures)
+
+    def write(self, out: str | Path) -> Path:
+        """Write ``<kind>.json`` (``synth.json`` or ``timing.json``) into directory
+        ``out``, atomically."""
+        with atomic_output_dir(Path(out)) as tmp:
+            atomic_write_text(tmp / f"{self.kind}.json", _json_text(self.figures))
+        return Path(out)
+
+
+def synth(
+    pipeline: Pipeline | str = "p1",
+    config: WordLengthConfig | str | Path | None = None,
+    *,
+    target: str = "xcup",
+    shape: Sequence[int] = (512, 512),
+    mode: str = "stereo",
+    stage: str = "all",
+    use_cache: bool = True,
+    probes: bool = True,
+    **design: Any,
+) -> HdlReport:
+    """The Yosys area (LUT, FF, carry, DSP, BRAM) of a pipeline's RTL in ``hdl/``.
+
+    Parameters
+    ----------
+    pipeline
+        A pipeline with RTL (:data:`rangefx.tools.studies.synth.RTL_TOPS`: P1, P2).
+    config, design
+        The word-length config and design fields, as :func:`run`.
+    target
+        The Yosys flow (:data:`rangefx.tools.studies.synth.TARGETS`: ``xc7``, ``xcup``,
+        ``ecp5``, ``ice40``).
+    shape
+        ``(height, width)`` the line buffers and counters are sized for.
+    mode
+        ``"stereo"`` (two front ends) or ``"motion"`` (one and the frame store).
+    stage
+        ``"top"`` (the whole top, its probes apart), a P1 stage (``"frontend"``,
+        ``"range"``) or ``"all"`` (the top and every stage; P2: the top).
+    use_cache, probes
+        Take a cached synthesis where one exists; also synthesise the top with its taps
+        and overflow counters to report what they cost.
+
+    Returns
+    -------
+    HdlReport
+        ``report.figures``: ``headline``, its ``lut``, ``ff``, ``carry``, ``dsp``,
+        ``bram``, ``probes``, ``stages`` and the cost proxy beside them.
+
+    Raises
+    ------
+    UserError
+        A pipeline without RTL, a mode or stage its RTL has not, Yosys missing.
+    """
+    from rangefx.tools.studies.synth import STAGES, rtl_top, synth_pipeline
+
+    pipe = _pipeline(pipeline)
+    rtl = rtl_top(pipe.name)  # one line for a pipeline without RTL, before any work
+    cfg = _config(pipe, config, design)
+    if stage not in ("top", *STAGES, "all"):
+        raise UserError(f"stage must be top, {', '.join(STAGES)} or all, not {stage!r}")
+    parts = ("top", *rtl.stages) if stage == "all" else (stage,)
+    figures = synth_pipeline(
+        pipe.name, cfg, target, (int(shape[0]), int(shape[1])), mode, parts,
+        use_cache=use_cache, probes=probes,
+    )  # fmt: skip
+    return HdlReport("synth", {"pipeline": pipe.name, "config": cfg.name, **figures})
+
+
+def timing(
+    pipeline: Pipeline | str = "p1",
+    config: WordLengthConfig | str | Path | None = None,
+    *,
+    stage: str = "top",
+    mode: str = "stereo",
+    shape: Sequence[int] = (512, 512),
+    device: str = "85k",
+    package: str = "CABGA381",
+    speed: int = 6,
+    seeds: int = 3,
+    freq_mhz: float = 148.5,
+    target: str = "ecp5",
+    use_cache: bool = True,
+    **design: Any,
+) -> HdlReport:
+    """Fmax, critical path and utilisation of a pipeline's RTL after Yosys and nextpnr
+    place and route (the ``yowasp`` builds from PyPI, or the tools on ``PATH``).
+
+    Parameters
+    ----------
+    pipeline
+        A pipeline with RTL (P1, P2).
+    config, design
+        The word-length config and design fields, as :func:`run`.
+    target, device, package, speed
+        The FPGA: ``ecp5`` LFE5U-25F/-45F/-85F (``"25k"``, ``"45k"``, ``"85k"``), its
+        package and speed grade (6 the slowest).
+    seeds
+        nextpnr runs with seeds 1..``seeds``; Fmax is their median.
+    freq_mhz
+        The frequency nextpnr's placement and routing aim at (it does not cap Fmax).
+    shape, mode
+        ``(height, width)`` the counters are sized for; ``"stereo"`` or ``"motion"``.
+    stage
+        ``"top"`` (the whole top) or, P1 only, ``"frontend"`` (one stream's front end: a
+        small, fast check).
+    use_cache
+        Take cached runs where they exist (keyed by the design and the seed).
+
+    Returns
+    -------
+    HdlReport
+        ``report.figures``: ``fmax_mhz`` per clock, ``critical_path``, ``seeds``,
+        ``utilisation``, ``cells``, ``pins``; ``report.result`` the
+        :class:`~rangefx.tools.studies.timing.TimingResult`.
+
+    Raises
+    ------
+    UserError
+        A pipeline without RTL, an unknown device, package, speed grade, mode or stage, a
+        missing tool, or a tool failing on the design.
+    """
+    from rangefx.tools.studies.synth import rtl_top
+    from rangefx.tools.studies.timing import time_top
+
+    pipe = _pipeline(pipeline)
+    rtl_top(pipe.name)  # one line for a pipeline without RTL, before any work
+    cfg = _config(pipe, config, design)
+    result = time_top(
+        pipe.name, cfg, target=target, device=device, package=package, speed=speed,
+        seeds=seeds, freq_mhz=freq_mhz, shape=(int(shape[0]), int(shape[1])), mode=mode,
+        stage=stage, use_cache=use_cache,
+    )  # fmt: skip
+    return HdlReport("timing", result.to_dict(), result)

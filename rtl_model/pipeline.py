@@ -13,16 +13,16 @@ from __future__ import annotations
 
 import abc
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 
+from rangefx.golden.estimator import validate_image
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangeResult, RangingConfig
-from rangefx.golden.riccati import RiccatiConfig
 from rangefx.golden.scenes import Scene
 
 from .config import TimingConfig, WordLengthConfig
@@ -31,7 +31,6 @@ from .fixedpoint import FixedFormat, Overflow, Quant
 from .runtime import divider_roms
 
 __all__ = [
-    "CASE_SETTINGS",
     "MODES",
     "VALID_FORMAT",
     "Case",
@@ -40,6 +39,7 @@ __all__ = [
     "PipelineResult",
     "Profiles",
     "TapSpec",
+    "build_result",
 ]
 
 #: Input modes: two synchronised streams, or one stream of two frames.
@@ -48,8 +48,6 @@ MODES = ("stereo", "motion")
 VALID_FORMAT = FixedFormat(False, 1, 0, Quant.TRN, Overflow.WRAP)
 #: Error build-up profiles: name -> {"index": positions, "<curve>": values, ...}.
 Profiles = dict[str, dict[str, np.ndarray]]
-#: Settings keys that are fields of :class:`Case` (the report's pipelines' settings).
-CASE_SETTINGS = ("ranging", "riccati")
 _S = TypeVar("_S")
 
 
@@ -58,13 +56,15 @@ class Case:
     """Everything one pipeline run needs besides the word-length config and timing.
 
     ``image1`` is E1 (left camera, or the previous frame in motion mode), ``image2`` E2;
-    ``mode`` is the scene's kind (``Scene.kind``). Each pipeline reads its own settings
-    from the case by its :attr:`Pipeline.settings_key` (:meth:`setting`): ``ranging``
-    holds the report's thresholds and ``range_max`` (P1, P3), ``riccati`` the Riccati
-    weights, threshold and ``range_max`` (P2), and ``settings`` the settings of any other
-    key (a pipeline registered from outside the package), key -> a frozen dataclass;
-    a key absent there means its type's defaults. ``scene`` is the rendered scene with
-    its truth, ``label`` a name when there is no scene (a real pair).
+    ``mode`` is the scene's kind (``Scene.kind``). ``settings`` maps a settings key to a
+    frozen dataclass of settings; each pipeline reads its own by its
+    :attr:`Pipeline.settings_key` (:meth:`setting`, :meth:`Pipeline.settings`): the
+    report's thresholds and ``range_max`` under ``"ranging"`` (P1, P3 and the golden
+    methods), the Riccati weights, threshold and ``range_max`` under ``"riccati"`` (P2).
+    A key absent means its type's defaults. ``scene`` is the rendered scene with its
+    truth, ``label`` a name when there is no scene (a real pair).
+
+    Build one with :meth:`from_scene` or :meth:`from_images`.
     """
 
     image1: np.ndarray
@@ -72,8 +72,6 @@ class Case:
     camera: PinholeCamera
     motion: MotionIncrement
     mode: str = "stereo"
-    ranging: RangingConfig = field(default_factory=RangingConfig)
-    riccati: RiccatiConfig = field(default_factory=RiccatiConfig)
     scene: Scene | None = None
     label: str | None = None
     settings: Mapping[str, Any] = field(default_factory=dict)
@@ -81,15 +79,73 @@ class Case:
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"unknown mode {self.mode!r}; choose from {', '.join(MODES)}")
-        for key in self.settings:
-            if key in CASE_SETTINGS:
-                raise ValueError(f"case settings {key!r} belong in the field {key}, not settings")
+        if not isinstance(self.settings, Mapping) or not all(
+            isinstance(k, str) for k in self.settings
+        ):
+            raise ValueError("case settings must map settings keys (str) to settings")
+
+    @classmethod
+    def from_scene(cls, scene: Scene, settings: Mapping[str, Any] | None = None) -> Case:
+        """The case of a rendered scene: its kind (stereo or motion) as the mode, the
+        scene's measured settings presets
+        (:data:`rangefx.rtl_model.cases.SCENE_SETTINGS`; a key absent: the defaults),
+        updated by ``settings``."""
+        from .cases import scene_settings
+
+        return cls(
+            scene.image1, scene.image2, scene.camera, scene.motion, scene.kind, scene=scene,
+            settings={**scene_settings(scene.name), **dict(settings or {})},
+        )  # fmt: skip
+
+    @classmethod
+    def from_images(
+        cls,
+        left: np.ndarray | str | Path,
+        right: np.ndarray | str | Path,
+        *,
+        f_px: float | None = None,
+        baseline: float | None = None,
+        camera: PinholeCamera | None = None,
+        motion: MotionIncrement | None = None,
+        label: str | None = None,
+        settings: Mapping[str, Any] | None = None,
+    ) -> Case:
+        """A stereo case from an image pair: arrays, or paths of ``.npy`` or image files
+        (:func:`rangefx.rtl_model.cases.read_image`).
+
+        The camera is ``camera``, or a pinhole of the images' size with focal length
+        ``f_px`` (pixels, principal point at the centre); the motion is ``motion``, or the
+        stereo baseline ``baseline`` along the camera's ``+y_c`` (E2 is the right camera).
+        ``settings``: settings key -> settings (absent keys: the defaults); ``label``: its
+        name (default the files' names). ``ValueError`` naming what is wrong: a file that
+        cannot be read, images of different shapes, or neither a camera nor ``f_px``,
+        neither a motion nor ``baseline``.
+        """
+        from .cases import read_image
+
+        named = [str(x) if isinstance(x, (str, Path)) else n
+                 for x, n in ((left, "left"), (right, "right"))]  # fmt: skip
+        e1, e2 = (
+            read_image(image) if isinstance(image, (str, Path))
+            else validate_image(np.asarray(image), name=name)
+            for image, name in zip((left, right), named, strict=True)
+        )  # fmt: skip
+        if e1.shape != e2.shape:
+            raise ValueError(
+                f"image pair shapes differ: {named[0]} {e1.shape} vs {named[1]} {e2.shape}"
+            )
+        if (camera is None and f_px is None) or (motion is None and baseline is None):
+            raise ValueError("an image pair needs --f-px and --baseline")
+        return cls(
+            e1, e2, camera or PinholeCamera(e1.shape[1], e1.shape[0], f_px),
+            motion or MotionIncrement.stereo(baseline),
+            label=label or f"{named[0]} + {named[1]}", settings=dict(settings or {}),
+        )  # fmt: skip
 
     def setting(self, key: str, settings_type: type[_S]) -> _S:
-        """The settings under ``key`` (a field of the case, or ``settings[key]``; absent:
-        ``settings_type()``, its defaults); ``ValueError`` if they are not a
-        ``settings_type``."""
-        value = getattr(self, key) if key in CASE_SETTINGS else self.settings.get(key)
+        """The settings under ``key`` (absent: ``settings_type()``, its defaults);
+        ``ValueError`` if they are not a ``settings_type``."""
+        value = self.settings.get(key)
         if value is None:
             return settings_type()
         if not isinstance(value, settings_type):
@@ -101,9 +157,11 @@ class Case:
 
     def with_setting(self, key: str, value: Any) -> Case:
         """The case with the settings under ``key`` replaced by ``value``."""
-        if key in CASE_SETTINGS:
-            return replace(self, **{key: value})
         return replace(self, settings={**self.settings, key: value})
+
+    def with_settings(self, settings: Mapping[str, Any]) -> Case:
+        """The case with every settings key of ``settings`` replaced."""
+        return replace(self, settings={**self.settings, **settings})
 
     @property
     def name(self) -> str:
@@ -207,6 +265,59 @@ class PipelineResult:
         return self.line_buffer_bits + self.frame_store_bits + self.sweep_buffer_bits
 
 
+def build_result(
+    pipeline: str,
+    config: WordLengthConfig,
+    timing: TimingConfig,
+    mode: str,
+    *,
+    range_raw: np.ndarray,
+    range_float: np.ndarray,
+    valid: np.ndarray,
+    taps: dict[str, np.ndarray],
+    stats: tuple[dict[str, int], dict[str, tuple[float, float]]],
+    log: bool,
+    cycles: tuple[np.ndarray, np.ndarray],
+    stage_latency: dict[str, int],
+    registers: Any,
+    buffers: Mapping[str, int],
+    band_ends: Sequence[tuple[int, int]] = (),
+    latency: int | None = None,
+    schedule: Mapping[str, int] | None = None,
+    kernel_cpu_s: Mapping[str, float] | None = None,
+) -> PipelineResult:
+    """The one place a :class:`PipelineResult` is assembled from a model's raw outputs.
+
+    ``stats`` is ``(overflows, minmax)`` (``minmax`` dropped unless ``log``), ``cycles``
+    ``(in_cycles, out_cycles)``, ``registers`` the model's
+    :class:`~rangefx.rtl_model.runtime.RegisterFile`, ``buffers`` the buffer bits by
+    field name (``line_buffer_bits``, ``frame_store_bits``, ``sweep_buffer_bits``; absent:
+    0). ``band_ends``: each band's (largest ``out - in``, last output cycle), as the
+    bands computed them; without them the latency and the last cycle come from the cycle
+    maps. ``latency`` given (a fixed pipeline depth) overrides both.
+    """
+    in_cycles, out_cycles = cycles
+    overflows, minmax = stats
+    if latency is None:
+        latency = (max(worst for worst, _ in band_ends) if band_ends
+                   else int((out_cycles - in_cycles).max()))  # fmt: skip
+    last = max(end for _, end in band_ends) if band_ends else int(out_cycles.max())
+    unknown = set(buffers) - {"line_buffer_bits", "frame_store_bits", "sweep_buffer_bits"}
+    if unknown:
+        raise ValueError(f"unknown buffer fields {sorted(unknown)}")
+    return PipelineResult(
+        pipeline=pipeline, range=range_float, valid=valid, range_raw=range_raw, taps=taps,
+        overflows=overflows, minmax=minmax if log else {}, in_cycles=in_cycles,
+        out_cycles=out_cycles, latency=int(latency), stage_latency=stage_latency,
+        line_buffer_bits=buffers.get("line_buffer_bits", 0),
+        frame_store_bits=buffers.get("frame_store_bits", 0),
+        sweep_buffer_bits=buffers.get("sweep_buffer_bits", 0), total_cycles=last + 1,
+        registers=registers.values, saturated_registers=registers.saturated,
+        register_codes=registers.codes, mode=mode, config=config, timing=timing,
+        schedule=dict(schedule or {}), kernel_cpu_s=dict(kernel_cpu_s or {}),
+    )  # fmt: skip
+
+
 @dataclass(frozen=True)
 class GoldenReference:
     """A pipeline's float64 reference on one case: the golden range result and the float
@@ -252,6 +363,10 @@ class Pipeline(abc.ABC):
     #: Its example sweep definitions: TOML files, relative to the ``rangefx`` package root
     #: or absolute (:meth:`sweep_example_paths`).
     sweep_examples: ClassVar[tuple[str, ...]] = ()
+    #: The design field that bounds its disparity search, for a dense stereo pipeline
+    #: that ranges a real pair under the Middlebury protocol
+    #: (:mod:`rangefx.tools.studies.evaluation`; P3's ``max_disparity``); None: it does not.
+    search_range_field: ClassVar[str | None] = None
     #: The model's lines are independent: a band of lines run alone gives those rows of
     #: the whole frame's outputs, taps and overflows, and its golden likewise (P2: the
     #: sweep and G5 run along each line). Then :meth:`run_lines` and
@@ -305,8 +420,11 @@ class Pipeline(abc.ABC):
         """Error build-up profiles of ``result`` (run with taps) beside ``golden`` (with
         taps) along its recursions (SPEC §6): profile name -> ``{"index": positions,
         "<curve>": values, "<curve>.lsb_rms": LSB / sqrt(12) of its format}``;
-        :attr:`buildup_axes` says what each index counts. None by default."""
-        return {}
+        :attr:`buildup_axes` says what each index counts: :attr:`buildup_model` on its
+        taps, none without one."""
+        if self.buildup_model is None:
+            return {}
+        return self.buildup_model(result, golden, self.tap_specs(result.config, result.mode))
 
     #: The model function the default :meth:`simulate` calls, as a ``staticmethod``:
     #: ``run_model(image1, image2, camera, motion, config, settings, *, timing, taps,
@@ -315,6 +433,24 @@ class Pipeline(abc.ABC):
 
     #: Build-up profile name -> what its index counts (the plot's x label).
     buildup_axes: ClassVar[dict[str, str]] = {}
+
+    #: Its model's functions that the default methods call (each a ``staticmethod``):
+    #: ``latency_model(config) -> {stage: cycles}`` (:meth:`stage_latencies`),
+    #: ``tap_model(config) -> (TapSpec, ...)`` (:meth:`tap_table`),
+    #: ``cost_model(config, shape, mode) -> CostReport`` (:meth:`cost`) and
+    #: ``buildup_model(result, golden, tap_specs) -> Profiles`` (:meth:`buildup_profiles`).
+    latency_model: ClassVar[Callable[..., dict[str, int]] | None] = None
+    tap_model: ClassVar[Callable[..., tuple[TapSpec, ...]] | None] = None
+    cost_model: ClassVar[Callable[..., CostReport] | None] = None
+    buildup_model: ClassVar[Callable[..., Profiles] | None] = None
+    #: ``cycle_model(tap_name, config, in_cycles, hblank) -> cycles`` of a pipeline whose
+    #: samples leave on a schedule (:meth:`tap_cycles`).
+    cycle_model: ClassVar[Callable[..., np.ndarray] | None] = None
+
+    def model_options(self, case: Case) -> dict[str, Any]:
+        """Keyword arguments of :attr:`run_model` taken from the case besides its images,
+        camera, motion and settings (P1: its ``mode``); none by default."""
+        return {}
 
     # -- configs ----------------------------------------------------------------------
     def default_config(self, **design: Any) -> WordLengthConfig:
@@ -391,7 +527,7 @@ class Pipeline(abc.ABC):
             raise NotImplementedError(f"pipeline {self.name} has neither run_model nor simulate")
         return self.run_model(
             case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
-            timing=timing, taps=taps, threads=threads, log=log,
+            timing=timing, taps=taps, threads=threads, log=log, **self.model_options(case),
         )  # fmt: skip
 
     def golden(
@@ -447,6 +583,7 @@ class Pipeline(abc.ABC):
         return self.run_model(
             case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
             timing=timing, taps=taps, threads=threads, log=log, lines=lines,
+            **self.model_options(case),
         )  # fmt: skip
 
     def golden_lines(
@@ -467,13 +604,19 @@ class Pipeline(abc.ABC):
     def golden_label(self, config: WordLengthConfig) -> str:
         """Name of the golden method :meth:`golden` runs under ``config``."""
 
-    @abc.abstractmethod
     def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
-        """Declared latency in cycles of every stage, in pipeline order."""
+        """Declared latency in cycles of every stage, in pipeline order
+        (:attr:`latency_model`)."""
+        if self.latency_model is None:
+            raise NotImplementedError(f"pipeline {self.name} has no latency_model")
+        return self.latency_model(self.check_config(config))
 
-    @abc.abstractmethod
     def tap_table(self, config: WordLengthConfig, mode: str = "stereo") -> tuple[TapSpec, ...]:
-        """Every tap the model writes under ``config`` and ``mode``, in pipeline order."""
+        """Every tap the model writes under ``config`` and ``mode``, in pipeline order
+        (:attr:`tap_model`)."""
+        if self.tap_model is None:
+            raise NotImplementedError(f"pipeline {self.name} has no tap_model")
+        return self.tap_model(self.check_config(config))
 
     def tap_cycles(
         self,
@@ -485,17 +628,23 @@ class Pipeline(abc.ABC):
     ) -> np.ndarray:
         """Cycle of every sample of ``tap`` (shape (m, n)). ``in_cycles`` is the input
         cycle of every pixel of E2's frame, ``base`` that of the tap's own stream (E1's
-        frame for an ``e1.`` tap in motion mode). A tap with a fixed latency leaves at
-        ``base + latency``; pipelines whose samples leave on a schedule override this."""
+        frame for an ``e1.`` tap in motion mode). A pipeline whose samples leave on a
+        schedule gives :attr:`cycle_model`; else a tap with a fixed latency leaves at
+        ``base + latency``."""
+        if self.cycle_model is not None:
+            return self.cycle_model(tap.name, self.check_config(config), in_cycles, timing.hblank)
         if tap.latency is None:
             raise NotImplementedError(f"{self.name}: tap {tap.name} has no fixed latency")
         return base + tap.latency
 
-    @abc.abstractmethod
     def cost(
         self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
     ) -> CostReport:
-        """Cost proxies of ``config`` on ``shape`` = (height, width) images in ``mode``."""
+        """Cost proxies of ``config`` on ``shape`` = (height, width) images in ``mode``
+        (:attr:`cost_model`)."""
+        if self.cost_model is None:
+            raise NotImplementedError(f"pipeline {self.name} has no cost_model")
+        return self.cost_model(self.check_config(config), shape, mode)
 
     def cost_weights(
         self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"

@@ -57,7 +57,7 @@ def p1_case(seed: int, kind: str, mode: str) -> Case:
     cy = float(rng.uniform(0, m - 1)) if rng.random() < 0.5 else None
     camera = PinholeCamera(n, m, f_px, cx=cx, cy=cy)
     motion = P1_MOTION if mode == "motion" else MotionIncrement.stereo(0.2)
-    return Case(im1, im2, camera, motion, mode, P1_RANGING)
+    return Case(im1, im2, camera, motion, mode, settings={"ranging": P1_RANGING})
 
 
 def lab_crop(
@@ -90,7 +90,7 @@ def p3_case(seed: int, kind: str) -> Case:
         im2 = im2.astype(np.uint8)
         camera = PinholeCamera(n, m, float(rng.uniform(300, 600)))
     ranging = RangingConfig(range_max=100.0)
-    return Case(im1, im2, camera, MotionIncrement.stereo(0.1), "stereo", ranging)
+    return Case(im1, im2, camera, MotionIncrement.stereo(0.1), settings={"ranging": ranging})
 
 
 def assert_bit_exact(res, ref) -> None:

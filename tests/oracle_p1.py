@@ -185,7 +185,7 @@ def _div_zero(n_sign: int, fmt: FixedFormat) -> int:
     return hi if n_sign > 0 else lo
 
 
-def _restoring_loop(t: int, d: int) -> tuple[int, int]:
+def restoring_loop(t: int, d: int) -> tuple[int, int]:
     """Radix-2 restoring division of ``t >= 0`` by ``d > 0``: one quotient bit per step."""
     rem = 0
     quo = 0
@@ -204,7 +204,7 @@ def _restoring_value(n: int, fn: int, d: int, fd: int, fmt: FixedFormat) -> tupl
     sign = (1 if n >= 0 else -1) * (1 if d > 0 else -1)
     shift = fmt.frac + 1 + fd - fn
     t, dd = (abs(n) << shift, abs(d)) if shift >= 0 else (abs(n), abs(d) << -shift)
-    q, rem = _restoring_loop(t, dd)
+    q, rem = restoring_loop(t, dd)
     sticky = 1 if rem else 0
     return sign * (2 * q + sticky), fmt.frac + 2
 

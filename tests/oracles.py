@@ -19,6 +19,7 @@ from oracle_p3 import oracle_p3
 
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
 from rangefx.rtl_model.pipeline import Case
+from rangefx.rtl_model.registry import PIPELINES
 
 
 @dataclass
@@ -60,19 +61,21 @@ class Oracle:
 class P1Oracle(Oracle):
     def compute(self, case: Case, config: WordLengthConfig):
         return oracle_p1(
-            case.image1, case.image2, case.camera, case.motion, config, case.ranging,
-            mode=case.mode,
+            case.image1, case.image2, case.camera, case.motion, config,
+            PIPELINES["p1"].settings(case), mode=case.mode,
         )  # fmt: skip
 
 
 class P2Oracle(Oracle):
     def compute(self, case: Case, config: WordLengthConfig):
-        return oracle_p2(case.image1, case.image2, case.camera, case.motion, config, case.riccati)
+        settings = PIPELINES["p2"].settings(case)
+        return oracle_p2(case.image1, case.image2, case.camera, case.motion, config, settings)
 
 
 class P3Oracle(Oracle):
     def compute(self, case: Case, config: WordLengthConfig):
-        return oracle_p3(case.image1, case.image2, case.camera, case.motion, config, case.ranging)
+        settings = PIPELINES["p3"].settings(case)
+        return oracle_p3(case.image1, case.image2, case.camera, case.motion, config, settings)
 
 
 #: Pipeline name -> its oracle (same keys as ``rangefx.rtl_model.registry.PIPELINES``).

@@ -25,6 +25,7 @@ from rangefx.tools.report import MARKER_NAME
 from rangefx.vectors.generate import MANIFEST_NAME, load_manifest
 
 CROP = (248, 256, 240, 256)  # 8x16 pixels of lab
+FIXTURES = Path(__file__).parent / "fixtures"
 SWEEP = SWEEP_TEMPLATE.format(name="api", values="[6, 8]")
 
 
@@ -88,7 +89,9 @@ def test_image_case_from_arrays_and_from_files_is_one_case(tmp_path):
     from_arrays = api.image_case(*arrays, f_px=40.0, baseline=0.1, threshold_e=3.0)
     np.testing.assert_array_equal(from_files.image1, from_arrays.image1)
     assert from_files.camera == from_arrays.camera and from_files.mode == "stereo"
-    assert from_arrays.ranging.threshold_e == 3.0 != from_files.ranging.threshold_e
+    assert from_arrays.settings["ranging"].threshold_e == 3.0
+    assert from_arrays.settings["riccati"].threshold_e == 3.0
+    assert "ranging" not in from_files.settings  # the defaults
     with pytest.raises(UserError, match="shapes differ"):
         api.image_case(arrays[0], arrays[1][:, :-1], f_px=40.0, baseline=0.1)
     with pytest.raises(UserError, match="--f-px and --baseline"):
@@ -190,6 +193,18 @@ def test_vectors_of_your_own_arrays_check_without_a_scene(tmp_path):
     assert not api.check_vectors(out, provenance=True).ok  # required, and not a scene
 
 
+def test_vectors_written_before_the_case_held_settings_by_key_still_check(tmp_path):
+    """A P1 vector directory written when ``Case`` had the fields ``ranging`` and
+    ``riccati`` (its manifest stores both, P1 on a user's 3x8 pair with T_E = 3): the
+    settings load into ``Case.settings`` by key, and a re-run reproduces every file and
+    the manifest."""
+    old = shutil.copytree(FIXTURES / "vectors_v1_p1_image", tmp_path / "v1")
+    case = load_manifest(old)["case"]
+    assert case["ranging"]["threshold_e"] == 3.0 == case["riccati"]["threshold_e"]
+    report = api.check_vectors(old)
+    assert report.ok and report.rerun, report.problems
+
+
 def test_generate_vectors_never_replaces_a_users_directory(tmp_path):
     out = tmp_path / "mine"
     out.mkdir()
@@ -275,6 +290,97 @@ def test_guide_flies_the_report_law_and_writes_its_files(tmp_path):
     assert {"trajectory.csv", "obstacles.csv", "extents.csv"} <= {p.name for p in out.iterdir()}
     with pytest.raises(UserError, match="clearance must be a positive number of feet"):
         api.guide(clearance_ft=-1.0)
+
+
+def test_track_one_pixel_and_write_its_figures(tmp_path):
+    result = api.track(40.0, 30.0, duration=0.5, taus=(0.1,))
+    figures = result.to_dict()
+    assert figures["steps"] == len(result.run.truth) and set(figures["filtered"]) == {"0.1"}
+    out = result.write(tmp_path / "t")
+    assert json.loads((out / "summary.json").read_text()) == figures
+    assert {"tracking.csv", "fig5_raw.png"} <= {p.name for p in out.iterdir()}
+    with pytest.raises(UserError, match="--duration must be a positive number"):
+        api.track(duration=0.0)
+
+
+def test_degrees_ranges_each_degree_up_to_the_order(tmp_path):
+    result = api.degrees("lab", order=2, size=(32, 32))
+    per_degree = result.to_dict()["settings"]["order2"]
+    assert [v["degree"] for v in per_degree.values()] == [1, 2]
+    assert all(v["estimator_order"] == 2 for v in per_degree.values())
+    out = result.write(tmp_path / "d")
+    assert json.loads((out / "summary.json").read_text()) == result.to_dict()
+    with pytest.raises(UserError, match="unknown scene name"):
+        api.degrees("nowhere")
+
+
+def test_demo_refuses_bad_settings_before_any_work_and_writes_its_files(tmp_path):
+    """The whole demo runs in tests/test_cli.py (``rangefx demo`` is one call of
+    ``api.demo``); here its one-line errors and the result's atomic write."""
+    with pytest.raises(UserError, match="unknown pipeline 'p9'"):
+        api.demo(pipelines=["p9"])
+    with pytest.raises(UserError, match="pole"):
+        api.demo(pole=0.0)
+    files = {"summary.json": b"{}\n", "guide/trajectory.csv": b"t,x\n"}
+    result = api.DemoResult({"scene": {"name": "lab"}}, (), files)
+    out = result.write(tmp_path / "demo")
+    assert _files(out) == {**files, MARKER_NAME: (out / MARKER_NAME).read_bytes()}
+    assert result.to_dict() == {"scene": {"name": "lab"}}
+
+
+def test_synth_and_timing_are_what_the_command_line_prints(tmp_path, monkeypatch, capsys):
+    """Yosys area of P1's front end and its place-and-route timing on 16-pixel lines (the
+    smallest designs): the API's figures are ``rangefx hdl synth|timing --json``'s."""
+    monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
+    area = api.synth("p1", stage="frontend", shape=(16, 16), probes=False)
+    assert area.figures["stages"]["frontend"]["lut"] > 0
+    argv = ["hdl", "synth", "--stage", "frontend", "--width", "16", "--height", "16",
+            "--no-probes", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    cached = json.loads(capsys.readouterr().out)
+    assert cached["stages"]["frontend"]["cached"]
+    cached["stages"]["frontend"]["cached"] = False
+    assert cached == area.to_dict()
+    out = area.write(tmp_path / "s")
+    assert json.loads((out / "synth.json").read_text()) == area.to_dict()
+
+    fmax = api.timing("p1", stage="frontend", shape=(8, 16), seeds=1, speed=8)
+    assert fmax.result.fmax_mhz["clk"] == fmax.figures["fmax_mhz"]["clk"] > 0
+    argv = ["hdl", "timing", "--stage", "frontend", "--width", "16", "--height", "8",
+            "--seeds", "1", "--speed", "8", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert again["seeds"][0]["cached"] and again["fmax_mhz"] == fmax.figures["fmax_mhz"]
+    assert json.loads((fmax.write(tmp_path / "t") / "timing.json").read_text())["pins"] > 0
+    with pytest.raises(UserError, match="pipeline p3 has no RTL"):
+        api.synth("p3")
+    with pytest.raises(UserError, match="pipeline p3 has no RTL"):
+        api.timing("p3")
+
+
+def test_a_case_holds_every_pipelines_settings_by_key():
+    """``Case.from_scene`` puts each registered pipeline's scene preset under its settings
+    key; ``settings=`` of the case builders replaces them; a pipeline reads its own."""
+    from rangefx.golden.methods import SCENE_RANGING, SCENE_RICCATI
+    from rangefx.golden.ranging import RangingConfig
+    from rangefx.golden.scenes import render_scene
+    from rangefx.rtl_model.pipeline import Case
+
+    scene = render_scene("lab", size=(16, 16))
+    case = Case.from_scene(scene)
+    assert case.settings == {"ranging": SCENE_RANGING["lab"], "riccati": SCENE_RICCATI["lab"]}
+    for pipe in PIPELINES.values():
+        assert pipe.settings(case) is case.settings.get(pipe.settings_key, pipe.settings(case))
+    loose = RangingConfig(range_max=7.0)
+    assert api.scene_case("lab", size=(16, 16), settings={"ranging": loose}).settings == {
+        "ranging": loose, "riccati": SCENE_RICCATI["lab"]}  # fmt: skip
+    assert PIPELINES["p1"].range_max(Case.from_scene(scene, {"ranging": loose})) == 7.0
+    pair = Case.from_images(scene.image1, scene.image2, f_px=40.0, baseline=0.1)
+    assert pair.settings == {} and PIPELINES["p2"].range_max(pair) == 100.0  # the defaults
+    with pytest.raises(ValueError, match="an image pair needs --f-px and --baseline"):
+        Case.from_images(scene.image1, scene.image2)
+    with pytest.raises(ValueError, match="must be a RiccatiConfig"):
+        PIPELINES["p2"].settings(pair.with_setting("riccati", loose))
 
 
 # -- the command line is one API call -------------------------------------------------------

@@ -192,7 +192,7 @@ def p2_case(seed: int, kind: str, riccati: RiccatiConfig) -> Case:
         im2 = np.clip(np.rint(shifted + rng.normal(0, 2, (m, n))), 0, 255).astype(np.uint8)
         im2[:, : n // 3] = im1[:, : n // 3]
         camera = PinholeCamera(n, m, float(rng.uniform(400, 800)))
-    return Case(im1, im2, camera, MotionIncrement.stereo(0.1), "stereo", riccati=riccati)
+    return Case(im1, im2, camera, MotionIncrement.stereo(0.1), settings={"riccati": riccati})
 
 
 def p2_cases() -> list[dict[str, Any]]:

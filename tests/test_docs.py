@@ -32,6 +32,7 @@ RUNNABLE_PAGES = (
     "index.md",
     "tutorial.md",
     "pipelines.md",
+    "api/index.md",
     "recipes/testbench_vectors.md",
     "recipes/check_rtl_dump.md",
     "recipes/wordlength_study.md",

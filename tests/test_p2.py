@@ -377,9 +377,9 @@ def test_a_cast_shifting_by_more_than_62_bits_takes_the_general_kernel(lab):
     assert not model.band_fits(model.runtime.format_table(config))
     camera = PinholeCamera(12, 3, lab.camera.f_px)
     case = Case(lab.image1[200:203, 300:312], lab.image2[200:203, 300:312], camera, lab.motion,
-                "stereo", riccati=SCENE_RICCATI["lab"])  # fmt: skip
+                "stereo", settings={"riccati": SCENE_RICCATI["lab"]})  # fmt: skip
     ref = ORACLES["p2"].run(case, config)
-    res = run_p2(case.image1, case.image2, camera, case.motion, config, case.riccati)
+    res = run_p2(case.image1, case.image2, camera, case.motion, config, case.settings["riccati"])
     for name, want in ref.taps.items():
         np.testing.assert_array_equal(res.taps[name], want, err_msg=name)
     assert res.overflows == ref.overflows

@@ -652,7 +652,8 @@ def test_plane_is_a_held_out_p1_stereo_case():
     case = held_out_case("plane", (32, 40))
     assert case.mode == "stereo" and case.image1.shape == (32, 40) and case.scene.name == "plane"
     assert case.image1.dtype.kind in "iu" and case.image1.dtype.itemsize == 1  # grey levels
-    assert case.ranging.range_max == 10.0 and float(case.scene.depth1.max()) == 5.0
+    assert case.settings["ranging"].range_max == 10.0 == case.settings["riccati"].range_max
+    assert float(case.scene.depth1.max()) == 5.0
     # 30 deg field of view kept at any size (f = 955 px, disparity 0.96 px at 512 wide)
     assert case.camera.f_px == pytest.approx(20 / math.tan(math.radians(15)))
     cfg = P1Config.default()

@@ -25,8 +25,10 @@ from rangefx.rtl_model.pipeline import (
     Pipeline,
     PipelineResult,
     TapSpec,
+    build_result,
 )
 from rangefx.rtl_model.registry import PIPELINES, register_pipeline, unregister_pipeline
+from rangefx.rtl_model.runtime import RegisterFile
 from rangefx.rtl_model.stream import input_cycles
 from rangefx.tools.cli import main
 from rangefx.tools.studies.cases import scene_case
@@ -131,42 +133,22 @@ class ToyPipeline(Pipeline):
         cycles = input_cycles(img.shape, timing)[0]
         latency = BOX_LATENCY + OUT_LATENCY
         signals = {"toy_pix": pix, "toy_box": box, "toy_out": out}
-        coef_value = float(np.ldexp(float(coef[0]), -f["toy_coef"].frac))
-        return PipelineResult(
-            pipeline=self.name,
-            range=np.where(valid, value, range_max),
-            valid=valid,
-            range_raw=out,
-            taps={"e2.pix_in": pix, "box": box, "valid": valid.astype(np.int64), "range": out}
-            if taps
-            else {},
-            overflows={
-                "toy_pix": ov_pix,
-                "toy_coef": ov_coef,
-                "toy_box": ov_box,
-                "toy_out": ov_out,
-            },
-            minmax={
-                s: tuple(float(np.ldexp(float(v), -f[s].frac)) for v in (a.min(), a.max()))
-                for s, a in signals.items()
-            }
-            if log
-            else {},
-            in_cycles=cycles,
-            out_cycles=cycles + latency,
+        regs = RegisterFile(config)
+        regs.hold("coef", int(coef[0]), "toy_coef", config.coef)
+        overflows = {"toy_pix": ov_pix, "toy_coef": ov_coef, "toy_box": ov_box, "toy_out": ov_out}
+        minmax = {
+            s: tuple(float(np.ldexp(float(v), -f[s].frac)) for v in (a.min(), a.max()))
+            for s, a in signals.items()
+        }
+        tap_arrays = {"e2.pix_in": pix, "box": box, "valid": valid.astype(np.int64), "range": out}
+        return build_result(
+            self.name, config, timing, case.mode, range_raw=out,
+            range_float=np.where(valid, value, range_max), valid=valid,
+            taps=tap_arrays if taps else {}, stats=(overflows, minmax), log=log,
+            cycles=(cycles, cycles + latency), stage_latency=self.stage_latencies(config),
+            registers=regs, buffers={"line_buffer_bits": 2 * img.shape[1] * f["toy_pix"].word},
             latency=latency,
-            stage_latency=self.stage_latencies(config),
-            line_buffer_bits=2 * img.shape[1] * f["toy_pix"].word,
-            frame_store_bits=0,
-            sweep_buffer_bits=0,
-            total_cycles=int(cycles.max()) + latency + 1,
-            registers={"coef": (config.coef, coef_value)},
-            saturated_registers=(),
-            register_codes={"coef": ("toy_coef", int(coef[0]))},
-            mode=case.mode,
-            config=config,
-            timing=timing,
-        )
+        )  # fmt: skip
 
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         mean = box_sum(np.asarray(case.image2, dtype=np.float64)) / 9.0
@@ -252,7 +234,8 @@ def test_the_toy_runs_from_python_with_its_own_settings(toy):
     assert np.abs(result.range - gold.result.range).max() <= 2.0**-4  # u12.4 output
     # a case option sets the toy's own settings, not P1's
     narrow = toy.with_case_options(case, range_max=50.0)
-    assert narrow.settings["toy"].range_max == 50.0 and narrow.ranging == case.ranging
+    assert narrow.settings["toy"].range_max == 50.0
+    assert narrow.settings["ranging"] == case.settings["ranging"]
     assert toy.run(narrow).valid.sum() < result.valid.sum()
     with pytest.raises(ValueError, match="does not read case option 'threshold_g'"):
         toy.with_case_options(case, threshold_g=1.0)
@@ -311,3 +294,17 @@ def test_the_toy_sweeps_and_optimises(toy, tmp_path, capsys):
     assert report["pipeline"] == "toy" and report["bits_saved"] > 0
     optimised = ToyConfig.load(opt / "optimised.toml")
     assert optimised.register_bits() < toy.default_config().register_bits()
+
+
+def test_the_real_pair_protocol_takes_its_pipelines_from_the_registry(toy):
+    """Which pipelines range the Middlebury pair is a fact of each pipeline (its
+    ``search_range_field``): P3's, and a registered pipeline's that declares one."""
+    from rangefx.tools.studies.evaluation import middlebury_pipelines
+
+    assert middlebury_pipelines() == ("p3",)
+    dense = type("DenseToy", (ToyPipeline,), {"name": "densetoy", "search_range_field": "coef"})
+    register_pipeline(dense())
+    try:
+        assert middlebury_pipelines() == ("p3", "densetoy")
+    finally:
+        unregister_pipeline("densetoy")

@@ -24,12 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
-from rangefx.golden.ranging import RangingConfig
-from rangefx.golden.riccati import RiccatiConfig
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig, loads_json
 from rangefx.rtl_model.fixedpoint import FixedFormat
-from rangefx.rtl_model.pipeline import CASE_SETTINGS, Case, Pipeline, PipelineResult
-from rangefx.rtl_model.registry import get_pipeline
+from rangefx.rtl_model.pipeline import Case, Pipeline, PipelineResult
+from rangefx.rtl_model.registry import PIPELINES, get_pipeline
 from rangefx.rtl_model.stream import make_stream
 
 from . import formats as fmt_io
@@ -288,14 +286,9 @@ def build_vectors(
             **dict(description or {}),
             "camera": _camera_dict(case.camera),
             "motion": _motion_dict(case.motion),
-            "ranging": asdict(case.ranging),
-            "riccati": asdict(case.riccati),
-            # a pipeline registered from outside keeps its own settings in the case
-            **(
-                {}
-                if pipe.settings_key in CASE_SETTINGS
-                else {pipe.settings_key: asdict(pipe.settings(case))}
-            ),
+            # every settings the case holds, and the pipeline's own (defaults if absent)
+            **{key: asdict(value) for key, value in case.settings.items()},
+            pipe.settings_key: asdict(pipe.settings(case)),
         },
         "latency": {"total": result.latency, "stages": dict(result.stage_latency)},
         "total_cycles": result.total_cycles,
@@ -478,20 +471,20 @@ def case_from_manifest(directory: str | Path, manifest: Mapping) -> dict:
         c = manifest["case"]
         pipe = get_pipeline(manifest.get("pipeline", "p1"))
         config = pipe.config_from_toml(manifest["config"]["toml"], manifest["config"]["name"])
+        # the settings of every registered pipeline's key the manifest holds
+        types = {p.settings_key: p.settings_type for p in reversed(PIPELINES.values())}
+        types[pipe.settings_key] = pipe.settings_type
+        settings = {key: types[key](**c[key]) for key in types if key in c}
         case = Case(
             images[0],
             images[1],
             PinholeCamera(**c["camera"]),
             MotionIncrement(**{k: np.array(v) for k, v in c["motion"].items()}),
             manifest["mode"],
-            RangingConfig(**c["ranging"]),
-            RiccatiConfig(**c["riccati"]) if "riccati" in c else RiccatiConfig(),
+            settings=settings,
         )
-        key = pipe.settings_key
-        if key not in CASE_SETTINGS:
-            case = case.with_setting(key, pipe.settings_type(**c.get(key, {})))
         timing = TimingConfig(**manifest["timing"])
-        rest = {k: v for k, v in c.items() if k not in ("camera", "motion", *CASE_SETTINGS, key)}
+        rest = {k: v for k, v in c.items() if k not in ("camera", "motion", *types)}
     except (TypeError, KeyError, AttributeError, ValueError, IndexError) as exc:
         raise ValueError(f"manifest case is incomplete: {exc!r:.200}") from None
     if manifest.get("mode") not in ("stereo", "motion") or not isinstance(

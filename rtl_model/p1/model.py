@@ -36,7 +36,7 @@ from ..kernels import (
     log_site,
     signal_plan,
 )
-from ..pipeline import PipelineResult
+from ..pipeline import PipelineResult, build_result
 from ..runtime import (
     DIV_RESTORING,
     KERNEL_BOOL,
@@ -1106,8 +1106,6 @@ def run_p1(
         r1, r2 = frontend(im1, stream_outs[0]), frontend(im2, stream_outs[1])
         parts = [range_band(0, m, r1, r2)]
 
-    overflows, minmax = SignalStats.merge([r1[2], r2[2], *parts], P1_SIGNALS)
-    minmax = minmax if log else {}
     tap_dict: dict[str, np.ndarray] = {}
     if taps:
         for prefix, r in (("e1", r1), ("e2", r2)):
@@ -1118,28 +1116,10 @@ def run_p1(
         for k, name in enumerate(RANGE_TAPS):
             tap_dict[name] = rtaps[k]
 
-    buffers = buffer_bits(config, (m, n), mode)
-    return PipelineResult(
-        pipeline="p1",
-        range=range_f,
-        valid=out_valid,
-        range_raw=out_range,
-        taps=tap_dict,
-        overflows=overflows,
-        minmax=minmax,
-        in_cycles=in_cycles,
-        out_cycles=out_cycles,
-        latency=latency,
-        stage_latency=lat,
-        line_buffer_bits=buffers["line_buffer_bits"],
-        frame_store_bits=buffers["frame_store_bits"],
-        sweep_buffer_bits=0,
-        total_cycles=max(last for _, last in band_ends) + 1,
-        registers=regs.values,
-        saturated_registers=regs.saturated,
-        register_codes=regs.codes,
-        mode=mode,
-        config=config,
-        timing=timing,
+    return build_result(
+        "p1", config, timing, mode, range_raw=out_range, range_float=range_f, valid=out_valid,
+        taps=tap_dict, stats=SignalStats.merge([r1[2], r2[2], *parts], P1_SIGNALS), log=log,
+        cycles=(in_cycles, out_cycles), stage_latency=lat, registers=regs,
+        buffers=buffer_bits(config, (m, n), mode), band_ends=band_ends, latency=latency,
         kernel_cpu_s={k: sum(t for name, t in cpu if name == k) for k in ("front_end", "range")},
-    )
+    )  # fmt: skip

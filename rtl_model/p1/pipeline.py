@@ -9,9 +9,8 @@ from rangefx.golden.methods import run_method
 from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.taps import p1_golden_taps
 
-from ..config import TimingConfig, WordLengthConfig
-from ..cost import CostReport
-from ..pipeline import MODES, Case, GoldenReference, Pipeline, PipelineResult, Profiles, TapSpec
+from ..config import WordLengthConfig
+from ..pipeline import MODES, Case, GoldenReference, Pipeline, TapSpec
 from . import buildup, cost, model, taps
 from .config import HOST_REGISTERS, P1_SIGNALS, P1Config
 
@@ -52,6 +51,10 @@ class P1Pipeline(Pipeline):
     settings_type: ClassVar[type] = RangingConfig
     case_options: ClassVar[tuple[str, ...]] = ("threshold_e", "threshold_g", "range_max")
     buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
+    run_model = staticmethod(model.run_p1)
+    latency_model = staticmethod(model.stage_latencies)
+    cost_model = staticmethod(cost.config_cost)
+    buildup_model = staticmethod(buildup.buildup_profiles)
     sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p1_lab.toml",)
     area_features: ClassVar[dict[str, tuple[str, ...]]] = cost.AREA_FEATURES
     calibration_configs: ClassVar[dict[str, tuple[str | None, dict[str, Any], bool]]] = (
@@ -70,19 +73,8 @@ class P1Pipeline(Pipeline):
         )
         return groups
 
-    def simulate(
-        self,
-        case: Case,
-        config: WordLengthConfig,
-        timing: TimingConfig,
-        taps: bool,
-        threads: int,
-        log: bool = True,
-    ) -> PipelineResult:
-        return model.run_p1(
-            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
-            timing=timing, mode=case.mode, taps=taps, threads=threads, log=log,
-        )  # fmt: skip
+    def model_options(self, case: Case) -> dict[str, Any]:
+        return {"mode": case.mode}  # P1 models both modes
 
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         est = EstimatorConfig(
@@ -100,17 +92,9 @@ class P1Pipeline(Pipeline):
     def golden_label(self, config: WordLengthConfig) -> str:
         return f"g4_{self.check_config(config).variant}"
 
-    def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
-        return model.stage_latencies(self.check_config(config))
-
     def tap_table(self, config: WordLengthConfig, mode: str = "stereo") -> tuple[TapSpec, ...]:
         config = self.check_config(config)
         return taps.tap_table(config, model.stage_latencies(config))
-
-    def cost(
-        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
-    ) -> CostReport:
-        return cost.config_cost(self.check_config(config), shape, mode)
 
     def area_terms(
         self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
@@ -119,6 +103,3 @@ class P1Pipeline(Pipeline):
 
     def rejected_weight(self, signal: str) -> int:
         return sum(cost.REGISTER_INSTANCES[signal])
-
-    def buildup_profiles(self, result: PipelineResult, golden: GoldenReference) -> Profiles:
-        return buildup.buildup_profiles(result, golden, self.tap_specs(result.config, result.mode))

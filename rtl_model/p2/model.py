@@ -48,7 +48,7 @@ from ..kernels import (
 )
 from ..kernels import cast_site as _cast
 from ..kernels import divide_into as _divide_into
-from ..pipeline import PipelineResult
+from ..pipeline import PipelineResult, build_result
 from ..stream import input_cycles, line_starts
 from .config import P2_SIGNALS, P2Config, loop_latency
 
@@ -782,31 +782,11 @@ def run_p2(
         parts = runtime.run_two(band, (0, m // 2), (m // 2, m))
     else:
         parts = [band(0, m)]
-    overflows, minmax = runtime.SignalStats.merge(parts, P2_SIGNALS)
-    minmax = minmax if log else {}
-    tap_dict = {name: tp[k] for k, name in enumerate(P2_TAPS)} if taps else {}
-    latency = max(worst for worst, _ in band_ends)
-    return PipelineResult(
-        pipeline="p2",
-        range=range_f,
-        valid=out_valid,
-        range_raw=out_range,
-        taps=tap_dict,
-        overflows=overflows,
-        minmax=minmax,
-        in_cycles=in_cycles,
-        out_cycles=out_cycles,
-        latency=latency,
-        stage_latency=stage_latencies(config),
-        schedule=sched,
-        **buffer_bits(config, n),
-        frame_store_bits=0,
-        total_cycles=max(last for _, last in band_ends) + 1,
-        registers=regs.values,
-        saturated_registers=regs.saturated,
-        register_codes=regs.codes,
-        mode="stereo",
-        config=config,
-        timing=timing,
+    return build_result(
+        "p2", config, timing, "stereo", range_raw=out_range, range_float=range_f,
+        valid=out_valid, taps={name: tp[k] for k, name in enumerate(P2_TAPS)} if taps else {},
+        stats=runtime.SignalStats.merge(parts, P2_SIGNALS), log=log,
+        cycles=(in_cycles, out_cycles), stage_latency=stage_latencies(config), registers=regs,
+        buffers=buffer_bits(config, n), band_ends=band_ends, schedule=sched,
         kernel_cpu_s={"sweep": sum(cpu)},
-    )
+    )  # fmt: skip

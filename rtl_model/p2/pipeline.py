@@ -11,13 +11,19 @@ from rangefx.golden.ranging import RangeResult
 from rangefx.golden.riccati import RiccatiConfig, range_g5
 from rangefx.golden.taps import p2_golden_taps
 
-from ..config import TimingConfig, WordLengthConfig
-from ..cost import CostReport
-from ..pipeline import Case, GoldenReference, Pipeline, PipelineResult, Profiles, TapSpec
+from ..config import WordLengthConfig
+from ..pipeline import Case, GoldenReference, Pipeline
 from . import buildup, cost, model, taps
 from .config import P2Config
 
-__all__ = ["P2Pipeline"]
+__all__ = ["P2Pipeline", "tap_cycles"]
+
+
+def tap_cycles(name: str, config: P2Config, in_cycles: np.ndarray, hblank: int) -> np.ndarray:
+    """Cycle of every sample of tap ``name``: on the sweep's schedule
+    (:func:`rangefx.rtl_model.p2.model.p2_schedule`)."""
+    _, info, rows = model.p2_schedule(in_cycles, config, hblank)
+    return taps.tap_cycles(name, config, in_cycles, rows, info)
 
 
 class P2Pipeline(Pipeline):
@@ -37,6 +43,11 @@ class P2Pipeline(Pipeline):
     settings_type: ClassVar[type] = RiccatiConfig
     case_options: ClassVar[tuple[str, ...]] = ("threshold_e", "range_max")
     buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
+    latency_model = staticmethod(model.stage_latencies)
+    tap_model = staticmethod(taps.tap_table)
+    cost_model = staticmethod(cost.config_cost)
+    buildup_model = staticmethod(buildup.buildup_profiles)
+    cycle_model = staticmethod(tap_cycles)
     run_model = staticmethod(model.run_p2)
     sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p2_lab.toml",)
     line_independent: ClassVar[bool] = True  # the sweep and G5 run along each line
@@ -80,33 +91,7 @@ class P2Pipeline(Pipeline):
     def golden_label(self, config: WordLengthConfig) -> str:
         return "g5_riccati"
 
-    def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
-        return model.stage_latencies(self.check_config(config))
-
-    def tap_table(self, config: WordLengthConfig, mode: str = "stereo") -> tuple[TapSpec, ...]:
-        return taps.tap_table(self.check_config(config))
-
-    def tap_cycles(
-        self,
-        tap: TapSpec,
-        config: WordLengthConfig,
-        timing: TimingConfig,
-        in_cycles: np.ndarray,
-        base: np.ndarray,
-    ) -> np.ndarray:
-        config = self.check_config(config)
-        _, info, rows = model.p2_schedule(in_cycles, config, timing.hblank)
-        return taps.tap_cycles(tap.name, config, in_cycles, rows, info)
-
-    def cost(
-        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
-    ) -> CostReport:
-        return cost.config_cost(self.check_config(config), shape, mode)
-
     def area_terms(
         self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
     ) -> dict[str, float]:
         return dict(cost.area_terms(self.check_config(config), shape, mode))
-
-    def buildup_profiles(self, result: PipelineResult, golden: GoldenReference) -> Profiles:
-        return buildup.buildup_profiles(result, golden, self.tap_specs(result.config, result.mode))

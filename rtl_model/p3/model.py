@@ -31,7 +31,7 @@ from ..config import TimingConfig
 from ..fixedpoint import FixedFormat, cast_raw, cast_row
 from ..kernels import at_frac as _at
 from ..kernels import divide_row as _divide_row
-from ..pipeline import PipelineResult
+from ..pipeline import PipelineResult, build_result
 from ..runtime import KERNEL_INT, KERNEL_PLANE, KERNEL_ROW
 from ..stream import input_cycles
 from .config import P3_SIGNALS, P3Config
@@ -751,28 +751,11 @@ def run_p3(
         tap_dict.update({"e1.norm": p1[0], "e2.norm": p2[0]})
     in_cycles = input_cycles((m, n), timing)[-1]
     out_cycles = tap_cycles("range", config, in_cycles, timing.hblank)
-    rf = config.formats["p3_range"]
-    return PipelineResult(
-        pipeline="p3",
-        range=rf.to_float(out_range),
-        valid=out_valid,
-        range_raw=out_range,
-        taps=tap_dict,
-        overflows=overflows,
-        minmax=minmax if log else {},
-        in_cycles=in_cycles,
-        out_cycles=out_cycles,
-        latency=int((out_cycles - in_cycles).max()),
-        stage_latency=stage_latencies(config),
-        line_buffer_bits=sum(buffer_bits(config, (m, n)).values()),
-        frame_store_bits=0,
-        sweep_buffer_bits=0,
-        total_cycles=int(out_cycles.max()) + 1,
-        registers=regs.values,
-        saturated_registers=regs.saturated,
-        register_codes=regs.codes,
-        mode="stereo",
-        config=config,
-        timing=timing,
+    return build_result(
+        "p3", config, timing, "stereo", range_raw=out_range,
+        range_float=config.formats["p3_range"].to_float(out_range), valid=out_valid,
+        taps=tap_dict, stats=(overflows, minmax), log=log, cycles=(in_cycles, out_cycles),
+        stage_latency=stage_latencies(config), registers=regs,
+        buffers={"line_buffer_bits": sum(buffer_bits(config, (m, n)).values())},
         schedule=p3_schedule(config, (m, n)),
-    )
+    )  # fmt: skip

@@ -9,9 +9,8 @@ import numpy as np
 from rangefx.golden.multiscale import disparity_g6, range_g6
 from rangefx.golden.ranging import RangingConfig
 
-from ..config import TimingConfig, WordLengthConfig
-from ..cost import CostReport
-from ..pipeline import Case, GoldenReference, Pipeline, PipelineResult, Profiles, TapSpec
+from ..config import WordLengthConfig
+from ..pipeline import Case, GoldenReference, Pipeline
 from ..runtime import divider_roms
 from . import buildup, cost, model, taps
 from .config import MULTISCALE_FIELDS, P3Config
@@ -36,6 +35,12 @@ class P3Pipeline(Pipeline):
     settings_type: ClassVar[type] = RangingConfig
     case_options: ClassVar[tuple[str, ...]] = ("range_max",)
     buildup_axes: ClassVar[dict[str, str]] = buildup.AXES
+    latency_model = staticmethod(model.stage_latencies)
+    tap_model = staticmethod(taps.tap_table)
+    cost_model = staticmethod(cost.config_cost)
+    buildup_model = staticmethod(buildup.buildup_profiles)
+    cycle_model = staticmethod(model.tap_cycles)
+    search_range_field: ClassVar[str | None] = "max_disparity"
     run_model = staticmethod(model.run_p3)
     sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p3_lab.toml",)
 
@@ -64,27 +69,6 @@ class P3Pipeline(Pipeline):
     def golden_label(self, config: WordLengthConfig) -> str:
         return "g6_multiscale"
 
-    def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
-        return model.stage_latencies(self.check_config(config))
-
-    def tap_table(self, config: WordLengthConfig, mode: str = "stereo") -> tuple[TapSpec, ...]:
-        return taps.tap_table(self.check_config(config))
-
-    def tap_cycles(
-        self,
-        tap: TapSpec,
-        config: WordLengthConfig,
-        timing: TimingConfig,
-        in_cycles: np.ndarray,
-        base: np.ndarray,
-    ) -> np.ndarray:
-        return model.tap_cycles(tap.name, self.check_config(config), in_cycles, timing.hblank)
-
-    def cost(
-        self, config: WordLengthConfig, shape: tuple[int, int], mode: str = "stereo"
-    ) -> CostReport:
-        return cost.config_cost(self.check_config(config), shape, mode)
-
     def roms(self, config: WordLengthConfig) -> dict[str, np.ndarray]:
         """The divider's seed ROM and the warp's Keys weight ROM (``keys_rom``: row ``i``
         the 4 weights of fraction ``i 2**-keys_bits``, two's complement words of
@@ -93,6 +77,3 @@ class P3Pipeline(Pipeline):
         word = config.formats["p3_keys"].word
         rom = model.keys_rom(config).ravel() & ((1 << word) - 1)
         return {**divider_roms(config), "keys_rom": rom}
-
-    def buildup_profiles(self, result: PipelineResult, golden: GoldenReference) -> Profiles:
-        return buildup.buildup_profiles(result, golden, self.tap_specs(result.config, result.mode))

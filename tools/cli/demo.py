@@ -3,8 +3,7 @@
 Renders ``lab``, runs the golden methods of :data:`DEMO_METHODS`, every registered
 fixed-point pipeline in each of its variants beside its golden and the end-to-end chain
 (runway → P1 motion mode → obstacles → guidance), and writes range maps, tables, plots
-and ``summary.json`` to ``--out`` (default ``./rangefx-out``):
-:func:`rangefx.tools.studies.demo.demo_into`.
+and ``summary.json`` to ``--out`` (default ``./rangefx-out``): :func:`rangefx.api.demo`.
 ``--pole``/``--bias`` apply to the golden estimator and to P1's config alike.
 """
 
@@ -17,20 +16,18 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from rangefx.rtl_model.registry import PIPELINES
-
 from .. import report
 from ..report import atomic_output_dir, json_safe
-from ..studies.demo import DEMO_METHODS, DEMO_STEPS, demo_into, package_version
-from .options import add_pipelines_arg, design_from_args, out_path
-from .run import estimator_from_args
+from ..studies.demo import DEMO_METHODS, DEMO_STEPS, package_version
+from .options import add_pipelines_arg, out_path
 
 __all__ = ["DEMO_METHODS", "add_parser", "cmd_demo", "package_version"]
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    from rangefx import api
+
     out = Path(args.out)
-    est = estimator_from_args(args)
     bar = tqdm(
         total=len(DEMO_STEPS), desc="rangefx demo", disable=args.json or not sys.stderr.isatty()
     )
@@ -42,13 +39,14 @@ def cmd_demo(args: argparse.Namespace) -> int:
         started.append(name)
         bar.set_postfix_str(name)
 
-    design = design_from_args(PIPELINES["p1"], args)
-    with atomic_output_dir(out) as tmp:
-        summary, e2e_notes = demo_into(
-            tmp, seed=args.seed, est=est, design=design, pipelines=args.pipeline, step=step
+    with atomic_output_dir(out) as tmp:  # refuses a directory rangefx did not write, now
+        result = api.demo(
+            seed=args.seed, pole=args.pole, bias=args.bias, pipelines=args.pipeline, step=step
         )
+        result.write_into(tmp)
         bar.update()
     bar.close()
+    summary, e2e_notes = result.summary, result.warnings
     e2e = summary["end_to_end"]
     if args.json:
         print(json.dumps(json_safe(summary)))

@@ -139,10 +139,12 @@ def _print_middlebury(result) -> None:
             f"(median {data.median_disparity:.2f}), all pixels, disparity range: {setting}",
             table["methods"],
         )
-        print(f"P3 overflows: {table['overflows']['p3']}")
+        ours = [k for k in table["overflows"] if not k.endswith("_gt_informed")]
+        print("overflows: " + ", ".join(f"{k.upper()} {table['overflows'][k]}" for k in ours))
         for peer, pair in table["valid_in_both"].items():
-            n = pair["p3"]["n_scored"]
-            _print_table(f"  over the {n} scored pixels valid in both P3 and {peer}:", pair)
+            n = pair[peer]["n_scored"]
+            names = " and ".join([*(k.upper() for k in ours), peer])
+            _print_table(f"  over the {n} scored pixels valid in both {names}:", pair)
         _print_table(
             f"  gt_informed (given the ground truth's search range, "
             f"{table['search_range_px']} px):",

@@ -6,7 +6,8 @@ range, range after a fast and a slow low-pass filter), the time series as CSV an
 ``summary.json``. ``degrees`` ranges a scene preset with the SPIE ranging polynomial of
 degree 1..4 and prints the per-object table of each degree: once with the estimator
 order equal to the degree, once with order 4 for every degree (the same derivatives, so
-only the polynomial changes). Each is one call of :mod:`rangefx.tools.studies.tracking`.
+only the polynomial changes). Each is one call: :func:`rangefx.api.track`,
+:func:`rangefx.api.degrees`.
 """
 
 from __future__ import annotations
@@ -18,14 +19,15 @@ import sys
 from rangefx.golden.scenes import SCENE_NAMES
 
 from .. import report
-from ..studies.tracking import degree_tables, track_pixel
 from .options import int_at_least, out_path
 
 __all__ = ["add_parser", "cmd_degrees", "cmd_track"]
 
 
 def cmd_track(args: argparse.Namespace) -> int:
-    result = track_pixel(
+    from rangefx import api
+
+    result = api.track(
         args.xp, args.zp, duration=args.duration, taus=args.tau, fraction=args.fraction,
         threshold=args.threshold, noise=args.noise, seed=args.seed,
     )  # fmt: skip
@@ -55,7 +57,9 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 
 def cmd_degrees(args: argparse.Namespace) -> int:
-    result = degree_tables(
+    from rangefx import api
+
+    result = api.degrees(
         args.scene, variant=args.variant, order=args.order, size=args.size, seed=args.seed
     )
     if args.out:

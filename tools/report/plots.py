@@ -101,12 +101,8 @@ def save_range_map_png(
     ----------
     path
         Destination PNG file (written atomically).
-    range_map : ndarray, shape (m, n), real
-        Range per pixel; must be finite where ``valid``.
-    valid : ndarray, shape (m, n), bool
-        Validity flag.
-    range_max : float
-        Range shown as black; positive and finite.
+    range_map, valid, range_max
+        As :func:`range_to_gray`.
     title
         Figure title.
     unit
@@ -203,10 +199,8 @@ def range_points_3d(
 
     Parameters
     ----------
-    range_map : ndarray, shape (m, n), real
-        Range per pixel; must be finite where ``valid``.
-    valid : ndarray, shape (m, n), bool
-        Validity flag.
+    range_map, valid
+        As :func:`range_to_gray`.
     xp, yp : array_like, broadcastable to (m, n)
         Image-plane coordinates of each pixel centre relative to the principal point, in
         pixels (e.g. ``PinholeCamera.pixel_grid()``); finite at valid pixels.

@@ -4,7 +4,6 @@ over the pipeline registry, word-length sweeps, the optimiser and the benchmark.
 from .cases import (
     HELD_OUT_SCENES,
     REAL_PAIRS,
-    case_from_scene,
     held_out_case,
     integer_case,
     real_pair_case,
@@ -24,7 +23,6 @@ from .runner import (
 __all__ = [
     "HELD_OUT_SCENES",
     "REAL_PAIRS",
-    "case_from_scene",
     "compare_ranges",
     "golden_case",
     "held_out_case",

@@ -1,9 +1,11 @@
 """Cases for the pipelines (SPEC §10): from a rendered scene (its ``kind`` says stereo or
 motion), from a real stereo pair, from a held-out synthetic scene, or from a user's pair.
 
-A :class:`~rangefx.rtl_model.pipeline.Case` carries both pipelines' settings: P1's
-:class:`RangingConfig` (thresholds, ``range_max``) and P2's :class:`RiccatiConfig`
-(weights, threshold, ``range_max``), each the scene's measured preset where one exists.
+A :class:`~rangefx.rtl_model.pipeline.Case` carries every pipeline's settings in
+``Case.settings`` under the pipeline's settings key (``"ranging"``: P1, P3 and the golden
+methods; ``"riccati"``: P2), each the scene's measured preset where one exists. The case
+builders themselves are ``Case.from_scene`` and ``Case.from_images``; here they raise
+one-line user errors.
 """
 
 from __future__ import annotations
@@ -17,24 +19,22 @@ from pathlib import Path
 
 import numpy as np
 
-from rangefx.golden.estimator import validate_image
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.methods import SCENE_RANGING, SCENE_RICCATI
-from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.realdata import load_motorcycle
-from rangefx.golden.riccati import RiccatiConfig, bryson_config
-from rangefx.golden.scenes import Scene, render_plane, render_scene
+from rangefx.golden.riccati import bryson_config
+from rangefx.golden.scenes import render_plane, render_scene
+from rangefx.rtl_model.cases import read_image
 from rangefx.rtl_model.pipeline import Case
+from rangefx.rtl_model.registry import PIPELINES
 
 from ..errors import UserError
 
 __all__ = [
     "HELD_OUT_SCENES",
     "REAL_PAIRS",
-    "case_from_scene",
     "crop_case",
     "held_out_case",
-    "image_case",
     "image_pixels",
     "integer_case",
     "load_image",
@@ -51,21 +51,6 @@ HELD_OUT_SCENES: tuple[str, ...] = ("plane",)
 _THRESHOLD = 2.0
 
 
-def case_from_scene(scene: Scene) -> Case:
-    """The case of a rendered scene: its kind (stereo or motion) as the mode, its
-    measured ranging and Riccati presets (the defaults for a scene without one)."""
-    return Case(
-        image1=scene.image1,
-        image2=scene.image2,
-        camera=scene.camera,
-        motion=scene.motion,
-        mode=scene.kind,
-        ranging=SCENE_RANGING.get(scene.name, RangingConfig()),
-        riccati=SCENE_RICCATI.get(scene.name, RiccatiConfig()),
-        scene=scene,
-    )
-
-
 _CACHE_LOCK = threading.Lock()
 _SCENES: dict[tuple, Case] = {}
 
@@ -79,7 +64,7 @@ def scene_case(name: str, size: Sequence[int] | None = None, seed: int = 0) -> C
                 scene = render_scene(name, seed=seed, size=tuple(size) if size else None)
             except ValueError as exc:
                 raise UserError(str(exc)) from None
-            _SCENES[key] = case_from_scene(scene)
+            _SCENES[key] = Case.from_scene(scene)
         return _SCENES[key]
 
 
@@ -116,7 +101,8 @@ def real_pair_case(name: str = "motorcycle", factor: int | None = None) -> Case:
     )
     motion = MotionIncrement.stereo(data.motion.camera_displacement[1] * metre)
     label = name if factor is None else f"{name}/{factor}"
-    return Case(image1, image2, data.camera, motion, "stereo", ranging, riccati, label=label)
+    return Case(image1, image2, data.camera, motion, "stereo", label=label,
+                settings={"ranging": ranging, "riccati": riccati})  # fmt: skip
 
 
 @functools.cache
@@ -148,7 +134,7 @@ def held_out_case(name: str = "plane", size: tuple[int, int] | None = None) -> C
         raise UserError(f"{name}: {exc}") from None
     ranging = replace(SCENE_RANGING["lab"], range_max=2 * depth)
     riccati = replace(SCENE_RICCATI["lab"], range_max=2 * depth)
-    return replace(case_from_scene(scene), ranging=ranging, riccati=riccati)
+    return Case.from_scene(scene, {"ranging": ranging, "riccati": riccati})
 
 
 def with_thresholds(
@@ -158,18 +144,17 @@ def with_thresholds(
     threshold_g: float | None = None,
     range_max: float | None = None,
 ) -> Case:
-    """The case with the command line's thresholds applied to every pipeline's settings
-    (``threshold_g`` is P1's gradient threshold; P2 has none)."""
-    ranging = {"threshold_e": threshold_e, "threshold_g": threshold_g, "range_max": range_max}
-    riccati = {"threshold_e": threshold_e, "range_max": range_max}
+    """The case with the command line's thresholds applied to the settings of every
+    registered pipeline that reads them (its ``case_options``: ``threshold_g`` is P1's
+    gradient threshold, P2 and P3 have none)."""
+    given = {"threshold_e": threshold_e, "threshold_g": threshold_g, "range_max": range_max}
     try:
-        return replace(
-            case,
-            ranging=replace(case.ranging, **{k: v for k, v in ranging.items() if v is not None}),
-            riccati=replace(case.riccati, **{k: v for k, v in riccati.items() if v is not None}),
-        )
+        for pipe in PIPELINES.values():
+            reads = {k: v for k, v in given.items() if k in pipe.case_options}
+            case = pipe.with_case_options(case, **reads)
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    return case
 
 
 def integer_case(case: Case, names: tuple[str, str] = ("left", "right")) -> Case:
@@ -216,25 +201,10 @@ def crop_case(case: Case, crop: Sequence[int] | None) -> Case:
 
 
 def load_image(path: str | Path) -> np.ndarray:
-    """A grey-level image from ``.npy`` or an image file; one clear error otherwise."""
-    p = Path(path)
-    if not p.is_file():
-        raise UserError(f"image file not found: {path}")
+    """A grey-level image from ``.npy`` or an image file
+    (:func:`rangefx.rtl_model.cases.read_image`); one clear error otherwise."""
     try:
-        if p.suffix == ".npy":
-            arr = np.load(p, allow_pickle=False)
-        else:
-            from skimage.io import imread
-
-            with warnings.catch_warnings():  # imageio's plugin search warns about plugins
-                warnings.simplefilter("ignore")
-                arr = imread(p)
-    except Exception:  # any decoder failure is the user's file
-        # one line, without the decoder's text: it runs to several lines of plugin hints
-        reason = "the file is empty" if p.stat().st_size == 0 else "not a readable image file"
-        raise UserError(f"cannot read image {path}: {reason}") from None
-    try:
-        return validate_image(arr, name=f"image {path}")
+        return read_image(path)
     except ValueError as exc:
         raise UserError(str(exc)) from None
 
@@ -255,51 +225,3 @@ def image_pixels(path: str | Path) -> int | None:
         return int(np.prod(shape[:2], dtype=object))
     except Exception:  # any header the readers cannot parse: load_image says why
         return None
-
-
-def image_case(
-    left: np.ndarray | str | Path,
-    right: np.ndarray | str | Path,
-    *,
-    f_px: float | None = None,
-    baseline: float | None = None,
-    camera: PinholeCamera | None = None,
-    motion: MotionIncrement | None = None,
-    label: str | None = None,
-) -> Case:
-    """A stereo case from a user's image pair: arrays, or paths of ``.npy`` or image files.
-
-    The camera is ``camera``, or a pinhole of the images' size with focal length ``f_px``
-    (pixels, principal point at the centre); the motion is ``motion``, or the stereo
-    baseline ``baseline`` along the camera's ``+y_c`` (E2 is the right camera). The
-    pipelines' settings are the defaults (:func:`with_thresholds` changes them).
-
-    Raises
-    ------
-    UserError
-        A file that cannot be read, images of different shapes, or neither a camera nor
-        ``f_px``, neither a motion nor ``baseline``.
-    """
-    named = [
-        str(x) if isinstance(x, (str, Path)) else n for x, n in ((left, "left"), (right, "right"))
-    ]
-    images = []
-    for image, name in zip((left, right), named, strict=True):
-        if isinstance(image, (str, Path)):
-            images.append(load_image(image))
-        else:
-            try:
-                images.append(validate_image(np.asarray(image), name=name))
-            except ValueError as exc:
-                raise UserError(str(exc)) from None
-    e1, e2 = images
-    if e1.shape != e2.shape:
-        raise UserError(f"image pair shapes differ: {named[0]} {e1.shape} vs {named[1]} {e2.shape}")
-    if (camera is None and f_px is None) or (motion is None and baseline is None):
-        raise UserError("an image pair needs --f-px and --baseline")
-    try:
-        camera = camera or PinholeCamera(e1.shape[1], e1.shape[0], f_px)
-        motion = motion or MotionIncrement.stereo(baseline)
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    return Case(e1, e2, camera, motion, label=label or f"{named[0]} + {named[1]}")

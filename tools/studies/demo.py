@@ -20,13 +20,13 @@ from rangefx.golden.estimator import EstimatorConfig, estimate_derivatives
 from rangefx.golden.methods import SCENE_RANGING, run_method
 from rangefx.golden.ranging import RangeResult
 from rangefx.golden.scenes import Scene, render_scene
+from rangefx.rtl_model.pipeline import Case
 from rangefx.rtl_model.registry import PIPELINES
 
 from .. import report
 from ..errors import UserError
 from ..report import atomic_write_text, json_safe
 from ..version import package_version
-from .cases import case_from_scene
 from .flights import guide_flight
 from .runner import golden_case, load_config, pipeline_figures, run_case
 
@@ -57,7 +57,7 @@ def demo_pipelines(
     map and error histogram PNGs, Table-1 CSV and the figures (without the per-signal
     ranges), keyed ``<pipeline>_<variant>`` (``<pipeline>`` for a single variant);
     ``names`` restricts the pipelines (default: all)."""
-    case = case_from_scene(scene)
+    case = Case.from_scene(scene)
     summary = {}
     for pipeline in (PIPELINES[n] for n in names or PIPELINES):
         if case.mode not in pipeline.modes:
@@ -144,15 +144,8 @@ def demo_into(
     results, summary_methods = {}, {}
     for m in DEMO_METHODS:
         step(m)
-        results[m] = run_method(
-            m,
-            scene.image1,
-            scene.image2,
-            scene.camera,
-            scene.motion,
-            estimator=est,
-            ranging=ranging,
-        )
+        results[m] = run_method(m, scene.image1, scene.image2, scene.camera, scene.motion,
+                                estimator=est, ranging=ranging)  # fmt: skip
         summary_methods[m] = _method_figures(scene, results[m])
         step("fixed point")
     p1_summary = demo_pipelines(scene, tmp, design, pipelines)

@@ -95,9 +95,17 @@ __all__ = [
 EVAL_METHODS: tuple[str, ...] = ("g2_central", "g3_consistent", "g3_paper", "g5_riccati")
 #: Methods scored under the Middlebury protocol: the report's and G6.
 MIDDLEBURY_METHODS: tuple[str, ...] = (*EVAL_METHODS, "g6_multiscale")
-#: Fixed-point pipelines scored as methods under the Middlebury protocol (P3 beside its
-#: golden G6), at the shipped default config and the user's ``max_disparity``.
-MIDDLEBURY_PIPELINES: tuple[str, ...] = ("p3",)
+
+
+def middlebury_pipelines() -> tuple[str, ...]:
+    """The registered pipelines scored as methods under the Middlebury protocol: those
+    with a :attr:`~rangefx.rtl_model.pipeline.Pipeline.search_range_field` (dense stereo),
+    at the shipped default config and the user's search range."""
+    return tuple(name for name, p in PIPELINES.items() if p.search_range_field)
+
+
+#: :func:`middlebury_pipelines` of the package's own pipelines (P3, beside its golden G6).
+MIDDLEBURY_PIPELINES: tuple[str, ...] = middlebury_pipelines()
 #: Factors of the Middlebury tables (the default factor is added).
 MIDDLEBURY_FACTORS: tuple[int, ...] = (4, 8, 16)
 #: The figures of every method under the Middlebury protocol (``--json``).
@@ -137,17 +145,9 @@ def _method_results(
     multiscale = MultiscaleConfig(max_disparity=max_disparity)
     out = {}
     for m in methods:
-        out[m] = run_method(
-            m,
-            data.image1,
-            data.image2,
-            data.camera,
-            data.motion,
-            ranging=ranging,
-            central=central,
-            riccati=riccati,
-            multiscale=multiscale,
-        )
+        out[m] = run_method(m, data.image1, data.image2, data.camera, data.motion,
+                            ranging=ranging, central=central, riccati=riccati,
+                            multiscale=multiscale)  # fmt: skip
     return out
 
 
@@ -238,17 +238,22 @@ def run_peers(
     return out, None
 
 
-def _p3_run(data: StereoData, max_disparity: float | None) -> tuple[np.ndarray, np.ndarray, int]:
-    """P3 at its shipped default on ``data``'s (possibly perturbed) pair rounded to
-    integer grey levels: (disparity, valid, overflows)."""
+def _pipeline_run(
+    name: str, data: StereoData, max_disparity: float | None
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Pipeline ``name`` at its shipped default (search range ``max_disparity``, None: its
+    own) on ``data``'s (possibly perturbed) pair rounded to integer grey levels:
+    (disparity, valid, overflows)."""
     case = real_pair_case(DATASETS[0], data.factor)
     image1, image2 = (
         np.clip(np.rint(im), 0, 255).astype(np.int64) for im in (data.image1, data.image2)
     )
     case = dataclasses.replace(case, image1=image1, image2=image2)
     to_dataset_unit = 1e3  # the case is in metres, the dataset's depth in mm
-    pipeline = PIPELINES[MIDDLEBURY_PIPELINES[0]]
-    config = load_config(pipeline, None, max_disparity=float(max_disparity or 0.0))
+    pipeline = PIPELINES[name]
+    config = load_config(
+        pipeline, None, **{pipeline.search_range_field: float(max_disparity or 0.0)}
+    )
     result = run_case(pipeline, case, config, taps=False)
     disparity = disparity_from_range(result.range * to_dataset_unit, data)
     return disparity, result.valid, result.overflow_total
@@ -257,7 +262,8 @@ def _p3_run(data: StereoData, max_disparity: float | None) -> tuple[np.ndarray, 
 def evaluate_middlebury(
     data: StereoData, *, peers: bool = False, max_disparity: float | None = None
 ) -> tuple[dict[str, dict], str | None]:
-    """Every method of :data:`MIDDLEBURY_METHODS`, P3 (and the OpenCV peers if
+    """Every method of :data:`MIDDLEBURY_METHODS`, :func:`middlebury_pipelines` (P3)
+    (and the OpenCV peers if
     ``peers``) on ``data`` with the user's ``max_disparity`` (None: each its own
     choice), scored with :func:`~rangefx.golden.realdata.middlebury_metrics`:
     ``{"methods": ..., "gt_informed": ..., "valid_in_both": ..., "overflows": ...}``
@@ -268,20 +274,21 @@ def evaluate_middlebury(
         methods[m] = _middlebury(data, disparity_from_range(r.range, data), r.valid)
     r = _method_results(data, ("g6_multiscale",), gt)["g6_multiscale"]
     informed["g6_multiscale"] = _middlebury(data, disparity_from_range(r.range, data), r.valid)
-    p3_disparity, p3_valid, overflows["p3"] = _p3_run(data, max_disparity)
-    methods["p3"] = _middlebury(data, p3_disparity, p3_valid)
-    d, v, overflows["p3_gt_informed"] = _p3_run(data, gt)
-    informed["p3"] = _middlebury(data, d, v)
+    runs = {}
+    for name in middlebury_pipelines():
+        runs[name] = _pipeline_run(name, data, max_disparity)
+        methods[name] = _middlebury(data, *runs[name][:2])
+        overflows[name] = runs[name][2]
+        d, v, overflows[f"{name}_gt_informed"] = _pipeline_run(name, data, gt)
+        informed[name] = _middlebury(data, d, v)
     note = None
     if peers:
         found, note = run_peers(data, max_disparity)
-        for name, (disparity, valid) in found.items():
-            methods[name] = _middlebury(data, disparity, valid)
-            common = valid & p3_valid
-            both[name] = {
-                "p3": _middlebury(data, p3_disparity, common),
-                name: _middlebury(data, disparity, common),
-            }
+        for peer, (disparity, valid) in found.items():
+            methods[peer] = _middlebury(data, disparity, valid)
+            common = valid & np.logical_and.reduce([v for _, v, _ in runs.values()])
+            both[peer] = {name: _middlebury(data, d, common) for name, (d, _, _) in runs.items()}
+            both[peer][peer] = _middlebury(data, disparity, common)
         for name, (disparity, valid) in run_peers(data, gt)[0].items():
             informed[name] = _middlebury(data, disparity, valid)
     out = {"methods": methods, "gt_informed": informed, "valid_in_both": both}

@@ -126,31 +126,16 @@ def _configs(guidance_interval: float, clearance_ft: float, replan_interval: flo
     return config, avoid
 
 
+# fmt: off
 def guide_flight(
-    obstacles: str = "synthetic",
-    *,
-    law: str = "avoid",
-    clearance_ft: float = 20.0,
-    shift: Sequence[float] = (0.0, 0.0, 0.0),
-    guidance_interval: float = 0.1,
-    replan_interval: float = 0.5,
-    layout_sweep: int | None = None,
-    stress: int | None = None,
-    pipeline: str = "p1",
-    seed: int = 0,
-    jobs: int = 1,
+    obstacles: str = "synthetic", *, law: str = "avoid", clearance_ft: float = 20.0,
+    shift: Sequence[float] = (0.0, 0.0, 0.0), guidance_interval: float = 0.1,
+    replan_interval: float = 0.5, layout_sweep: int | None = None, stress: int | None = None,
+    pipeline: str = "p1", seed: int = 0, jobs: int = 1,
 ) -> GuideResult:
-    """Fly a guidance programme: one flight of ``law`` on ``obstacles`` (default), the
-    layout sweep over ``layout_sweep`` random layouts, or the stress programme over
-    ``stress`` layouts of the runway scene ranged by ``pipeline`` (module docstring).
-
-    Raises
-    ------
-    UserError
-        A non-finite shift, a clearance that is not a positive number, a bad interval,
-        both programmes at once, fewer than one job, or a pipeline with neither a motion
-        nor a stereo mode.
-    """
+    """:func:`rangefx.api.guide` (its parameters and errors are documented there): one
+    flight of ``law`` on ``obstacles``, the layout sweep, or the stress programme."""
+    # fmt: on
     if len(shift) != 3 or not all(math.isfinite(v) for v in shift):
         raise UserError(f"--shift must be finite numbers, not {list(shift)}")
     if not (math.isfinite(clearance_ft) and clearance_ft > 0):

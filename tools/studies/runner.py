@@ -220,10 +220,8 @@ def range_source(
 ) -> Callable[[Scene], tuple[np.ndarray, np.ndarray]]:
     """A range-map source for :func:`rangefx.guidance.obstacles.runway_scene_obstacles`:
     the fixed-point pipeline on the scene (in the scene's mode: motion for ``runway``)."""
-    from .cases import case_from_scene
-
     pipe = get_pipeline(pipeline) if isinstance(pipeline, str) else pipeline
-    make = cases or case_from_scene
+    make = cases or Case.from_scene
 
     def source(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
         result = run_case(pipe, make(scene), config)

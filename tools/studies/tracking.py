@@ -252,16 +252,14 @@ class DegreesResult:
         return Path(out)
 
 
+# fmt: off
 def degree_tables(
-    scene: str = "lab",
-    *,
-    variant: str = "consistent",
-    order: int | None = None,
-    size: Sequence[int] | None = None,
-    seed: int = 0,
+    scene: str = "lab", *, variant: str = "consistent", order: int | None = None,
+    size: Sequence[int] | None = None, seed: int = 0,
 ) -> DegreesResult:
-    """Range the scene preset with the polynomial of every degree of :data:`DEGREES`
-    (module docstring); ``order`` fixes the estimator order (degrees up to it)."""
+    """:func:`rangefx.api.degrees`: the scene preset ranged with the polynomial of every
+    degree of :data:`DEGREES` (module docstring); ``order`` fixes the estimator order."""
+    # fmt: on
     try:
         size = None if size is None else (size[0], size[1])
         if size is not None:

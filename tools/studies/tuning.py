@@ -161,62 +161,20 @@ def _check_scenes(scenes: list[str], verify: str | None) -> None:
         )
 
 
+# fmt: off
 def optimise_on_scenes(
-    pipeline: Pipeline,
-    start: WordLengthConfig,
-    scenes: Sequence[str] = ("lab",),
-    *,
-    budget: float = 0.01,
-    agreement: float = 0.99,
-    margin: float = DEFAULT_MARGIN,
-    verify: str | None = None,
-    size: Sequence[int] | None = None,
-    signals: Sequence[str] | None = None,
-    tune_registers: bool = False,
-    workers: int = 2,
-    cost: str = "proxy",
-    synth_target: str = "xcup",
-    fmax_min: float | None = None,
-    timing_stage: str = "top",
-    timing_speed: int = 6,
-    progress: bool = True,
+    pipeline: Pipeline, start: WordLengthConfig, scenes: Sequence[str] = ("lab",), *,
+    budget: float = 0.01, agreement: float = 0.99, margin: float = DEFAULT_MARGIN,
+    verify: str | None = None, size: Sequence[int] | None = None,
+    signals: Sequence[str] | None = None, tune_registers: bool = False, workers: int = 2,
+    cost: str = "proxy", synth_target: str = "xcup", fmax_min: float | None = None,
+    timing_stage: str = "top", timing_speed: int = 6, progress: bool = True,
 ) -> OptimiseReport:
-    """The cheapest config of ``pipeline`` reachable from ``start`` that meets the budget
-    on every tuning scene, measured there and on the held-out ``verify`` scene.
-
-    Parameters
-    ----------
-    pipeline, start
-        The pipeline and the (safe) config the search starts from.
-    scenes
-        Tuning scenes (:data:`TUNING_SCENES`); the cost minimised is the first's.
-    budget, agreement
-        Maximum median relative range error and minimum validity agreement against the
-        golden, on every tuning scene.
-    margin
-        Guard band in ``[0, 1)``: while tuning, candidates meet the budget tightened by it
-        (:meth:`~rangefx.tools.studies.optimiser.Budget.tightened`); the result is
-        reported against the budget itself.
-    verify
-        A scene of :data:`VERIFY_SCENES` that is not a tuning scene, or None.
-    size
-        (height, width) the synthetic scenes are rendered at (default 512x512).
-    signals, tune_registers, workers
-        As :func:`rangefx.tools.studies.optimiser.optimise`.
-    cost, synth_target
-        ``"proxy"`` minimises ``cost_bits``; ``"synth"`` the Yosys LUT + FF of the whole
-        P1 on ``synth_target``.
-    fmax_min, timing_stage, timing_speed
-        P1: keep a narrowing only if the RTL (``timing_stage`` ``"top"`` or
-        ``"frontend"``) still places and routes at ``>= fmax_min`` MHz on an LFE5U-85F of
-        speed grade ``timing_speed`` (:func:`rangefx.tools.studies.timing.fmax_measure`;
-        the start must meet it too). None: no clock-rate floor.
-
-    Raises
-    ------
-    UserError
-        A bad budget, margin, signal, scene or a scene the pipeline does not model.
-    """
+    """:func:`rangefx.api.optimise` (its parameters and errors are documented there): the
+    cheapest config of ``pipeline`` reachable from ``start`` that meets the budget
+    (tightened by ``margin`` while tuning) on every tuning scene, measured there and on
+    the held-out ``verify`` scene."""
+    # fmt: on
     from .optimiser import optimise
 
     try:
