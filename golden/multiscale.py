@@ -64,8 +64,12 @@ difference for a disparity). Two options, each a config field:
 * ``vertical`` — eq 6 with the vertical term kept: ``e ≈ g u + g_y v`` with
   ``g_y = ½ (E1y + Wy)`` (central differences down the columns), solved over the
   window as a 2x2 system (the Lucas–Kanade form), ``v`` estimated and discarded:
-  ``Δu = -(Σgy² Σge - Σg gy Σgy e) / (Σg² Σgy² - (Σg gy)²)``. The residual test uses
-  the 2x2 fit's residual. Golden only (P3 does not build it).
+  ``Δu = -(Σgy² Σge - Σg gy Σgy e) / (Σg² Σgy² - (Σg gy)²)`` (one division: the
+  numerator ``ν_u`` over the determinant ``det``). The residual test uses the 2x2 fit's
+  residual, ``Σe² - (Σge ν_u + Σgy e ν_v) / det`` with ``ν_v = Σg² Σgy e - Σg gy Σge``
+  (the discarded ``v``'s numerator), and a pixel needs ``det > 0`` (the determinant
+  test). The central difference down the columns needs line ``y + 1`` of E1 and of W:
+  each warp stage takes one more line (:func:`streaming_schedule`). P3 builds it.
 
 The motion form (obstacle eq 28) is not built: there the disparity direction is radial
 from the focus of expansion and differs per pixel, so the warp is a 2-D resampling along
@@ -165,7 +169,7 @@ class MultiscaleConfig:
         ``R``: the normalisation's box is ``(2 R + 1)²`` px; also its latency in lines.
     vertical
         Keep the vertical term of eq 6: a 2x2 normal system per window, ``v`` discarded
-        (module docstring, "Real rigs"). Golden only: P3 does not build it.
+        (module docstring, "Real rigs").
     coarse_lag
         Lines (of the finer level) by which the up-sampled coarse estimate reaches each
         finer level late: fine line ``y`` starts from the coarse estimate of line
@@ -367,7 +371,9 @@ def disparity_g6(
     images, unless ``normalise`` is ``"none"``), ``ax`` (``E1x``), ``u_start``, and per warp
     ``k`` ``warp{k}`` (W), ``wx{k}``, ``g{k}``, ``err{k}`` (e), the row passes ``rgg{k}``,
     ``rge{k}``, ``ree{k}``, the window sums ``sgg{k}``, ``sge{k}``, ``see{k}``, ``du{k}``
-    and the updated ``u{k}``.
+    and the updated ``u{k}``; with ``vertical`` also ``ay`` (``E1y``), per warp ``wy{k}``,
+    ``gy{k}``, ``ryy{k}``, ``rgy{k}``, ``rye{k}``, ``syy{k}``, ``sgy{k}``, ``sye{k}``,
+    ``det{k}``, ``nu{k}`` (``ν_u``) and, after the last, ``nv`` (``ν_v``).
     """
     config = config or MultiscaleConfig()
     e1 = validate_image(image1, "image1")
@@ -397,6 +403,8 @@ def disparity_g6(
         ax = _filt(a, _CENTRAL, 1)
         ay = _filt(a, _CENTRAL, 0) if config.vertical else None
         traced = {"ax": ax, "u_start": u} if trace and level == 0 else None
+        if traced is not None and ay is not None:
+            traced["ay"] = ay
         if traced is not None and config.normalise != "none":
             traced.update({"e1.norm": a, "e2.norm": b})
         for k in range(config.warps):
@@ -407,16 +415,17 @@ def disparity_g6(
             rows = {"gg": _filt(g * g, w, 1), "ge": _filt(g * e, w, 1), "ee": _filt(e * e, w, 1)}
             sgg, sge, see = (_filt(rows[p], w, 0) for p in ("gg", "ge", "ee"))
             if config.vertical:  # the 2x2 system in (u, v); v discarded
-                gy = 0.5 * (ay + _filt(wimg, _CENTRAL, 0))
-                syy, sgy, sye = (_filt(_filt(p, w, 1), w, 0) for p in (gy * gy, g * gy, gy * e))
+                wy = _filt(wimg, _CENTRAL, 0)
+                gy = 0.5 * (ay + wy)
+                vrows = {"yy": _filt(gy * gy, w, 1), "gy": _filt(g * gy, w, 1)}
+                vrows["ye"] = _filt(gy * e, w, 1)
+                syy, sgy, sye = (_filt(vrows[p], w, 0) for p in ("yy", "gy", "ye"))
                 det = sgg * syy - sgy * sgy
+                nu = syy * sge - sgy * sye  # numerators of u and of the discarded v
+                nv = sgg * sye - sgy * sge
                 with np.errstate(divide="ignore", invalid="ignore"):
-                    du = np.where(det > 0, -(syy * sge - sgy * sye) / det, 0.0)
-                    fit = np.where(
-                        det > 0,
-                        (syy * sge * sge - 2 * sgy * sge * sye + sgg * sye * sye) / det,
-                        0.0,
-                    )
+                    du = np.where(det > 0, -nu / det, 0.0)
+                    fit = np.where(det > 0, (sge * nu + sye * nv) / det, 0.0)
             else:
                 with np.errstate(divide="ignore", invalid="ignore"):
                     du = np.where(sgg > 0, -sge / sgg, 0.0)  # normal equation of eq 10
@@ -425,12 +434,19 @@ def disparity_g6(
             if traced is not None:
                 stage = {"warp": wimg, "wx": wx, "g": g, "err": e, "sgg": sgg, "sge": sge}
                 stage.update(see=see, du=du, u=u, **{f"r{p}": v for p, v in rows.items()})
+                if config.vertical:
+                    stage.update(wy=wy, gy=gy, syy=syy, sgy=sgy, sye=sye, det=det, nu=nu)
+                    stage.update({f"r{p}": v for p, v in vrows.items()})
                 traced.update({f"{name}{k}": v for name, v in stage.items()})
     resid = np.sqrt(np.maximum(see - fit, 0.0))
     grad_rms = np.sqrt(sgg)
     _, inside = warp_rows(pyr[0][1], u)
+    solved = det > 0 if config.vertical else True  # the determinant test
+    if trace and config.vertical:
+        traced["nv"] = nv
     valid = (
-        (grad_rms >= config.threshold_g)
+        solved
+        & (grad_rms >= config.threshold_g)
         & (resid <= config.threshold_r)
         & inside
         & (u > 0)
@@ -521,6 +537,11 @@ def streaming_schedule(config: MultiscaleConfig, width: int, height: int | None 
       depth of the pyramid, and still lines, not a frame; ``coarse_lag`` lines of
       staleness accepted in the coarse estimate save as many delay lines. A level's
       warps start after ``max(R, delay)`` lines.
+    * **vertical** (``vertical``): the central differences down the columns hold 2 lines
+      of E1 per level and 2 lines of W per warp stage; ``g`` and ``e`` wait one line for
+      ``gy`` (1 line each per stage); the three more windowed products (``gy²``,
+      ``g gy``, ``gy e``) sum down the columns through ``2 r`` lines each; a warp stage's
+      latency is ``r + 1`` lines and E1, E2 and ``u`` wait that long.
 
     Returns per level ``width``, ``latency_lines`` (from the level's input line to its
     output line, in its own lines), ``delay_lines`` (the wait for the coarse estimate)
@@ -535,6 +556,7 @@ def streaming_schedule(config: MultiscaleConfig, width: int, height: int | None 
             raise ValueError(f"{name} must be a positive integer, not {v!r}")
     config = config.resolve(width)
     r, k = config.radius, config.warps
+    v = int(bool(config.vertical))  # the line below the centre, for the column differences
     rn = 0 if config.normalise == "none" else config.normalise_radius
     built = config.levels if height is None else pyramid_levels(config, (height, width))
     levels = []
@@ -543,13 +565,17 @@ def streaming_schedule(config: MultiscaleConfig, width: int, height: int | None 
         n_l = -(-width // 2**level)
         cap = config.disparity_limit / 2**level
         delay = 0 if lam_coarse is None else max(0, 4 + 2 * lam_coarse - config.coarse_lag)
-        lam = max(rn, delay) + k * r
+        lam = max(rn, delay) + k * (r + v)
         words = {
             "normalise": 2 * 2 * rn * n_l,
             "reduce": 0 if level == 0 else 2 * 4 * -(-width // 2 ** (level - 1)),
             "warp_row": k * (math.ceil(cap) + 4),
             "window_products": k * 3 * 2 * r * n_l,
-            "window_align": k * 3 * r * n_l,
+            "window_align": k * 3 * (r + v) * n_l,
+            "vertical_e1": v * 2 * n_l,
+            "vertical_warp": v * k * 2 * n_l,
+            "vertical_align": v * k * 2 * n_l,
+            "vertical_products": v * k * 3 * 2 * r * n_l,
             "expand": 0 if lam_coarse is None else -(-width // 2 ** (level + 1)),
             "coarse_delay": 2 * max(delay - rn, 0) * n_l,
         }

@@ -8,7 +8,9 @@ the reduce as one 5x5 sum, the expand as the bilinear formula, the warp from the
 fraction ``x - u``, the normalisation as the box sum at every level); every cast goes
 through the apytypes-based :func:`oracle_p1.cast_exact`, the dividers are the P1
 oracle's bit-level restoring loop or LUT + Newton reciprocal, the Keys ROM is built
-from the exact cubic. Python loops per pixel: tiny images only.
+from the exact cubic; the vertical term (``vertical``) as the page's 2x2 normal
+equations, the determinant and the two numerators written out. Python loops per pixel:
+tiny images only.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ __all__ = ["oracle_p3"]
 
 _BINOM = (1, 4, 6, 4, 1)
 _WARP_TAPS = ("warp", "wx", "g", "err", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
+_VERTICAL_TAPS = ("wy", "gy", "ryy", "rgy", "rye", "syy", "sgy", "sye", "det", "nu")
 
 
 def _scale(f: int) -> Fraction:
@@ -204,10 +207,17 @@ def oracle_p3(
         record = lv == 0
         ax = [[ctx.val(ctx.cast((a[y][_clip(x + 1, w)] - a[y][_clip(x - 1, w)]) / 2, "p3_grad"),
                        "p3_grad") for x in range(w)] for y in range(h)]  # fmt: skip
+        grad_lsb = _scale(fmt("p3_grad").frac)
         if record:
-            grad_lsb = _scale(fmt("p3_grad").frac)
             taps["ax"] = np.array([[int(v / grad_lsb) for v in row] for row in ax])
             taps["u_start"] = np.array(u)
+        vertical = bool(config.vertical)
+        if vertical:  # E1y: central difference down the columns
+            ay = [[ctx.val(ctx.cast((a[_clip(y + 1, h)][x] - a[_clip(y - 1, h)][x]) / 2,
+                                    "p3_grad"), "p3_grad") for x in range(w)]
+                  for y in range(h)]  # fmt: skip
+            if record:
+                taps["ay"] = np.array([[int(v / grad_lsb) for v in row] for row in ay])
         for k in range(K):
             W, WX, G, E = [], [], [], []
             for y in range(h):
@@ -237,6 +247,16 @@ def oracle_p3(
                 "ge": [[gv[y][x] * ev[y][x] for x in range(w)] for y in range(h)],
                 "ee": [[ev[y][x] * ev[y][x] for x in range(w)] for y in range(h)],
             }
+            if vertical:  # Wy, gy = (E1y + Wy) / 2 and the three more products
+                wv = [[ctx.val(c, "p3_warp") for c in row] for row in W]
+                WY = [[ctx.cast((wv[_clip(y + 1, h)][x] - wv[_clip(y - 1, h)][x]) / 2, "p3_grad")
+                       for x in range(w)] for y in range(h)]  # fmt: skip
+                GY = [[ctx.cast((ay[y][x] + ctx.val(WY[y][x], "p3_grad")) / 2, "p3_gy")
+                       for x in range(w)] for y in range(h)]  # fmt: skip
+                yv = [[ctx.val(c, "p3_gy") for c in row] for row in GY]
+                products["yy"] = [[yv[y][x] * yv[y][x] for x in range(w)] for y in range(h)]
+                products["gy"] = [[gv[y][x] * yv[y][x] for x in range(w)] for y in range(h)]
+                products["ye"] = [[yv[y][x] * ev[y][x] for x in range(w)] for y in range(h)]
             for name, prod in products.items():
                 row_sum = [[ctx.cast(sum(win[abs(j)] * prod[y][_clip(x + j, w)]
                                          for j in range(-r, r + 1)), f"p3_r{name}")
@@ -248,39 +268,71 @@ def oracle_p3(
                 out[f"r{name}"], out[f"s{name}"] = row_sum, col_sum
             DU = []
             f_sge, f_sgg, f_du = fmt("p3_sge").frac, fmt("p3_sgg").frac, fmt("p3_du").frac
+            f_nu, f_det = fmt("p3_nu").frac, fmt("p3_det").frac
+            if vertical:  # det and u's numerator of the 2x2 system, exact, then cast
+                S = {q: [[ctx.val(c, f"p3_s{q}") for c in row] for row in out[f"s{q}"]]
+                     for q in ("gg", "ge", "yy", "gy", "ye")}  # fmt: skip
+                out["det"] = [[ctx.cast(S["gg"][y][x] * S["yy"][y][x] - S["gy"][y][x] ** 2,
+                                        "p3_det") for x in range(w)] for y in range(h)]  # fmt: skip
+                out["nu"] = [[ctx.cast(S["yy"][y][x] * S["ge"][y][x]
+                                       - S["gy"][y][x] * S["ye"][y][x], "p3_nu")
+                              for x in range(w)] for y in range(h)]  # fmt: skip
             for y in range(h):
                 drow = []
                 for x in range(w):
                     gg, ge = out["sgg"][y][x], out["sge"][y][x]
-                    num, den = (-ge, gg) if gg > 0 else (0, 1)
-                    q, _ = ctx.divide(num, f_sge, den, f_sgg, "p3_du")
+                    if vertical:
+                        dd, nn = out["det"][y][x], out["nu"][y][x]
+                        num, den = (-nn, dd) if dd > 0 else (0, 1)
+                        q, _ = ctx.divide(num, f_nu, den, f_det, "p3_du")
+                    else:
+                        num, den = (-ge, gg) if gg > 0 else (0, 1)
+                        q, _ = ctx.divide(num, f_sge, den, f_sgg, "p3_du")
                     drow.append(q)
                     un = ctx.cast(ctx.val(u[y][x], "p3_u") + q * _scale(f_du), "p3_u")
                     u[y][x] = min(max(un, 0), UMAX[lv])
                 DU.append(drow)
             if record:
                 arrays = {"warp": W, "wx": WX, "g": G, "err": E, **out, "du": DU, "u": u}
-                for t in _WARP_TAPS:
+                if vertical:
+                    arrays.update(wy=WY, gy=GY)
+                for t in _WARP_TAPS + (_VERTICAL_TAPS if vertical else ()):
                     taps[f"{t}{k}"] = np.array(arrays[t], dtype=np.int64)
             sums = out
     # level 0: residual and gradient tests, inside, range
     assert sums is not None
-    names = ("res", "rthr", "valid", "range")
+    vertical = bool(config.vertical)
+    names = (
+        ("nv", "res", "rthr", "valid", "range") if vertical else ("res", "rthr", "valid", "range")
+    )
     final = {t: np.zeros((m, n), dtype=np.int64) for t in names}
     f_fb = fmt("p3_fb").frac
     for y in range(m):
         for x in range(n):
             gg, ge, ee = sums["sgg"][y][x], sums["sge"][y][x], sums["see"][y][x]
             sgg, sge, see = ctx.val(gg, "p3_sgg"), ctx.val(ge, "p3_sge"), ctx.val(ee, "p3_see")
-            res = ctx.cast(see * sgg - sge * sge, "p3_res")
-            rthr = ctx.cast(TR2 * sgg, "p3_res")
+            solved = True
+            if vertical:  # the 2x2 fit's residual times det: Σe² det - Σge nu - Σye nv
+                sgy, sye = (
+                    ctx.val(sums["sgy"][y][x], "p3_sgy"),
+                    ctx.val(sums["sye"][y][x], "p3_sye"),
+                )
+                det, nu = ctx.val(sums["det"][y][x], "p3_det"), ctx.val(sums["nu"][y][x], "p3_nu")
+                nv = ctx.cast(sgg * sye - sgy * sge, "p3_nv")
+                final["nv"][y, x] = nv
+                res = ctx.cast(see * det - sge * nu - sye * ctx.val(nv, "p3_nv"), "p3_res")
+                rthr = ctx.cast(TR2 * det, "p3_res")
+                solved = det > 0
+            else:
+                res = ctx.cast(see * sgg - sge * sge, "p3_res")
+                rthr = ctx.cast(TR2 * sgg, "p3_res")
             uu = u[y][x]
             src = x - ctx.val(uu, "p3_u")
             gate = uu > 0 and uu >= UMIN
             num, den = (FB, uu) if gate else (0, 1)
             z, flag = ctx.divide(num, f_fb, den, f_u, "p3_range")
             ok = (gg >= TG2 and res <= rthr and 0 <= src <= n - 1 and gate and uu <= UMAX[0]
-                  and not flag and 0 < z <= RMAX)  # fmt: skip
+                  and not flag and 0 < z <= RMAX and solved)  # fmt: skip
             final["res"][y, x], final["rthr"][y, x] = res, rthr
             final["valid"][y, x] = int(ok)
             final["range"][y, x] = z if ok else RMAX

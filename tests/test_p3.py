@@ -13,13 +13,17 @@ from fractions import Fraction
 import numpy as np
 import pytest
 from bitexact_cases import assert_bit_exact, p3_case
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from oracles import ORACLES
 
 from rangefx.golden.geometry import MotionIncrement
 from rangefx.golden.multiscale import streaming_schedule
 from rangefx.golden.realdata import (
     Perturbation,
+    disparity_from_range,
     load_motorcycle,
+    middlebury_metrics,
     perturb_right,
     search_range,
 )
@@ -195,3 +199,100 @@ def test_p3_builds_the_normalisations_it_models():
     names = {t.name: t for t in P3.tap_table(P3.default_config())}
     assert names["e1.norm"].signal == names["e2.norm"].signal == "p3_norm"
     assert "e1.norm" not in {t.name for t in P3.tap_table(P3.default_config(normalise="none"))}
+
+
+# -- the vertical term (issue 38) -------------------------------------------------------
+VERTICAL_SIGNALS = (
+    "p3_gy", "p3_ryy", "p3_rgy", "p3_rye", "p3_syy", "p3_sgy", "p3_sye", "p3_det", "p3_nu",
+    "p3_nv", "p3_res", "p3_du",
+)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("seed", "kind", "design"),
+    [
+        (1, "random", {}),
+        (2, "lab", {"radius": 2, "sigma": 1.0, "levels": 2, "divider": "restoring"}),
+        (3, "random", {"warps": 3, "coarse_lag": 1, "normalise": "none", "levels": 2}),
+        (4, "lab", {"radius": 1, "sigma": 0.8, "levels": 3, "keys_bits": 4, "warps": 1}),
+    ],
+)
+def test_vertical_term_is_bit_exact_against_the_oracle(seed, kind, design):
+    """The 2x2 normal equations (``vertical``): every tap, the outputs, every overflow
+    count and min/max as the oracle's exact arithmetic gives them, with taps and without
+    (the same outputs, counts and log)."""
+    config = P3.default_config(vertical=True, **design)
+    case = p3_case(seed, kind)
+    ref = ORACLES["p3"].run(case, config)
+    result = P3.run(case, config, taps=True)
+    assert_bit_exact(result, ref)
+    assert {"ay", "gy0", "det0", "nu0", "nv"} <= set(result.taps)
+    fast = P3.run(case, config, taps=False)
+    assert np.array_equal(fast.range_raw, ref.range_raw)
+    assert np.array_equal(fast.valid, ref.valid)
+    assert dict(fast.overflows) == ref.overflows and dict(fast.minmax) == ref.minmax
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    seed=st.integers(0, 2**16),
+    quant=st.sampled_from([Quant.RND, Quant.TRN]),
+    overflow=st.sampled_from([Overflow.SAT, Overflow.WRAP]),
+    drop=st.lists(st.tuples(st.integers(0, 12), st.integers(-2, 3)), min_size=12, max_size=12),
+)
+def test_vertical_term_is_bit_exact_over_formats(seed, quant, overflow, drop):
+    """Property: the vertical signals in any modes, narrowed by 0..12 integer bits and
+    -2..3 fraction bits (so that some overflow, wrap or saturate), model == oracle bit for
+    bit."""
+    base = P3.default_config(vertical=True, radius=2, sigma=1.0, levels=2)
+    formats = dict(base.formats)
+    for name, (d_int, d_frac) in zip(VERTICAL_SIGNALS, drop, strict=True):
+        f = formats[name]
+        ovf = Overflow.SAT if name in base.QUOTIENTS else overflow
+        word = max(2, f.word - d_int - d_frac)
+        formats[name] = FixedFormat(f.signed, word, f.frac - d_frac, quant, ovf)
+    config = base.with_(formats=formats)
+    case = p3_case(seed % 7, "random" if seed % 2 else "lab")
+    assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))
+
+
+def test_vertical_term_schedule_and_cost():
+    """Each warp stage takes one more line (the column differences need line y + 1), the
+    output leaves the schedule's latency after its input, and the vertical term's line
+    buffers, registers and multipliers are counted."""
+    off, on = P3.default_config(vertical=False), P3.default_config(vertical=True)
+    m, n = 512, 512
+    s_off = streaming_schedule(off.multiscale(), n, m)
+    s_on = streaming_schedule(on.multiscale(), n, m)
+    warps = on.warps
+    assert s_on["levels"][-1]["latency_lines"] == s_off["levels"][-1]["latency_lines"] + warps
+    assert buffer_bits(off, (m, n))["vertical"] == 0 < buffer_bits(on, (m, n))["vertical"]
+    c_off, c_on = P3.cost(off, (m, n)), P3.cost(on, (m, n))
+    assert c_on.dsp > c_off.dsp and c_on.register_bits > c_off.register_bits
+    assert c_on.line_buffer_bits == sum(buffer_bits(on, (m, n)).values())
+    result = P3.run(scene_case("lab"), on, taps=False)
+    assert result.schedule["latency_lines"] == s_on["latency_lines"]
+    lines = (result.out_cycles - result.in_cycles) // n
+    assert lines.min() == s_on["latency_lines"]
+
+
+def test_vertical_term_meets_the_misalignment_target():
+    """1/8, the right image 1 px lower (``rangefx eval --perturb vshift=1``): with the
+    vertical term P3 keeps density >= 0.75 and MAE <= 0.6 px; without it, it does not."""
+    data = load_motorcycle(8)
+    shifted = perturb_right(data, Perturbation(vshift=1.0))
+    figures = {}
+    case = replace(
+        real_pair_case("motorcycle", 8),
+        image2=np.clip(np.rint(shifted.image2), 0, 255).astype(np.int64),
+    )
+    for vertical in (False, True):
+        result = P3.run(case, P3.default_config(vertical=vertical), taps=False)
+        assert result.overflow_total == 0
+        disparity = disparity_from_range(result.range * 1e3, shifted)  # m -> the pair's mm
+        figures[vertical] = middlebury_metrics(
+            disparity, result.valid, shifted.disparity, shifted.metric_depth,
+            shifted.doffs_px, shifted.camera.f_px, abs(shifted.motion.camera_displacement[1]),
+        )  # fmt: skip
+    assert figures[True]["density"] >= 0.75 and figures[True]["mae_px"] <= 0.6, figures
+    assert figures[False]["mae_px"] > 0.6, figures

@@ -29,21 +29,43 @@ _SIGNAL_TABLE: tuple[tuple[str, str], ...] = (
     ("p3_pyr", "pyramid levels 1.. of E1, E2 (5-tap binomial reduce)"),
     ("p3_nbox", "register: 1 / (2R + 1)^2, the weight of the normalisation's box mean"),
     ("p3_norm", "N = E - mean(E) over the box, each camera and level"),
-    ("p3_grad", "central differences along the row, E1x and Wx (eqs 18-19)"),
+    (
+        "p3_grad",
+        "central differences along the row, E1x and Wx (eqs 18-19), and with vertical "
+        "down the columns, E1y and Wy",
+    ),
     ("p3_keys", "ROM: Keys cubic weights of the warp, 4 per fraction index"),
     ("p3_warp", "W = E2(x - u), the warped second image (Keys cubic)"),
     ("p3_g", "g = (E1x + Wx) / 2, the eq 6 mean gradient"),
+    ("p3_gy", "vertical: gy = (E1y + Wy) / 2, the mean gradient down the columns"),
     ("p3_e", "e = E1 - W, c1 of eq 10 about the current estimate"),
     ("p3_win", "register: Gaussian window taps w_0..w_r (symmetric)"),
     ("p3_rgg", "row pass of the window on g^2"),
     ("p3_rge", "row pass of the window on g e"),
     ("p3_ree", "row pass of the window on e^2"),
+    ("p3_ryy", "vertical: row pass of the window on gy^2"),
+    ("p3_rgy", "vertical: row pass of the window on g gy"),
+    ("p3_rye", "vertical: row pass of the window on gy e"),
     ("p3_sgg", "window sum of g^2 (column pass) and the T_g^2 register"),
     ("p3_sge", "window sum of g e (column pass)"),
     ("p3_see", "window sum of e^2 (column pass)"),
-    ("p3_du", "du = -sum(g e) / sum(g^2) (divider quotient, eq 10 normal equation)"),
+    ("p3_syy", "vertical: window sum of gy^2 (column pass)"),
+    ("p3_sgy", "vertical: window sum of g gy (column pass)"),
+    ("p3_sye", "vertical: window sum of gy e (column pass)"),
+    ("p3_det", "vertical: det = sum(g^2) sum(gy^2) - sum(g gy)^2, the 2x2 system's determinant"),
+    ("p3_nu", "vertical: nu = sum(gy^2) sum(g e) - sum(g gy) sum(gy e), the numerator of du"),
+    ("p3_nv", "vertical: nv = sum(g^2) sum(gy e) - sum(g gy) sum(g e), v's numerator (residual)"),
+    (
+        "p3_du",
+        "du = -sum(g e) / sum(g^2), with vertical -nu / det (divider quotient, eq 10 "
+        "normal equations)",
+    ),
     ("p3_u", "disparity u (px of its level), its expansion, registers u_max, u_min"),
-    ("p3_res", "residual test: sum(e^2) sum(g^2) - sum(g e)^2 and T_r^2 sum(g^2)"),
+    (
+        "p3_res",
+        "residual test: sum(e^2) sum(g^2) - sum(g e)^2 and T_r^2 sum(g^2); with "
+        "vertical sum(e^2) det - sum(g e) nu - sum(gy e) nv and T_r^2 det",
+    ),
     ("p3_tr2", "register: T_r^2"),
     ("p3_fb", "register: f B (px x length unit)"),
     ("p3_range", "range z = f B / u (divider quotient) and range_max"),
@@ -62,9 +84,10 @@ MULTISCALE_FIELDS: tuple[str, ...] = (
     "coarse_lag",
     "normalise",
     "normalise_radius",
+    "vertical",
 )
 #: The normalisations P3 builds (G6's ``"zncc"`` needs a square root and a divider per
-#: pixel and camera: golden only, as is G6's ``vertical`` term).
+#: pixel and camera: golden only).
 P3_NORMALISATIONS: tuple[str, ...] = ("none", "local_mean")
 #: G6's measured defaults: P3's design fields default to them.
 _G6 = MultiscaleConfig()
@@ -91,6 +114,9 @@ class P3Config(WordLengthConfig):
         G6's photometric normalisation, one of :data:`P3_NORMALISATIONS` (``"none"``:
         the warps read the pyramid's ``p3_pix`` / ``p3_pyr``; ``"local_mean"``: each
         level's ``p3_norm``), and its box radius.
+    vertical
+        G6's vertical term: the window's 2x2 normal equations in (u, v), ``v`` estimated
+        and discarded (``p3_gy`` .. ``p3_nv``; the determinant test for validity).
     keys_bits
         Fraction bits of the warp's position ``x - u`` (rounded to them) that index the
         Keys weight ROM (``2**keys_bits`` rows of 4 weights).
@@ -115,6 +141,7 @@ class P3Config(WordLengthConfig):
     coarse_lag: int = _G6.coarse_lag
     normalise: str = _G6.normalise
     normalise_radius: int = _G6.normalise_radius
+    vertical: bool = _G6.vertical
     keys_bits: int = 8
     divider: str = "reciprocal"
     recip_lut_bits: int = 8
@@ -196,10 +223,30 @@ class P3Config(WordLengthConfig):
         yield "p3_u", ((f["p3_u"],),) * 4, 1  # the expand
         yield "p3_res", ((f["p3_see"], f["p3_sgg"]), (f["p3_sge"], f["p3_sge"])), 0
         yield "p3_res", ((f["p3_tr2"], f["p3_sgg"]),), 0
+        if not self.vertical:
+            return
+        yield "p3_grad", ((level,), (level,), (f["p3_warp"],), (f["p3_warp"],)), 1
+        yield "p3_gy", ((f["p3_grad"],), (f["p3_grad"],)), 1
+        gy = f["p3_gy"]
+        yield "p3_ryy", ((win, gy, gy),) * taps, 0
+        yield "p3_rgy", ((win, g, gy),) * taps, 0
+        yield "p3_rye", ((win, gy, e),) * taps, 0
+        for row, col in (("p3_ryy", "p3_syy"), ("p3_rgy", "p3_sgy"), ("p3_rye", "p3_sye")):
+            yield col, ((win, f[row]),) * taps, 0
+        sgg, sge, see, syy, sgy, sye = (
+            f[s] for s in ("p3_sgg", "p3_sge", "p3_see", "p3_syy", "p3_sgy", "p3_sye")
+        )
+        yield "p3_det", ((sgg, syy), (sgy, sgy)), 0
+        yield "p3_nu", ((syy, sge), (sgy, sye)), 0
+        yield "p3_nv", ((sgg, sye), (sgy, sge)), 0
+        det, nu, nv = f["p3_det"], f["p3_nu"], f["p3_nv"]
+        yield "p3_res", ((see, det), (sge, nu), (sye, nv)), 0
+        yield "p3_res", ((f["p3_tr2"], det),), 0
 
     def divider_intermediates(self) -> Iterable[tuple[str, int, str]]:
         f = self.formats
-        for out, num, den in (("p3_du", "p3_sge", "p3_sgg"), ("p3_range", "p3_fb", "p3_u")):
+        du = ("p3_du", "p3_nu", "p3_det") if self.vertical else ("p3_du", "p3_sge", "p3_sgg")
+        for out, num, den in (du, ("p3_range", "p3_fb", "p3_u")):
             n, d, q = f[num], f[den], f[out]
             if self.divider == "restoring":
                 need = signed_bits(n) + max(0, q.frac + 1 + d.frac - n.frac) + 1

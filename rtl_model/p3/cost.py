@@ -12,7 +12,9 @@ Registers
     level and the output stage (``res``, ``rthr``, ``range``); host registers: the
     ``r + 1`` window taps, ``T_g^2`` (a ``p3_sgg`` word), ``T_r^2``, ``fB``, ``u_max`` per
     level and ``u_min`` (``p3_u`` words), ``range_max`` (a ``p3_range`` word). The Keys ROM
-    is counted as a memory (``2**keys_bits`` words of 4 weights).
+    is counted as a memory (``2**keys_bits`` words of 4 weights). With ``vertical``: ``ay``
+    once per level; per warp stage ``Wy``, ``gy``, the three more row passes' tap shift
+    registers and sums, their column sums, ``det`` and ``nu``; ``nv`` at the output.
 Buffers
     Every line buffer of the streaming schedule
     (:func:`~rangefx.rtl_model.p3.model.buffer_bits`): the normalisation's ``2 R`` lines
@@ -25,7 +27,10 @@ DSP slices
     stage: the warp's 4 products, ``g^2``, ``g e``, ``e^2``, the window's ``r + 1``
     products per pass and product (the symmetric taps share one after a pre-add), the
     divider's; at level 0 ``Σe² Σg²``, ``(Σge)²``, ``T_r^2 Σg²`` and the
-    range divider's.
+    range divider's. With ``vertical`` per warp stage ``gy²``, ``g gy``, ``gy e``, their
+    row and column passes, two products each for ``det`` and ``nu``; at level 0 two
+    for ``nv`` and ``Σe² det``, ``Σge nu``, ``Σye nv``, ``T_r^2 det`` in place of the
+    1-D residual's three.
 """
 
 from __future__ import annotations
@@ -67,6 +72,13 @@ def register_bits(config: P3Config, shape: tuple[int, int]) -> int:
     per_stage += taps * products
     per_stage += sum(f[s] for s in ("p3_rgg", "p3_rge", "p3_ree", "p3_sgg", "p3_sge", "p3_see"))
     total += stages * per_stage
+    if config.vertical:
+        total += levels * f["p3_grad"] + f["p3_nv"]
+        vstage = f["p3_grad"] + f["p3_gy"] + f["p3_det"] + f["p3_nu"]
+        gy = f["p3_gy"]
+        vstage += taps * (2 * gy + f["p3_g"] + gy + gy + f["p3_e"])
+        vstage += sum(f[s] for s in ("p3_ryy", "p3_rgy", "p3_rye", "p3_syy", "p3_sgy", "p3_sye"))
+        total += stages * vstage
     total += 2 * f["p3_res"] + f["p3_range"]
     total += (config.radius + 1) * f["p3_win"] + f["p3_sgg"] + f["p3_tr2"] + f["p3_fb"]
     total += (levels + 1) * f["p3_u"] + f["p3_range"]
@@ -93,16 +105,45 @@ def multipliers(config: P3Config, shape: tuple[int, int]) -> list[Multiplier]:
         Multiplier("column pass: w * rgg", win, _bits(f["p3_rgg"]) + 1, taps * stages),
         Multiplier("column pass: w * rge", win, _bits(f["p3_rge"]) + 1, taps * stages),
         Multiplier("column pass: w * ree", win, _bits(f["p3_ree"]) + 1, taps * stages),
-        Multiplier("res: see * sgg", _bits(f["p3_see"]), _bits(f["p3_sgg"])),
-        Multiplier("res: sge^2", _bits(f["p3_sge"]), _bits(f["p3_sge"])),
-        Multiplier("rthr: T_r^2 * sgg", _bits(f["p3_tr2"]), _bits(f["p3_sgg"])),
     ]
+    b = {s: _bits(f[s]) for s in ("p3_sgg", "p3_sge", "p3_see", "p3_syy", "p3_sgy", "p3_sye",
+                                  "p3_det", "p3_nu", "p3_nv", "p3_tr2")}  # fmt: skip
+    if config.vertical:
+        gy = _bits(f["p3_gy"])
+        muls += [
+            Multiplier("gy^2", gy, gy, stages),
+            Multiplier("g gy", g, gy, stages),
+            Multiplier("gy e", gy, e, stages),
+            Multiplier("row pass: w * gy^2", win, 2 * gy + 1, taps * stages),
+            Multiplier("row pass: w * g gy", win, g + gy + 1, taps * stages),
+            Multiplier("row pass: w * gy e", win, gy + e + 1, taps * stages),
+            Multiplier("column pass: w * ryy", win, _bits(f["p3_ryy"]) + 1, taps * stages),
+            Multiplier("column pass: w * rgy", win, _bits(f["p3_rgy"]) + 1, taps * stages),
+            Multiplier("column pass: w * rye", win, _bits(f["p3_rye"]) + 1, taps * stages),
+            Multiplier("det: sgg * syy", b["p3_sgg"], b["p3_syy"], stages),
+            Multiplier("det: sgy^2", b["p3_sgy"], b["p3_sgy"], stages),
+            Multiplier("nu: syy * sge", b["p3_syy"], b["p3_sge"], stages),
+            Multiplier("nu: sgy * sye", b["p3_sgy"], b["p3_sye"], stages),
+            Multiplier("nv: sgg * sye", b["p3_sgg"], b["p3_sye"]),
+            Multiplier("nv: sgy * sge", b["p3_sgy"], b["p3_sge"]),
+            Multiplier("res: see * det", b["p3_see"], b["p3_det"]),
+            Multiplier("res: sge * nu", b["p3_sge"], b["p3_nu"]),
+            Multiplier("res: sye * nv", b["p3_sye"], b["p3_nv"]),
+            Multiplier("rthr: T_r^2 * det", b["p3_tr2"], b["p3_det"]),
+        ]
+    else:
+        muls += [
+            Multiplier("res: see * sgg", b["p3_see"], b["p3_sgg"]),
+            Multiplier("res: sge^2", b["p3_sge"], b["p3_sge"]),
+            Multiplier("rthr: T_r^2 * sgg", b["p3_tr2"], b["p3_sgg"]),
+        ]
     if config.normalise != "none":
         box = max(_bits(f["p3_pix"]), _bits(f["p3_pyr"])) + _box_bits(config)
         levels = len(level_shapes(config, shape))
         muls.append(Multiplier("normalise: 1/box * box sum", _bits(f["p3_nbox"]), box, 2 * levels))
     if config.divider == "reciprocal":
-        muls += reciprocal_multipliers(config.recip_bits, "divider du", _bits(f["p3_sge"]), stages)
+        num = b["p3_nu"] if config.vertical else b["p3_sge"]
+        muls += reciprocal_multipliers(config.recip_bits, "divider du", num, stages)
         muls += reciprocal_multipliers(config.recip_bits, "divider range", _bits(f["p3_fb"]), 1)
     return muls
 
@@ -129,8 +170,16 @@ def config_cost(config: P3Config, shape: tuple[int, int], mode: str = "stereo") 
         r = config.radius
         if level:
             bram += 2 * bram18_blocks(n_parent, 4 * (parent + 4))
+        v = int(bool(config.vertical))
         bram += config.warps * bram18_blocks(n_l, 2 * r * rows)
-        bram += config.warps * bram18_blocks(n_l, r * (2 * pix + u))
+        bram += config.warps * bram18_blocks(n_l, (r + v) * (2 * pix + u))
+        if v:  # E1's and W's column-difference lines, g and e waiting for gy, 3 row sums
+            vrows = f["p3_ryy"].word + f["p3_rgy"].word + f["p3_rye"].word
+            bram += bram18_blocks(n_l, 2 * pix)
+            bram += config.warps * bram18_blocks(
+                n_l, 2 * f["p3_warp"].word + f["p3_g"].word + f["p3_e"].word
+            )
+            bram += config.warps * bram18_blocks(n_l, 2 * r * vrows)
         if lv["delay_lines"]:
             if lv["buffer_words"]["coarse_delay"]:  # raw pixels: normalised as they leave
                 bram += 2 * bram18_blocks(lv["buffer_words"]["coarse_delay"] // 2, raw)

@@ -42,6 +42,7 @@ _I, _R, _P = KERNEL_INT, KERNEL_ROW, KERNEL_PLANE
 
 __all__ = [
     "N_SITES",
+    "VERTICAL_TAPS",
     "WARP_TAPS",
     "P3Registers",
     "buffer_bits",
@@ -61,9 +62,13 @@ __all__ = [
 ]
 
 _SIG = {name: k for k, name in enumerate(P3_SIGNALS)}
-PIX, NBOX, NORM, PYR, GRAD, KEYS, WARP, G, E, WIN = (
+PIX, NBOX, NORM, PYR, GRAD, KEYS, WARP, G, GY, E, WIN = (
     _SIG[s] for s in ("p3_pix", "p3_nbox", "p3_norm", "p3_pyr", "p3_grad", "p3_keys",
-                      "p3_warp", "p3_g", "p3_e", "p3_win")
+                      "p3_warp", "p3_g", "p3_gy", "p3_e", "p3_win")
+)  # fmt: skip
+RYY, RGY, RYE, SYY, SGY, SYE, DET, NU, NV = (
+    _SIG[s] for s in ("p3_ryy", "p3_rgy", "p3_rye", "p3_syy", "p3_sgy", "p3_sye", "p3_det",
+                      "p3_nu", "p3_nv")
 )  # fmt: skip
 RGG, RGE, REE, SGG, SGE, SEE, DU, U, RES, TR2, FB, RANGE = (
     _SIG[s] for s in ("p3_rgg", "p3_rge", "p3_ree", "p3_sgg", "p3_sge", "p3_see", "p3_du",
@@ -75,15 +80,25 @@ S_PIX1, S_PIX2, S_PYR0, S_PYR1, S_EXPAND, S_RES, S_RTHR = range(7)
 #: Normalisation sites, per stream: level 0 (from ``p3_pix``), the coarser levels (from
 #: ``p3_pyr``).
 S_NORM = ((7, 8), (9, 10))
-#: Per-level sites: base + offset, base ``S_LEVEL`` at level 0, ``S_LEVEL + 12`` at the
-#: coarser levels (the pixels the warps read at ``p3_pix``'s / ``p3_pyr``'s fraction
-#: bits, or at ``p3_norm``'s at every level when normalising).
+#: Per-level sites: base + offset, base ``S_LEVEL`` at level 0, ``S_LEVEL + N_LEVEL_SITES``
+#: at the coarser levels (the pixels the warps read at ``p3_pix``'s / ``p3_pyr``'s
+#: fraction bits, or at ``p3_norm``'s at every level when normalising); ``L_AY`` on are
+#: the vertical term's.
 S_LEVEL = 11
 L_AX, L_WARP, L_WX, L_G, L_E, L_RGG, L_RGE, L_REE, L_SGG, L_SGE, L_SEE, L_U = range(12)
-N_SITES = S_LEVEL + 24
+L_AY, L_WY, L_GY, L_RYY, L_RGY, L_RYE, L_SYY, L_SGY, L_SYE, L_DET, L_NU = range(12, 23)
+N_LEVEL_SITES = 23
+#: The vertical residual's ``nv`` (level 0, once).
+S_NV = S_LEVEL + 2 * N_LEVEL_SITES
+N_SITES = S_NV + 1
 
 #: Taps of one warp stage at level 0 (tap name = base + warp index, e.g. ``warp0``).
 WARP_TAPS = ("warp", "wx", "g", "err", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
+#: The vertical term's taps of one warp stage (after :data:`WARP_TAPS`).
+VERTICAL_TAPS = ("wy", "gy", "ryy", "rgy", "rye", "syy", "sgy", "sye", "det", "nu")
+N_STAGE_TAPS, N_STAGE_TAPS_V = len(WARP_TAPS), len(WARP_TAPS) + len(VERTICAL_TAPS)
+#: Window sums a level leaves for the output stage (:func:`_final_kernel`), in this order.
+N_SUMS = 8
 #: The 5-tap binomial of the reduce (weights / 16 per pass).
 _BINOM = np.array([1, 4, 6, 4, 1], dtype=np.int64)
 _KEYS_A = -0.5
@@ -91,8 +106,12 @@ _KEYS_A = -0.5
 
 def tap_names(config: P3Config) -> tuple[str, ...]:
     """Every tap of a run with taps, in pipeline order (all at level 0)."""
-    warps = tuple(f"{t}{k}" for k in range(config.warps) for t in WARP_TAPS)
-    return ("ax", "u_start", *warps, "res", "rthr", "valid", "range")
+    v = bool(config.vertical)
+    stage = WARP_TAPS + (VERTICAL_TAPS if v else ())
+    warps = tuple(f"{t}{k}" for k in range(config.warps) for t in stage)
+    head = ("ax", "u_start", "ay") if v else ("ax", "u_start")
+    tail = ("nv", "res", "rthr", "valid", "range") if v else ("res", "rthr", "valid", "range")
+    return (*head, *warps, *tail)
 
 
 # --------------------------------------------------------------------------------------
@@ -253,14 +272,30 @@ def _window_cols(p, win, s_in, s, site, fm, st, ov):
 
 
 @njit(cache=True, nogil=True)
+def _column_difference(p, f_p, s, site, fm, st, ov):
+    """Central difference down the columns (replicated borders), cast into ``s``: the
+    line below minus the line above, exact at ``f_p + 1`` fraction bits (the ½)."""
+    m, n = p.shape
+    out = np.empty((m, n), dtype=np.int64)
+    row = np.empty(n, dtype=np.int64)
+    for y in range(m):
+        below, above = p[min(y + 1, m - 1)], p[max(y - 1, 0)]
+        for x in range(n):
+            row[x] = below[x] - above[x]
+        _cast_logged_row(row, f_p + 1, s, site, fm, st, ov, out[y])
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _level_kernel(
-    a, b, u, f_l, umax, rom, keys_bits, win, kind, lut, r_bits, warps, base, fm, st, dst, ov,
-    sgg, sge, see, taps, want_taps,
+    a, b, u, f_l, umax, rom, keys_bits, win, kind, lut, r_bits, warps, base, vertical, fm, st,
+    dst, ov, sums, taps, want_taps,
 ):  # fmt: skip
     """The ``warps`` stages of one level on E1 ``a``, E2 ``b`` (``f_l`` fraction bits)
     from the start estimate ``u`` (updated in place); leaves the last stage's window
-    sums in ``sgg``, ``sge``, ``see``. Taps (level 0): ``ax``, ``u_start``, then per
-    warp the :data:`WARP_TAPS`."""
+    sums in ``sums`` (``sgg``, ``sge``, ``see``, and with ``vertical`` ``syy``, ``sgy``,
+    ``sye``, ``det``, ``nu``). Taps (level 0): ``ax``, ``u_start`` (``ay``), then per
+    warp the :data:`WARP_TAPS` (and :data:`VERTICAL_TAPS`)."""
     m, n = a.shape
     f_u, f_grad, f_warp, f_keys = fm[U, 1], fm[GRAD, 1], fm[WARP, 1], fm[KEYS, 1]
     f_g, f_e, f_du = fm[G, 1], fm[E, 1], fm[DU, 1]
@@ -282,9 +317,19 @@ def _level_kernel(
         for x in range(n):
             row[x] = a[y, min(x + 1, n - 1)] - a[y, max(x - 1, 0)]
         _cast_logged_row(row, f_l + 1, GRAD, base + L_AX, fm, st, ov, ax[y])
+    sgg, sge, see = sums[0], sums[1], sums[2]
+    f_gy = fm[GY, 1]
+    f_syy, f_sgy, f_sye = fm[SYY, 1], fm[SGY, 1], fm[SYE, 1]
+    f_det, f_nu = fm[DET, 1], fm[NU, 1]
+    # exact fraction bits of det = Σgg Σyy - Σgy², nu = Σyy Σge - Σgy Σye
+    fd = max(f_sgg + f_syy, 2 * f_sgy)
+    fn = max(f_syy + f_sge, f_sgy + f_sye)
+    ay = _column_difference(a, f_l, GRAD, base + L_AY, fm, st, ov) if vertical else ax
     if want_taps:
         taps[0] = ax
         taps[1] = u
+        if vertical:
+            taps[2] = ay
     w = np.empty((m, n), dtype=np.int64)
     g = np.empty((m, n), dtype=np.int64)
     e = np.empty((m, n), dtype=np.int64)
@@ -318,37 +363,82 @@ def _level_kernel(
         sge[:, :] = _window_cols(rge, win, RGE, SGE, base + L_SGE, fm, st, ov)
         see[:, :] = _window_cols(ree, win, REE, SEE, base + L_SEE, fm, st, ov)
         du = np.empty((m, n), dtype=np.int64)
+        if vertical:  # the 2x2 normal equations in (u, v), v discarded
+            wy = _column_difference(w, f_warp, GRAD, base + L_WY, fm, st, ov)
+            gy = np.empty((m, n), dtype=np.int64)
+            for y in range(m):
+                for x in range(n):
+                    row[x] = ay[y, x] + wy[y, x]
+                _cast_logged_row(row, f_grad + 1, GY, base + L_GY, fm, st, ov, gy[y])
+            ryy = _window_rows(gy * gy, 2 * f_gy, win, RYY, base + L_RYY, fm, st, ov)
+            rgy = _window_rows(g * gy, f_g + f_gy, win, RGY, base + L_RGY, fm, st, ov)
+            rye = _window_rows(gy * e, f_gy + f_e, win, RYE, base + L_RYE, fm, st, ov)
+            syy, sgy, sye, det, nu = sums[3], sums[4], sums[5], sums[6], sums[7]
+            syy[:, :] = _window_cols(ryy, win, RYY, SYY, base + L_SYY, fm, st, ov)
+            sgy[:, :] = _window_cols(rgy, win, RGY, SGY, base + L_SGY, fm, st, ov)
+            sye[:, :] = _window_cols(rye, win, RYE, SYE, base + L_SYE, fm, st, ov)
+            for y in range(m):
+                for x in range(n):
+                    row[x] = (_at(sgg[y, x] * syy[y, x], f_sgg + f_syy, fd)
+                              - _at(sgy[y, x] * sgy[y, x], 2 * f_sgy, fd))  # fmt: skip
+                    row2[x] = (_at(syy[y, x] * sge[y, x], f_syy + f_sge, fn)
+                               - _at(sgy[y, x] * sye[y, x], f_sgy + f_sye, fn))  # fmt: skip
+                _cast_logged_row(row, fd, DET, base + L_DET, fm, st, ov, det[y])
+                _cast_logged_row(row2, fn, NU, base + L_NU, fm, st, ov, nu[y])
+                for x in range(n):
+                    # the determinant test: a singular window feeds the divider 0 / 1
+                    solved = det[y, x] > 0
+                    num[x] = -nu[y, x] if solved else np.int64(0)
+                    den[x] = det[y, x] if solved else np.int64(1)
+                _divide_row(num, f_nu, den, f_det, DU, kind, lut, r_bits, fm, dst, ov, du[y],
+                            flags)  # fmt: skip
+            if want_taps:
+                t0 = 3 + (N_STAGE_TAPS_V) * k + N_STAGE_TAPS
+                for j, arr in enumerate((wy, gy, ryy, rgy, rye, syy, sgy, sye, det, nu)):
+                    taps[t0 + j] = arr
+        else:
+            for y in range(m):
+                for x in range(n):
+                    # the normal equation of eq 10; no gradient in the window: the divider
+                    # is fed 0 / 1 (operands selected)
+                    grad = sgg[y, x] > 0
+                    num[x] = -sge[y, x] if grad else np.int64(0)
+                    den[x] = sgg[y, x] if grad else np.int64(1)
+                _divide_row(num, f_sge, den, f_sgg, DU, kind, lut, r_bits, fm, dst, ov, du[y],
+                            flags)  # fmt: skip
         for y in range(m):
-            for x in range(n):
-                # the normal equation of eq 10; no gradient in the window: the divider is
-                # fed 0 / 1 (operands selected)
-                grad = sgg[y, x] > 0
-                num[x] = -sge[y, x] if grad else np.int64(0)
-                den[x] = sgg[y, x] if grad else np.int64(1)
-            _divide_row(num, f_sge, den, f_sgg, DU, kind, lut, r_bits, fm, dst, ov, du[y], flags)
             for x in range(n):
                 row[x] = _at(u[y, x], f_u, fu2) + _at(du[y, x], f_du, fu2)
             _cast_logged_row(row, fu2, U, base + L_U, fm, st, ov, row2)
             for x in range(n):
                 u[y, x] = min(max(row2[x], np.int64(0)), umax)
         if want_taps:
-            t0 = 2 + 12 * k
+            t0 = 2 + k * N_STAGE_TAPS
+            if vertical:
+                t0 = 3 + k * (N_STAGE_TAPS_V)
             for j, arr in enumerate((w, wx, g, e, rgg, rge, ree, sgg, sge, see, du, u)):
                 taps[t0 + j] = arr
 
 
 @njit(cache=True, nogil=True)
 def _final_kernel(
-    u, sgg, sge, see, regs, kind, lut, r_bits, fm, st, dst, ov, out_range, out_valid,
+    u, sums, vertical, regs, kind, lut, r_bits, fm, st, dst, ov, out_range, out_valid,
     taps, t0, want_taps,
 ):  # fmt: skip
-    """Level 0: the residual and gradient tests, the match inside E2, the range divider
+    """Level 0: the residual and gradient tests (with ``vertical`` the 2x2 fit's residual,
+    ``nv`` cast here, and the determinant test), the match inside E2, the range divider
     ``z = f B / u`` gated by ``u >= u_min`` (``z <= range_max``), range + valid."""
     m, n = u.shape
+    sgg, sge, see = sums[0], sums[1], sums[2]
+    sgy, sye, det, nu = sums[4], sums[5], sums[6], sums[7]
     tg2, tr2, umax, umin, fb, rmax = regs[0], regs[1], regs[2], regs[3], regs[4], regs[5]
     f_u, f_sgg, f_sge, f_see = fm[U, 1], fm[SGG, 1], fm[SGE, 1], fm[SEE, 1]
+    f_sgy, f_sye, f_det, f_nu, f_nv = fm[SGY, 1], fm[SYE, 1], fm[DET, 1], fm[NU, 1], fm[NV, 1]
     f_tr2, f_fb = fm[TR2, 1], fm[FB, 1]
     f_res = max(f_see + f_sgg, 2 * f_sge)
+    f_nv_in = max(f_sgg + f_sye, f_sgy + f_sge)
+    f_vres = max(f_see + f_det, f_sge + f_nu, f_sye + f_nv)
+    nv = np.empty(n, dtype=np.int64)
     right = np.int64(n - 1) << f_u
     # a row at a time (casts and divider logged once per row, as in _level_kernel)
     work = np.empty((7, n), dtype=np.int64)
@@ -363,16 +453,31 @@ def _final_kernel(
     )
     flags = np.empty(n, dtype=np.bool_)
     for y in range(m):
+        if vertical:  # Σe² det - Σge nu - Σye nv <= T_r² det
+            for x in range(n):
+                pre[x] = (_at(sgg[y, x] * sye[y, x], f_sgg + f_sye, f_nv_in)
+                          - _at(sgy[y, x] * sge[y, x], f_sgy + f_sge, f_nv_in))  # fmt: skip
+            _cast_logged_row(pre, f_nv_in, NV, S_NV, fm, st, ov, nv)
+            for x in range(n):
+                pre[x] = (_at(see[y, x] * det[y, x], f_see + f_det, f_vres)
+                          - _at(sge[y, x] * nu[y, x], f_sge + f_nu, f_vres)
+                          - _at(sye[y, x] * nv[x], f_sye + f_nv, f_vres))  # fmt: skip
+                thr[x] = tr2 * det[y, x]
+            _cast_logged_row(pre, f_vres, RES, S_RES, fm, st, ov, res)
+            _cast_logged_row(thr, f_tr2 + f_det, RES, S_RTHR, fm, st, ov, rthr)
+        else:
+            for x in range(n):
+                gg, ge, ee = sgg[y, x], sge[y, x], see[y, x]
+                pre[x] = _at(ee * gg, f_see + f_sgg, f_res) - _at(ge * ge, 2 * f_sge, f_res)
+                thr[x] = tr2 * gg
+            _cast_logged_row(pre, f_res, RES, S_RES, fm, st, ov, res)
+            _cast_logged_row(thr, f_tr2 + f_sgg, RES, S_RTHR, fm, st, ov, rthr)
         for x in range(n):
-            gg, ge, ee, uu = sgg[y, x], sge[y, x], see[y, x], u[y, x]
-            pre[x] = _at(ee * gg, f_see + f_sgg, f_res) - _at(ge * ge, 2 * f_sge, f_res)
-            thr[x] = tr2 * gg
+            uu = u[y, x]
             # gated off, the divider is fed 0 / 1 (operands selected)
             gate = uu > 0 and uu >= umin
             num[x] = fb if gate else np.int64(0)
             den[x] = uu if gate else np.int64(1)
-        _cast_logged_row(pre, f_res, RES, S_RES, fm, st, ov, res)
-        _cast_logged_row(thr, f_tr2 + f_sgg, RES, S_RTHR, fm, st, ov, rthr)
         _divide_row(num, f_fb, den, f_u, RANGE, kind, lut, r_bits, fm, dst, ov, rq, flags)
         for x in range(n):
             gg, uu = sgg[y, x], u[y, x]
@@ -380,9 +485,13 @@ def _final_kernel(
             gate = uu > 0 and uu >= umin
             ok = (gg >= tg2 and res[x] <= rthr[x] and src >= 0 and src <= right and gate
                   and uu <= umax and not flags[x] and rq[x] > 0 and rq[x] <= rmax)  # fmt: skip
+            if vertical:
+                ok = ok and det[y, x] > 0
             out_valid[y, x] = ok
             out_range[y, x] = rq[x] if ok else rmax
             if want_taps:
+                if vertical:
+                    taps[t0 - 1, y, x] = nv[x]
                 taps[t0, y, x] = res[x]
                 taps[t0 + 1, y, x] = rthr[x]
                 taps[t0 + 2, y, x] = np.int64(ok)
@@ -538,6 +647,8 @@ def stage_latencies(config: P3Config) -> dict[str, int]:
         "products": 1,
         "window_row": config.radius + 1,
         "window_column": 1,
+        # vertical: det and nu, two products and a difference each, then the cast
+        "normal_equations": 2 if config.vertical else 0,
         "du_divider": div,
         "update": 1,
         "residual": 2,
@@ -552,7 +663,7 @@ def _warp_cycles(config: P3Config) -> int:
     lat = stage_latencies(config)
     return (
         lat["warp"] + lat["derivative"] + 1 + lat["products"] + lat["window_row"]
-        + lat["window_column"] + lat["du_divider"] + lat["update"]
+        + lat["window_column"] + lat["normal_equations"] + lat["du_divider"] + lat["update"]
     )  # fmt: skip
 
 
@@ -569,20 +680,37 @@ def tap_offsets(config: P3Config, shape: tuple[int, int]) -> dict[str, tuple[int
     out = {"ax": (d, i0 + lat["derivative"]), "u_start": (d, i0)}
     if rn:
         out["e1.norm"] = out["e2.norm"] = (rn, i0)
+    # vertical: the column differences need line y + 1 (of E1, then of W), so ay, wy and
+    # gy leave a line later, and g and e wait that line in line buffers: the window's
+    # six products start together, one line later, and every stage takes r + 1 lines
+    v = int(bool(config.vertical))
+    if v:
+        out["ay"] = (d + 1, i0 + lat["derivative"])
     row = lat["warp"] + lat["derivative"] + 1 + lat["products"] + lat["window_row"]
+    names = ("rgg", "rge", "ree", "ryy", "rgy", "rye") if v else ("rgg", "rge", "ree")
     for k in range(config.warps):
-        lines, c = d + k * r, i0 + k * p
+        lines, c = d + k * (r + v), i0 + k * p
         out[f"warp{k}"] = (lines, c + lat["warp"])
         out[f"err{k}"] = (lines, c + lat["warp"] + 1)
         out[f"wx{k}"] = (lines, c + lat["warp"] + lat["derivative"])
         out[f"g{k}"] = (lines, c + lat["warp"] + lat["derivative"] + 1)
-        for t in ("rgg", "rge", "ree"):
-            out[f"{t}{k}"] = (lines, c + row)
-        for t in ("sgg", "sge", "see"):
-            out[f"{t}{k}"] = (lines + r, c + row + lat["window_column"])
-        out[f"du{k}"] = (lines + r, c + row + lat["window_column"] + lat["du_divider"])
-        out[f"u{k}"] = (lines + r, c + p)
-    lines, c = d + config.warps * r, i0 + config.warps * p
+        if v:
+            out[f"wy{k}"] = (lines + 1, c + lat["warp"] + lat["derivative"])
+            out[f"gy{k}"] = (lines + 1, c + lat["warp"] + lat["derivative"] + 1)
+        for t in names:
+            out[f"{t}{k}"] = (lines + v, c + row)
+        col = c + row + lat["window_column"]
+        for t in names:
+            out[f"s{t[1:]}{k}"] = (lines + v + r, col)
+        if v:
+            out[f"det{k}"] = out[f"nu{k}"] = (lines + v + r, col + lat["normal_equations"])
+        div = col + lat["normal_equations"] + lat["du_divider"]
+        out[f"du{k}"] = (lines + v + r, div)
+        out[f"u{k}"] = (lines + v + r, c + p)
+    lines, c = d + config.warps * (r + v), i0 + config.warps * p
+    if v:  # nv from the last stage's sums, then the 2x2 fit's residual
+        out["nv"] = (lines, c + lat["normal_equations"])
+        c += lat["normal_equations"]
     out["res"] = out["rthr"] = (lines, c + lat["residual"])
     out["valid"] = out["range"] = (lines, c + lat["residual"] + lat["range_divider"] + 1)
     return out
@@ -626,7 +754,8 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     so that the long delay holds the narrow raw word; reduce: the exact row sums, the
     parent's word + 4; warp row: what the warp reads, ``p3_norm`` when normalising, else
     the level's pixel word; window products: the three row-sum words; window align: E1,
-    E2 (as the warp row) and u; expand: u)."""
+    E2 (as the warp row) and u; expand: u; vertical: E1's two lines (as the warp row),
+    W's two lines, one line each of ``g`` and ``e``, the three more row-sum words)."""
     m, n = shape
     f = config.formats
     sched = streaming_schedule(config.multiscale(), n, m)
@@ -638,8 +767,11 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     u = f["p3_u"].word
     out = dict.fromkeys(
         ("normalise", "reduce", "warp_row", "window_products", "window_align", "expand",
-         "coarse_delay"), 0,
+         "coarse_delay", "vertical"), 0,
     )  # fmt: skip
+    # vertical: E1's and W's lines for the column differences, g's and e's wait for gy,
+    # the three more row sums down the columns
+    vrows = f["p3_ryy"].word + f["p3_rgy"].word + f["p3_rye"].word
 
     for lv in sched["levels"]:
         level, words = lv["level"], lv["buffer_words"]
@@ -650,6 +782,12 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
         out["window_align"] += words["window_align"] // 3 * (2 * warped(level) + u)
         out["expand"] += words["expand"] * u
         out["coarse_delay"] += words["coarse_delay"] * pix(level)
+        out["vertical"] += (
+            words["vertical_e1"] * warped(level)
+            + words["vertical_warp"] * f["p3_warp"].word
+            + words["vertical_align"] // 2 * (f["p3_g"].word + f["p3_e"].word)
+            + words["vertical_products"] // 3 * vrows
+        )
     return out
 
 
@@ -718,7 +856,8 @@ def run_p3(
     names = tap_names(config)
     tp = np.zeros((len(names), m, n) if taps else (len(names), 1, 1), dtype=np.int64)
     u = np.zeros(shapes[-1], dtype=np.int64)
-    sums = [np.empty((m, n), dtype=np.int64) for _ in range(3)]
+    vertical = bool(config.vertical)
+    sums = np.empty((N_SUMS, m, n), dtype=np.int64)
     # fraction bits of the pixels the warps read at level 0 and at the coarser levels
     f_level = (fm[NORM, 1],) * 2 if normalise else (f_pix, f_pyr)
     for level in range(len(shapes) - 1, -1, -1):
@@ -728,20 +867,18 @@ def run_p3(
             lag = min(config.coarse_lag, h)
             if lag:  # the coarse estimate arrives late: line y gets that of y - lag
                 u = np.ascontiguousarray(u[np.maximum(np.arange(h) - lag, 0)])
-        sgg, sge, see = (np.empty((h, w), dtype=np.int64) for _ in range(3))
-        if level == 0:
-            sgg, sge, see = sums
+        level_sums = sums if level == 0 else np.empty((N_SUMS, h, w), dtype=np.int64)
         _level_kernel(
             p1[level], p2[level], u, f_level[level > 0], regs.umax[level], rom,
             config.keys_bits, regs.window, kind, lut, config.recip_bits, config.warps,
-            S_LEVEL + (12 if level else 0), fm, st, dst, ov, sgg, sge, see, tp,
-            taps and level == 0,
+            S_LEVEL + (N_LEVEL_SITES if level else 0), vertical, fm, st, dst, ov, level_sums,
+            tp, taps and level == 0,
         )  # fmt: skip
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
     _final_kernel(
-        u, *sums, regs.final, kind, lut, config.recip_bits, fm, st, dst, ov, out_range,
-        out_valid, tp, len(names) - 4, taps,
+        u, sums, vertical, regs.final, kind, lut, config.recip_bits, fm, st, dst, ov,
+        out_range, out_valid, tp, len(names) - 4, taps,
     )  # fmt: skip
     overflows, minmax = runtime.SignalStats.merge([s1, s2, stats], P3_SIGNALS)
     overflows["p3_keys"] += rom_overflows  # the ROM is datapath (keys_rom_casts)

@@ -15,7 +15,7 @@ from types import MappingProxyType
 
 from ..pipeline import VALID_FORMAT, TapSpec
 from .config import P3Config
-from .model import WARP_TAPS, tap_names
+from .model import VERTICAL_TAPS, WARP_TAPS, tap_names
 
 __all__ = ["TAP_SIGNALS", "TAP_STAGE", "tap_table"]
 
@@ -36,6 +36,18 @@ TAP_SIGNALS: Mapping[str, str] = MappingProxyType(
         "sgg": "p3_sgg",
         "sge": "p3_sge",
         "see": "p3_see",
+        "ay": "p3_grad",
+        "wy": "p3_grad",
+        "gy": "p3_gy",
+        "ryy": "p3_ryy",
+        "rgy": "p3_rgy",
+        "rye": "p3_rye",
+        "syy": "p3_syy",
+        "sgy": "p3_sgy",
+        "sye": "p3_sye",
+        "det": "p3_det",
+        "nu": "p3_nu",
+        "nv": "p3_nv",
         "du": "p3_du",
         "u": "p3_u",
         "res": "p3_res",
@@ -55,8 +67,14 @@ TAP_STAGE: Mapping[str, str | None] = MappingProxyType(
         "wx": "derivative",
         "g": "derivative",
         "err": "warp",
-        **dict.fromkeys(("rgg", "rge", "ree"), "window_row"),
-        **dict.fromkeys(("sgg", "sge", "see"), "window_column"),
+        "ay": "derivative",
+        "wy": "derivative",
+        "gy": "derivative",
+        **dict.fromkeys(("rgg", "rge", "ree", "ryy", "rgy", "rye"), "window_row"),
+        **dict.fromkeys(("sgg", "sge", "see", "syy", "sgy", "sye"), "window_column"),
+        "det": "normal_equations",
+        "nu": "normal_equations",
+        "nv": "normal_equations",
         "du": "du_divider",
         "u": "update",
         "res": "residual",
@@ -71,7 +89,7 @@ def base_name(tap: str) -> str:
     """``warp1`` -> ``warp``; ``e1.pix_in`` -> ``pix_in``; others unchanged."""
     tap = tap.rpartition(".")[2]
     stem = tap.rstrip("0123456789")
-    return stem if stem in WARP_TAPS else tap
+    return stem if stem in WARP_TAPS or stem in VERTICAL_TAPS else tap
 
 
 def tap_table(config: P3Config) -> tuple[TapSpec, ...]:
