@@ -58,13 +58,17 @@ with them the whole integrated trajectory — meet the load-factor, θ and φ li
 
 Infeasible layouts
 ------------------
-When no plan meets the clearance within the limits (for instance an obstacle within
-the clearance of the touch-down point), the law says so: it issues
-:class:`InfeasibleClearanceWarning` and sets ``feasible = False`` (never a silent
-closer pass). Its best effort keeps the full clearance from every extent except those
-an end point is within the clearance of, and from those as much as the end point
-leaves; failing that, the relaxed problem that maximises the smallest clearance within
-the limits.
+When no plan to the touch-down meets the clearance within the limits, the law says so
+(:class:`InfeasibleClearanceWarning`, ``feasible = False``) and takes a safe manoeuvre
+(:func:`plan_safe_manoeuvre`: hover ahead, climb over, turn away) to a hold point that
+keeps the clearance; it never lands on a plan that passes closer than the clearance
+to an extent. A start within an extent's clearance blocks the landing too: the
+manoeuvre then keeps what the start leaves and moves away (the floor rises to the full
+clearance over ``ESCAPE_TIME_S``, points away from the extent are tried first), and
+at its hold point the law decides again: it lands only on a plan that keeps the
+clearance, else it holds. ``when_blocked="best-effort"`` keeps the old behaviour (land
+on the plan that keeps the full clearance from every extent except those an end point
+is within the clearance of, and from those as much as that end point leaves).
 """
 
 from __future__ import annotations
@@ -113,6 +117,7 @@ __all__ = [
     "AvoidPlan",
     "InfeasibleClearanceWarning",
     "SafeManoeuvre",
+    "escape_direction",
     "limit_margins",
     "limited_command",
     "manoeuvre_candidates",
@@ -138,6 +143,14 @@ MANOEUVRE_MAXITER: int = 80
 
 #: SLSQP iterations allowed to a re-plan warm-started from a plan that keeps the clearance.
 REPLAN_MAXITER: int = 60
+
+#: Time (s) over which the clearance floor rises from what a start within an extent's
+#: clearance leaves to the full clearance (and falls to what a touch-down within it
+#: leaves): the path must move away, not run along the extent (a long P1 extent holds
+#: a true vehicle somewhere inside). The rise is quadratic in time (a start whose
+#: velocity runs along the extent can only accelerate away): 25 ft in 4 s asks
+#: ~3 ft/s² across, a third of what the load-factor limit allows.
+ESCAPE_TIME_S: float = 4.0
 
 #: Longest plan to a hold point (s): the candidates lie 100-250 ft away.
 MANOEUVRE_MAX_TIME: float = 30.0
@@ -313,6 +326,7 @@ class AvoidPlan:
     iterations: int = 0
     status: str = ""
     meets_floor: bool = True  # met what was asked: the clearance, or what the end points leave
+    floor_margin_ft: float = 0.0  # smallest distance beyond what was asked (< 0: short of it)
 
     def evaluate(self, tau: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity and acceleration at plan times ``tau`` (s from ``t0``)."""
@@ -469,7 +483,7 @@ class _Problem:
     cfg: AvoidConfig
     basis: _Basis
     t_bounds: tuple[float, float]
-    need_ft: np.ndarray  # per box: clearance + the planning margin the end points allow
+    need_ft: np.ndarray  # (node, box): clearance + the planning margin the ends allow
 
     def __post_init__(self) -> None:
         # SLSQP evaluates the cost, the constraints and their Jacobians at the same x:
@@ -743,16 +757,27 @@ def plan_trajectory(
     # An end point within the clearance of an extent makes the layout infeasible. Best
     # effort then still keeps the full clearance from every other extent and, from
     # those, as much as the end point leaves (10 % and at least 0.5 ft less than its
-    # own distance, so that a path can reach it): not merely the largest smallest
-    # clearance, which lets the path brush past every extent at that one figure.
+    # own distance, so that a path can reach it) near that end only: the floor rises
+    # to the full clearance over the first (last) ESCAPE_TIME_S of the path (at the
+    # report seed's time-to-go; at most half the path), so the path moves away from
+    # (approaches) the extent instead of running along it.
     ends_inside = bool(boxes) and float(end_clear.min()) < cfg.clearance_ft
-    close = end_clear < cfg.clearance_ft
-    need = np.where(close, end_clear - np.maximum(0.1 * np.abs(end_clear), 0.5), need)
-    floor = need if ends_inside else np.full(len(boxes), cfg.clearance_ft)
-    prob = _Problem(
-        r0, v0, bc, field, boxes, params, cfg,
-        _basis(cfg.n_samples, cfg.n_basis), (0.05, hi), need,
-    )  # fmt: skip
+    basis = _basis(cfg.n_samples, cfg.n_basis)
+    floor = np.full((len(basis.s), len(boxes)), cfg.clearance_ft)
+    need = np.broadcast_to(need, floor.shape).copy()
+    prob = _Problem(r0, v0, bc, field, boxes, params, cfg, basis, (0.05, hi), need)
+    t_rep, c_rep = _report_seed(prob)
+    if ends_inside:
+        dist = _clearances(ends, boxes)  # (2, boxes): start, touch-down
+        lo = dist - np.maximum(0.1 * np.abs(dist), 0.5)
+        s_ramp = min(max(ESCAPE_TIME_S / t_rep, 0.02), 0.5)
+        ramps = np.clip(np.stack([basis.s, 1.0 - basis.s]) / s_ramp, 0.0, 1.0) ** 2
+        for end in range(2):
+            close = dist[end] < cfg.clearance_ft
+            ramp = ramps[end][:, None]
+            need = np.where(close, np.minimum(need, lo[end] + (need - lo[end]) * ramp), need)
+            floor = np.where(close, np.minimum(floor, lo[end] + (floor - lo[end]) * ramp), floor)
+        prob.need_ft = need
     start = time.perf_counter()
     seeds: list[np.ndarray] = []
     if warm is not None:
@@ -761,7 +786,6 @@ def plan_trajectory(
         tau = (t0 - warm.t0) + prob.basis.s * t_go
         target, _, _ = warm.evaluate(tau)
         seeds.append(np.concatenate([[t_go], _fit_coeffs(prob, t_go, target).ravel()]))
-    t_rep, c_rep = _report_seed(prob)
     x_rep = np.concatenate([[t_rep], c_rep.ravel()])
     if report_seed or not seeds:
         seeds.append(x_rep)
@@ -795,9 +819,11 @@ def plan_trajectory(
     cm = prob.clearances(best)
     min_clear = float(cm.min()) if cm.size else math.inf
     limits_ok = bool(prob.other_margins(best).min() >= -1e-3)
+    floor_margin = float((cm - floor).min()) if cm.size else math.inf
     return AvoidPlan(
         t0, t_go, r0, v0, bc.rf.copy(), bc.vf.copy(), c, feasible, min_clear, limits_ok,
         time.perf_counter() - start, iters, str(getattr(best_res, "message", "")), meets_floor,
+        floor_margin,
     )  # fmt: skip
 
 
@@ -816,6 +842,7 @@ class SafeManoeuvre:
     plan: AvoidPlan
     decided_at_s: float
     candidates_tried: int
+    keeps_floor: bool = True  # False: no candidate kept it; the one that came closest
 
     @property
     def outcome(self) -> str:
@@ -832,6 +859,7 @@ class SafeManoeuvre:
             "decided_at_s": self.decided_at_s,
             "candidates_tried": self.candidates_tried,
             "planned_min_clearance_ft": self.plan.min_clearance_ft,
+            "keeps_clearance_floor": self.keeps_floor,
         }
 
 
@@ -845,8 +873,12 @@ def manoeuvre_candidates(
     they are tried: decelerate to a hover ahead on the present track (150, 100, 220 ft);
     climb over (to ``clearance + margin + 2`` ft above the highest extent, 150 or 250 ft
     ahead); turn away (150 ft at ±90° and ±135° from the track, at the present altitude,
-    then at the climb height). Only points at least ``clearance + margin + 2`` ft from
-    every extent are returned (the hold point must itself keep the clearance)."""
+    then at the climb height). When ``r`` lies within the clearance of an extent, points
+    *away* from it come first (:func:`escape_direction`: 100, 150, 220 ft along it and
+    along its bisector with the track; ``hover`` within 45° of the track, else
+    ``turn-away``; then ``climb`` along it). Only points at least ``clearance + margin +
+    2`` ft from every extent are returned (the hold point must itself keep the
+    clearance)."""
     speed_h = float(np.hypot(v[0], v[1]))
     ahead = np.array([v[0], v[1], 0.0]) / speed_h if speed_h > 1e-6 else np.array([1.0, 0, 0])
     side = np.array([-ahead[1], ahead[0], 0.0])
@@ -854,6 +886,17 @@ def manoeuvre_candidates(
     z_hold = max(float(r[2]), 5.0)
     z_over = max(z_hold, top + cfg.clearance_ft + cfg.margin_ft + 2.0)
     cands: list[tuple[str, np.ndarray]] = []
+    away = escape_direction(r, boxes, cfg.clearance_ft)
+    if away is not None:
+        bisector = away + ahead
+        dirs = [away] if np.linalg.norm(bisector) < 1e-6 else [bisector, away]
+        for u in dirs:
+            u = u / np.linalg.norm(u)
+            kind = "hover" if float(u @ ahead) >= math.cos(math.radians(45.0)) else "turn-away"
+            for d in (150.0, 100.0, 220.0):
+                cands.append((kind, np.array([*(r[:2] + d * u[:2]), z_hold])))
+        for d in (150.0, 220.0):
+            cands.append(("climb", np.array([*(r[:2] + d * away[:2]), z_over])))
     for d in (150.0, 100.0, 220.0):
         cands.append(("hover", np.array([*(r[:2] + d * ahead[:2]), z_hold])))
     for d in (150.0, 250.0):
@@ -865,6 +908,55 @@ def manoeuvre_candidates(
             cands.append(("turn-away", np.array([*p, z])))
     need = cfg.clearance_ft + cfg.margin_ft + 2.0
     return [(k, p) for k, p in cands if not boxes or _clearances(p[None], boxes).min() >= need]
+
+
+def escape_direction(
+    r: np.ndarray, boxes: tuple[ObstacleBox, ...], clearance_ft: float
+) -> np.ndarray | None:
+    """The horizontal unit direction away from the footprints of the extents whose
+    clearance ``r`` lies within (each footprint's outward normal at its nearest side,
+    weighted by how far inside the clearance ``r`` is), or ``None`` when ``r`` keeps the
+    clearance from all. Inside a long along-ray extent this points out of its nearest
+    long side, across the ray (never up: a climb is a candidate of its own)."""
+    if not boxes:
+        return None
+    r = np.asarray(r, dtype=np.float64)
+    d = _clearances(r[None], boxes)[0]
+    u = np.zeros(2)
+    for box, dk in zip(boxes, d, strict=True):
+        if dk >= clearance_ft:
+            continue
+        pu, pv, _ = box.local(r)
+        out = np.array([abs(pu) - box.half_u, abs(pv) - box.half_v])
+        if out.max() <= 0:  # inside the footprint: out of the nearest side
+            # (on the centre line either side will do: copysign takes +0 as +1)
+            u_side, v_side = math.copysign(1.0, pu), math.copysign(1.0, pv)
+            g = np.array([u_side, 0.0]) if out[0] > out[1] else np.array([0.0, v_side])
+        else:  # outside: along the footprint's distance gradient
+            g = np.maximum(out, 0.0) * np.sign([pu, pv])
+        g = g / max(float(np.linalg.norm(g)), 1e-12)
+        u += (clearance_ft - dk) * (g @ box.axes)
+    n = float(np.linalg.norm(u))
+    return np.array([u[0] / n, u[1] / n, 0.0]) if n > 1e-9 else None
+
+
+def _chord_clearance(
+    r: np.ndarray, point: np.ndarray, boxes, clearance_ft: float, speed: float
+) -> float:
+    """The smallest margin of the straight chord from ``r`` to ``point`` over the floor a
+    plan from ``r`` must keep (:func:`plan_trajectory`: the clearance, rising to it over
+    the first ``ESCAPE_TIME_S`` from what a start within it leaves, at the chord's
+    straight-line time): a geometric test,
+    before any solve, of whether a hold point is reachable without bending the path
+    round an extent."""
+    s = np.linspace(0.0, 1.0, 33)[:, None]
+    chord = r[None] + s * (point - r)[None]
+    start = _clearances(r[None], boxes)[0]
+    lo = np.minimum(start - np.maximum(0.1 * np.abs(start), 0.5), clearance_ft)
+    t_chord = float(np.linalg.norm(point - r)) / max(speed, 1.0)
+    s_ramp = min(max(ESCAPE_TIME_S / max(t_chord, 1e-9), 0.02), 0.5)
+    floor = lo + (clearance_ft - lo) * np.clip(s / s_ramp, 0.0, 1.0) ** 2
+    return float((_clearances(chord, boxes) - floor).min())
 
 
 #: β of a manoeuvre's cost (eq 20 without its obstacle term, in effect): the report's
@@ -889,14 +981,21 @@ def plan_safe_manoeuvre(
     params: VehicleParams | None = None,
     config: AvoidConfig | None = None,
     t0: float = 0.0,
+    closest_if_none: bool = False,
 ) -> SafeManoeuvre | None:
-    """The first safe manoeuvre (:func:`manoeuvre_candidates`, in order) whose plan keeps
-    the clearance from every extent within the limits, ending at its hold point at
+    """The first safe manoeuvre (:func:`manoeuvre_candidates`) whose plan keeps the
+    clearance from every extent within the limits, ending at its hold point at
     ``hold_speed`` ft/s (the point-mass model, eqs 2-3, needs ``V > 0``: the hold begins
     there). The plan is the programme of the module docstring with the hold point as
     its final state. If ``r`` itself is within the clearance of an extent, a plan is
     accepted when it keeps what the start leaves (never closer than it already is, less
-    10 %). ``None`` when no candidate has such a plan."""
+    10 %, at least 0.5 ft).
+
+    Candidates whose straight chord keeps that floor (:func:`_chord_clearance`, a
+    geometric test) are solved first, in their order; the others after them. ``None``
+    when no candidate has such a plan, unless ``closest_if_none``: then the candidate
+    least short of that floor (within the limits first), ``keeps_floor=False``
+    (the caller reports it; never a landing)."""
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
     # A hold point is a short, open target: a plan that keeps the clearance converges
@@ -907,8 +1006,16 @@ def plan_safe_manoeuvre(
     r = np.asarray(r, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     hold = _hold_field(field)
+    cands = manoeuvre_candidates(r, v, boxes, cfg)
+    if boxes and cands:
+        speed = float(np.linalg.norm(v))
+        ok = [_chord_clearance(r, p, boxes, cfg.clearance_ft, speed) >= 0.0 for _, p in cands]
+        cands = [c for c, k in zip(cands, ok, strict=True) if k] + [
+            c for c, k in zip(cands, ok, strict=True) if not k
+        ]
     tried = 0
-    for kind, point in manoeuvre_candidates(r, v, boxes, cfg):
+    closest: SafeManoeuvre | None = None
+    for kind, point in cands:
         chord = point - r
         chord[2] = 0.0
         n = float(np.linalg.norm(chord))
@@ -921,40 +1028,66 @@ def plan_safe_manoeuvre(
         )  # fmt: skip
         if plan.meets_floor:
             return SafeManoeuvre(kind, goal, plan, t0, tried)
+        if closest_if_none and np.isfinite(plan.floor_margin_ft):
+            # within the limits first (the limiter bounds the flown commands either way),
+            # then the least short of the floor (the start's own distance ties them all)
+            key = (plan.limits_ok, plan.floor_margin_ft)
+            if closest is None or key > (closest.plan.limits_ok, closest.plan.floor_margin_ft):
+                closest = SafeManoeuvre(kind, goal, plan, t0, tried, keeps_floor=False)
+    if closest is not None:
+        return replace(closest, candidates_tried=tried)
     return None
 
 
-def _decide(r, v, bc, field, boxes, params, av) -> tuple[AvoidPlan, SafeManoeuvre | None, str]:
+def _decide(
+    r, v, bc, field, boxes, params, av, t0: float = 0.0, *, closest_if_none: bool = True
+) -> tuple[AvoidPlan, SafeManoeuvre | None, str]:
     """The first plan: to the touch-down if one keeps the clearance, else a safe
-    manoeuvre (``when_blocked="manoeuvre"``), else the best-effort landing (flagged);
-    and why the landing was blocked (``""`` when it was not)."""
+    manoeuvre (``when_blocked="manoeuvre"``), else (``"best-effort"``) the best-effort
+    landing (flagged); and why the landing was blocked (``""`` when it was not).
+
+    A start within the clearance of an extent blocks the landing: no plan from it keeps
+    the clearance, and a landing on one that keeps only what the start leaves passed
+    true vehicles at 2.9-7.4 ft (issue 39, stress0-10/-18/-19). The law then moves
+    away first (a manoeuvre that keeps what the start leaves) and re-decides from its
+    hold point (:func:`simulate_avoid`)."""
     blocked_ok = av.when_blocked == "best-effort"
     td_clear = float(_clearances(bc.rf[None], boxes).min()) if boxes else math.inf
     start_clear = float(_clearances(r[None], boxes).min()) if boxes else math.inf
     landing = None
-    if blocked_ok or td_clear >= av.clearance_ft:  # else no landing plan can keep it
+    if blocked_ok or (td_clear >= av.clearance_ft and start_clear >= av.clearance_ft):
         landing = plan_trajectory(
-            r, v, bc, field, boxes, params=params, config=av, relax=blocked_ok
+            r, v, bc, field, boxes, params=params, config=av, relax=blocked_ok, t0=t0
         )
-        # A start within the clearance (the path can only move away) does not block
-        # the landing when the plan keeps what the start leaves.
-        start_only = start_clear < av.clearance_ft and landing.meets_floor
-        if landing.feasible or start_only:
+        if landing.feasible:
             return landing, None, ""
         why = "no plan to the touch-down keeps the clearance within the limits"
         if blocked_ok:
             return landing, None, why
-    else:
+    elif td_clear < av.clearance_ft:
         why = f"the touch-down point is {td_clear:.1f} ft from an extent"
+    else:
+        why = f"the start is {start_clear:.1f} ft from an extent"
     man = plan_safe_manoeuvre(
-        r, v, field, boxes, hold_speed=float(np.linalg.norm(bc.vf)), params=params, config=av
-    )
+        r, v, field, boxes, hold_speed=float(np.linalg.norm(bc.vf)), params=params, config=av,
+        t0=t0, closest_if_none=closest_if_none,
+    )  # fmt: skip
     if man is not None:
+        if not man.keeps_floor:
+            why += "; no safe manoeuvre keeps it either: the one that comes closest"
         return man.plan, man, why
-    # No manoeuvre keeps the clearance either: the best-effort landing, flagged.
-    if landing is None or not landing.meets_floor:
-        landing = plan_trajectory(r, v, bc, field, boxes, params=params, config=av)
-    return landing, None, why + "; no safe manoeuvre keeps it either"
+    # No hold point keeps clearance + margin + 2 ft (no candidate at all): straight
+    # ahead to a hover (flagged); never the landing.
+    kind, point = "hover", np.array([*(r[:2] + 150.0 * v[:2] / max(np.hypot(*v[:2]), 1e-9)), r[2]])
+    chord = point - r
+    vf = float(np.linalg.norm(bc.vf)) * chord / float(np.linalg.norm(chord))
+    goal = BoundaryConditions(r0=r, v0=v, rf=point, vf=vf)
+    plan = plan_trajectory(
+        r, v, goal, _hold_field(field), boxes, params=params, config=av, t0=t0,
+        t_go_max=MANOEUVRE_MAX_TIME,
+    )  # fmt: skip
+    man = SafeManoeuvre(kind, goal, plan, t0, 0, keeps_floor=False)
+    return plan, man, why + "; no hold point keeps the clearance: straight ahead to a hover"
 
 
 # --------------------------------------------------------------------------- closed loop
@@ -1004,6 +1137,12 @@ def simulate_avoid(
     rec: dict[str, list] = {k: [] for k in ("t_cmd", "a_cmd", "a_ach", "T", "th", "ph", "tgo")}
     plan, manoeuvre, blocked = _decide(bc.r0, bc.v0, bc, field, boxes, params, av)
     goal = bc if manoeuvre is None else manoeuvre.goal
+    # A manoeuvre taken while the touch-down itself keeps the clearance (the start, or
+    # the path, was blocked) is followed by a second decision at its hold point.
+    td_clear = float(_clearances(bc.rf[None], boxes).min()) if boxes else math.inf
+    redecide = manoeuvre is not None and td_clear >= av.clearance_ft
+    landing_after: dict | None = None
+    phase_start = plan  # the first plan of the flight's current phase (its arrival cap)
     # A manoeuvre's re-plans get its candidates' iteration budget (a short, open target).
     # Re-plans of a plan that keeps the clearance start from it and converge in a few
     # iterations (~5 on runway/P1); one that does not within REPLAN_MAXITER is dropped
@@ -1033,7 +1172,8 @@ def simulate_avoid(
                 t_go_max=max(
                     min(
                         remaining + (av.replan_interval if plan.feasible else 1e-6),
-                        1.25 * plans[0].t_go - t,  # never beyond 1.25 x the first arrival
+                        # never beyond 1.25 x the phase's first arrival
+                        phase_start.t0 + 1.25 * phase_start.t_go - t,
                     ),
                     remaining + 1e-6,
                 ),
@@ -1070,7 +1210,7 @@ def simulate_avoid(
             crawling = float(state[3]) <= max(3.0 * float(np.linalg.norm(goal.vf)), 3.0)
             slowing = remaining <= av.terminal_time  # the plan's final deceleration
             stopped = "airspeed reached zero" in str(exc) or crawling or slowing
-            if not last and manoeuvre is not None and stopped:
+            if not last and goal is not bc and stopped:
                 stopped_short = remaining
                 break
             if not last:
@@ -1084,14 +1224,33 @@ def simulate_avoid(
         states.extend(sol.y.T)
         state = sol.y[:, -1].copy()
         t = float(sol.t[-1])
+        if last and redecide:
+            # At the hold point: the second decision (never again). A landing is flown
+            # only on a plan that keeps the clearance; else the hold stands.
+            redecide = False
+            r, v = state[:3], velocity_from_state(state)
+            landing = plan_trajectory(
+                r, v, bc, field, boxes, params=params, config=av, t0=t, relax=False
+            )
+            plans.append(landing)
+            landing_after = {
+                "decided_at_s": t,
+                "landed": bool(landing.feasible),
+                "planned_min_clearance_ft": landing.min_clearance_ft,
+            }
+            if landing.feasible:
+                plan, goal, plan_field, phase_start = landing, bc, field, landing
+                feasible, last_plan_t = True, t
+                continue
         if last:
             break
         if t > cfg.max_time:
             crash = f"flight did not end within max_time = {cfg.max_time:g} s"
             break
+    landed_after = landing_after is not None and landing_after["landed"]
     if crash:
         outcome = "crash"
-    elif manoeuvre is not None:
+    elif manoeuvre is not None and not landed_after:
         outcome = manoeuvre.outcome
     else:
         outcome = "landing"
@@ -1101,7 +1260,16 @@ def simulate_avoid(
             f"no trajectory to the touch-down keeps {av.clearance_ft:g} ft from every "
             f"obstacle within the limits ({blocked}); safe manoeuvre: {manoeuvre.kind} to the "
             f"hold point "
-            f"({hold}) ft ({outcome}, {manoeuvre.plan.min_clearance_ft:.2f} ft planned)",
+            f"({hold}) ft ({manoeuvre.outcome}, {manoeuvre.plan.min_clearance_ft:.2f} ft "
+            f"planned)"
+            + ("" if manoeuvre.keeps_floor else ", closer than the clearance floor")
+            + (
+                ""
+                if landing_after is None
+                else "; then landed from the hold point on a plan that keeps the clearance"
+                if landed_after
+                else "; no landing from the hold point keeps the clearance: holding"
+            ),
             InfeasibleClearanceWarning,
             stacklevel=2,
         )
@@ -1129,7 +1297,9 @@ def simulate_avoid(
             "law": "avoid",
             "outcome": outcome,
             "crash_reason": crash,
-            "manoeuvre": None if manoeuvre is None else manoeuvre.to_dict(),
+            "manoeuvre": None
+            if manoeuvre is None
+            else {**manoeuvre.to_dict(), "landing_after": landing_after},
             "landing_blocked": blocked,
             "stopped_short_of_hold_s": stopped_short,
             "touchdown": [float(c) for c in bc.rf],

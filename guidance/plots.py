@@ -189,7 +189,10 @@ def save_figures(
     td = np.asarray(res.extras.get("touchdown", res.bc.rf))
     ax.plot(td[1], td[0], "rv", label="touch-down")
     if man:  # the law took a safe manoeuvre: where it holds
-        ax.plot(*res.bc.rf[[1, 0]], "bs", mfc="none", label=f"hold point ({man['kind']})")
+        hp = man["hold_point_ft"]
+        then = (man.get("landing_after") or {}).get("landed")
+        label = f"hold point ({man['kind']}{', then landed' if then else ''})"
+        ax.plot(hp[1], hp[0], "bs", mfc="none", label=label)
     ax.set_xlabel("cross range y (ft)")
     ax.set_ylabel("down range x (ft)")
     ax.set_aspect("equal", adjustable="datalim")
@@ -309,7 +312,8 @@ def save_stress_figure(stress, path: str | Path, k: int = 4) -> Path:
         ax.plot(td[1], td[0], "rv", label="touch-down")
         if row["hold_point_ft"]:
             hp = row["hold_point_ft"]
-            ax.plot(hp[1], hp[0], "bs", mfc="none", label=f"hold point ({row['manoeuvre']})")
+            then = ", then landed" if row.get("landed_after_manoeuvre") else ""
+            ax.plot(hp[1], hp[0], "bs", mfc="none", label=f"hold point ({row['manoeuvre']}{then})")
         ax.set_title(
             f"{row['name']}: {row['vehicle']} at t = {row['path_time_s']:.1f} s, "
             f"{row['offset_ft']:+.1f} ft\nmin true distance {row['min_true_distance_ft']:.1f} ft"

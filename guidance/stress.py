@@ -231,6 +231,10 @@ def _stress_row(
         "outcome": ex["outcome"],
         "manoeuvre": (ex["manoeuvre"] or {}).get("kind", ""),
         "hold_point_ft": (ex["manoeuvre"] or {}).get("hold_point_ft"),
+        "landed_after_manoeuvre": bool(
+            ((ex["manoeuvre"] or {}).get("landing_after") or {}).get("landed", False)
+        ),
+        "manoeuvre_keeps_floor": (ex["manoeuvre"] or {}).get("keeps_clearance_floor"),
         "crash_reason": ex["crash_reason"],
         "feasible": m["feasible"],
         "collision": bool(m["min_true_obstacle_distance_ft"] < 0.0),

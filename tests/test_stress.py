@@ -171,3 +171,47 @@ def test_stress_programme_scores_against_the_true_vehicles(synthetic):
     assert s["layouts"] == 1 and sum(s["outcomes"].values()) == 1
     assert s["collisions"] == 0 and s["crashes"] == 0
     json.dumps(res.to_dict())  # plain data
+
+
+def _start_inside_layout():
+    # stress0-10 in miniature: a long along-ray extent (as P1 gives a far vehicle) holds
+    # the start and a true vehicle on the straight path; the touch-down keeps 20 ft.
+    extent = _box(90.0, 0.0, half_u=110.0, half_v=6.0, top=14.0)
+    truck = _box(160.0, 0.0, half_u=10.0, half_v=4.0, top=8.0)
+    return extent, truck
+
+
+def test_start_inside_a_clearance_moves_away_first_and_lands_only_keeping_it():
+    extent, truck = _start_inside_layout()
+    res, notes = _fly((extent,))
+    ex = res.extras
+    man = ex["manoeuvre"]
+    assert man is not None and "the start is" in ex["landing_blocked"]
+    assert man["keeps_clearance_floor"]
+    start_d = float(extent.signed_distance(np.asarray(BC.r0)[None])[0])
+    assert start_d < 0  # the start lies inside the extent itself
+    d = _dist(res.positions, (extent,))
+    # never closer than what the start leaves (less 10 %, >= 0.5 ft) ...
+    assert d.min() >= start_d - max(0.1 * abs(start_d), 0.5) - 0.5
+    # ... and it moves away: the true vehicle inside the extent keeps the clearance
+    assert _dist(res.positions, (truck,)).min() >= FAST.clearance_ft
+    after = man["landing_after"]
+    assert after is not None and after["landed"] is True
+    assert ex["outcome"] == "landing"
+    assert np.linalg.norm(res.positions[-1] - BC.rf) < 2.0
+    # the landing, flown from the hold point, keeps the full clearance
+    landing = res.t >= after["decided_at_s"]
+    assert d[landing].min() >= FAST.clearance_ft
+    assert any("then landed from the hold point" in n for n in notes)
+
+
+def test_start_inside_a_clearance_with_no_landing_holds():
+    # The same, but a second box within 20 ft of the touch-down: no landing keeps the
+    # clearance, from the start or the hold point; the law moves away and holds.
+    extent, truck = _start_inside_layout()
+    boxes = (extent, _box(300.0, 0.0))
+    res, _ = _fly(boxes)
+    ex = res.extras
+    assert ex["outcome"] in ("hover", "go-around") and ex["manoeuvre"]["keeps_clearance_floor"]
+    assert _dist(res.positions, (truck,)).min() >= FAST.clearance_ft
+    assert np.linalg.norm(res.positions[-1] - BC.rf) > 20.0
