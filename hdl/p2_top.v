@@ -3,14 +3,25 @@
 // TLAST = end of line, no back-pressure) and out (TDATA = {valid, range}, TUSER on the
 // frame's first word, TLAST on each lane group's last word: the interleaved order).
 //
-// Units and their cycles (r: a sweep slot's line-buffer read, t: a forward slot's
-// sweep-buffer read; T_B = 1 + T_DIV + 2 the sweep's loop latency):
+// Units and their cycles (r: a sweep slot's line-buffer read, E = r + SWEEP_READ its loop
+// entry, t: a forward slot's sweep-buffer read, F = t + FWD_READ; every stage holds one
+// multiply (fx_mul_pipe, MUL_LAT = 3 stages), one carry chain or one cast; block RAMs
+// read through their output register, LB_READ = 2):
 //   beat + 1  x1, x2 = cast(E, pix)          beat + 2  d, g_hat (tap), line-buffer write
-//   r + 1     d_k, G_k read                   r + 2     a, dG, |D| >= T_D
-//   r + 3     c (loop entry: S~_k+1, Q~_k+1)  r + 4     den (divider operand), h
-//   r + 4 + T_DIV  r                          r + 3 + T_B  write-back: s, q and the taps
-//   t + 1     e operand (tap e)               t + 2..4  w, lam, z (taps)
-//   t + 5     valid, range                    t + 6     output register (taps, m_axis)
+//   r + 2     d_k, G_k (RAM output register)  r + 3     D = d_k + d_k+1, dG
+//   r + 6     KA D                            r + 7     a = cast(KA D)
+//   r + 10    a^2                             r + 11    cast(a^2)
+//   E = r+12  c = max(cast(a^2), C_MIN)       E + 1     S~_k+1, Q~_k+1 (lane state read)
+//   E + 4     c S~, S~ dG                     E + 5     1 + c S~, Q~ - S~ dG
+//   E + 6     den (divider operand), h        E + 6 + T_DIV  r
+//   E + 9 + T_DIV  r S~, r h                  E + 10 + T_DIV  M + r S~
+//   E + T_B   write-back (taps a c den r s h q; S~_k, Q~_k into the lane's state),
+//             T_B = 6 + T_DIV + 5
+//   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, -a
+//   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w   F + 10  lam (tap)
+//   F + 13    (-a) lam  F + 14 z (tap)  F + 17  a z        F + 18  u + a z, cast into the
+//   lane's e state (T_F = 20: the lane's next e operand is read at its next t + 1)
+//   F + 15    valid, range (threshold)  F + 16  output register (taps, m_axis)
 // Lines are taken in groups of LANES (ping-pong line and sweep buffers, bank = group mod 2);
 // a group's sweep runs WIDTH columns x P_B cycles (column WIDTH-1's slot loads S~_end,
 // Q~ = 0), its forward pass WIDTH x P_F; the controllers start them as the model's
@@ -57,9 +68,22 @@ module p2_top #(
     output reg  [31:0]       ovf_pix, ovf_d, ovf_ghat, ovf_a, ovf_c, ovf_den, ovf_r,
     output reg  [31:0]       ovf_st, ovf_h, ovf_q, ovf_w, ovf_lam, ovf_z, ovf_e
 );
-    localparam integer T_B = 1 + T_DIV + 2;
+    // declared latencies (rtl_model/p2/config.py): every unit one multiply (fx_mul_pipe,
+    // MUL_LAT stages), one carry chain or one cast per cycle; block RAMs read in LB_READ
+    localparam integer MUL_LAT = 3;                  // fx_pipe.v fx_mul_pipe
+    localparam integer LB_READ = 2;                  // address, DP16KD output register
+    localparam integer FWD_READ = LB_READ;           // the sweep buffer likewise
+    // the loop entry E = r + SWEEP_READ: read, D, KA D, cast a, a^2, cast, max(., C_MIN)
+    localparam integer SWEEP_READ = LB_READ + 1 + MUL_LAT + 1 + MUL_LAT + 1 + 1;
+    // the backward loop: operand register, c S~, + 1, cast (den at E + E_DEN), the
+    // divider, r S~, + M, cast into the lane's state
+    localparam integer E_DEN = 1 + MUL_LAT + 1 + 1;
+    localparam integer T_B = E_DEN + T_DIV + MUL_LAT + 1 + 1;
+    // the forward loop: u, S~ u, + Q~, cast w, r w, cast lam, (-a) lam, cast z, a z,
+    // + u, cast e into the lane's state, the e operand register
+    localparam integer T_F = 1 + (MUL_LAT + 2) + (MUL_LAT + 1) * 2 + (MUL_LAT + 2) + 1;
     localparam integer P_B = (LANES > T_B) ? LANES : T_B;
-    localparam integer P_F = (LANES > 4) ? LANES : 4;
+    localparam integer P_F = (LANES > T_F) ? LANES : T_F;
     localparam integer LW = (LANES > 1) ? $clog2(LANES) : 1;      // lane index
     localparam integer PBW = $clog2(P_B + 1);                     // sweep phase
     localparam integer PFW = $clog2(P_F + 1);                     // forward phase
@@ -79,7 +103,7 @@ module p2_top #(
     localparam [47:0] FWD_LEN = WIDTH * P_F;
     // the sweep-buffer hold: a sweep starts no earlier than H after the forward start of
     // the group two before (model: (n - 2) P_f - P_b - SWEEP_READ - T_b)
-    localparam signed [47:0] HOLD = (WIDTH - 2) * P_F - P_B - 3 - T_B;
+    localparam signed [47:0] HOLD = (WIDTH - 2) * P_F - P_B - SWEEP_READ - T_B;
     localparam integer SB_W = A_W + R_W + ST_W + Q_W + DG_W + 1;
 
     reg [47:0] now;
@@ -178,14 +202,17 @@ module p2_top #(
     reg [1:0] lb_busy;               // per bank: its sweep has reads left
     reg [1:0] used;                  // per bank: a sweep has filled its sweep buffer
     reg [1:0] f_started;             // per bank: that group's forward pass has started
-    reg [47:0] f_start [0:1];
     reg [1:0] f_pend;                // per bank: a swept group waits for its forward pass
     reg [47:0] f_ready [0:1];
     reg sw_run, sw_bank, sw_next;
     reg [PBW-1:0] sw_ph;
     reg [XW-1:0] sw_t;               // slot: column WIDTH-1-sw_t
-    wire signed [47:0] since_f = $signed(now - f_start[sw_next]);
-    wire hold_ok = !used[sw_next] || (f_started[sw_next] && since_f >= HOLD);
+    // the controllers' time compares, registered (one carry chain each): per bank,
+    // hold_met = now - f_start >= HOLD, fwd_met = now >= f_ready
+    reg [47:0] now1;                 // now + 1
+    reg [47:0] hold_at [0:1];        // f_start + HOLD
+    reg [1:0] hold_met, fwd_met;
+    wire hold_ok = !used[sw_next] || (f_started[sw_next] && hold_met[sw_next]);
     wire sw_go = !sw_run && ready[sw_next] && hold_ok;
     wire sw_on = sw_go || sw_run;
     wire [PBW-1:0] ph = sw_go ? {PBW{1'b0}} : sw_ph;
@@ -201,7 +228,7 @@ module p2_top #(
     reg fw_run, fw_bank, fw_next;
     reg [PFW-1:0] fw_ph;
     reg [XW-1:0] fw_k;
-    wire fw_go = !fw_run && f_pend[fw_next] && (now >= f_ready[fw_next]);
+    wire fw_go = !fw_run && f_pend[fw_next] && fwd_met[fw_next];
     wire fw_on = fw_go || fw_run;
     wire [PFW-1:0] fph = fw_go ? {PFW{1'b0}} : fw_ph;
     wire [XW-1:0] fk = fw_go ? {XW{1'b0}} : fw_k;
@@ -218,7 +245,14 @@ module p2_top #(
             f_pend <= 2'b00; overrun <= 1'b0;
             sw_run <= 1'b0; sw_bank <= 1'b0; sw_next <= 1'b0; sw_ph <= 0; sw_t <= 0;
             fw_run <= 1'b0; fw_bank <= 1'b0; fw_next <= 1'b0; fw_ph <= 0; fw_k <= 0;
+            now1 <= 48'd1; hold_met <= 2'b00; fwd_met <= 2'b00;
         end else begin
+            now1 <= now1 + 48'd1;
+            // the compares for the next cycle (overridden below where a bank restarts)
+            hold_met[0] <= $signed(now1) >= $signed(hold_at[0]);
+            hold_met[1] <= $signed(now1) >= $signed(hold_at[1]);
+            fwd_met[0] <= now1 >= f_ready[0];
+            fwd_met[1] <= now1 >= f_ready[1];
             // the input side: a group's first pixel claims its bank, its last one is ready
             if (v2 && first2) begin
                 if (lb_busy[bank2] || ready[bank2]) overrun <= 1'b1;
@@ -235,6 +269,7 @@ module p2_top #(
                 f_started[sw_next] <= 1'b0;
                 f_pend[sw_next] <= 1'b1;
                 f_ready[sw_next] <= now + SWEEP_LEN + T_B;
+                fwd_met[sw_next] <= 1'b0;     // SWEEP_LEN + T_B > 1 cycles away
                 sw_lines_b[sw_next] <= lines[sw_next];
                 sw_bank <= sw_next;
                 sw_next <= ~sw_next;
@@ -247,7 +282,8 @@ module p2_top #(
             if (fw_go) begin
                 f_pend[fw_next] <= 1'b0;
                 f_started[fw_next] <= 1'b1;
-                f_start[fw_next] <= now;
+                hold_at[fw_next] <= now + HOLD;
+                hold_met[fw_next] <= (HOLD <= 1);  // now + 1 - f_start = 1
                 fw_lines_r <= sw_lines_b[fw_next];
                 fw_bank <= fw_next;
                 fw_next <= ~fw_next;
@@ -261,168 +297,197 @@ module p2_top #(
     end
 
     // ---- the sweep engine ------------------------------------------------------------
-    // r: the line-buffer read; every stage carries (valid, first, lane, column, bank)
+    // r: the line-buffer read (address); a tag (valid, first slot, lane, column, bank)
+    // travels beside every slot: btag(i) holds the tag of the slot read at r = now - i
     localparam integer TAGW = 2 + LW + XW + 1;
+    localparam integer NBT = SWEEP_READ + T_B;
     wire [TAGW-1:0] tag_r = {r_v, (st_t == 0), ph[LW-1:0], r_col, sb_bank};
-    reg [D_W+G_W-1:0] rd1;
-    reg [TAGW-1:0] tag1;
+    reg [TAGW*NBT-1:0] btags;
+    always @(posedge clk)
+        btags <= rst ? {(TAGW*NBT){1'b0}} : {btags[TAGW*(NBT-1)-1:0], tag_r};
+`define P2_BTAG(i) btags[TAGW*((i)-1) +: TAGW]
+`define P2_FTAG(i) ftags[FTAGW*((i)-1) +: FTAGW]
+    // r+1: the block RAM's read, r+2: its output register (DP16KD OUTREG)
+    reg [D_W+G_W-1:0] rd1, rd2;
     always @(posedge clk) begin
         rd1 <= lb[(sb_bank * LANES + ph[LW-1:0]) * WIDTH + r_col];
-        tag1 <= rst ? {TAGW{1'b0}} : tag_r;
+        rd2 <= rd1;
     end
-    // r+1: D = d_k + d_k+1, dG = G_k+1 - G_k (d_k+1, G_k+1 from the lane's previous slot)
-    wire v_1 = tag1[TAGW-1];
-    wire [LW-1:0] lane_1 = tag1[XW+1 +: LW];
+    // r+3: D = d_k + d_k+1, dG = G_k+1 - G_k (d_k+1, G_k+1 from the lane's previous slot)
+    wire [TAGW-1:0] tg2 = `P2_BTAG(LB_READ);
+    wire v_2 = tg2[TAGW-1];
+    wire [LW-1:0] lane_2 = tg2[XW+1 +: LW];
     reg [D_W-1:0] nb_d [0:LANES-1];
     reg [G_W-1:0] nb_g [0:LANES-1];
-    wire [D_W-1:0] dk = rd1[D_W+G_W-1:G_W];
-    wire [G_W-1:0] gk = rd1[G_W-1:0];
-    wire [D_W-1:0] dk1 = nb_d[lane_1];
-    wire [G_W-1:0] gk1 = nb_g[lane_1];
-    wire signed [D_W+1:0] dsum = $signed({{2{(D_S != 0) & dk[D_W-1]}}, dk})
-                               + $signed({{2{(D_S != 0) & dk1[D_W-1]}}, dk1});
-    wire signed [DG_W-1:0] dg = $signed({(G_S != 0) & gk1[G_W-1], gk1})
-                              - $signed({(G_S != 0) & gk[G_W-1], gk});
-    wire [D_W+1:0] dabs = dsum[D_W+1] ? -dsum : dsum;
+    wire [D_W-1:0] dk = rd2[D_W+G_W-1:G_W];
+    wire [G_W-1:0] gk = rd2[G_W-1:0];
+    wire [D_W-1:0] dk1 = nb_d[lane_2];
+    wire [G_W-1:0] gk1 = nb_g[lane_2];
+    reg signed [D_W+1:0] dsum3;
+    reg signed [DG_W-1:0] dg3;
+    always @(posedge clk) begin
+        if (v_2) begin
+            nb_d[lane_2] <= dk;
+            nb_g[lane_2] <= gk;
+        end
+        dsum3 <= $signed({{2{(D_S != 0) & dk[D_W-1]}}, dk})
+               + $signed({{2{(D_S != 0) & dk1[D_W-1]}}, dk1});
+        dg3 <= $signed({(G_S != 0) & gk1[G_W-1], gk1}) - $signed({(G_S != 0) & gk[G_W-1], gk});
+    end
+    // r+4: |D|, r+5: |D| >= T_D
+    reg [D_W+1:0] dabs4;
+    reg thr5;
+    always @(posedge clk) begin
+        dabs4 <= dsum3[D_W+1] ? -dsum3 : dsum3;
+        thr5 <= (dabs4 >= td_raw);
+    end
+    // r+3 -> r+6: KA D (fx_mul_pipe); r+7: a = cast(KA D)
     wire signed [KA_W:0] ka_s = {(KA_S != 0) & ka_raw[KA_W-1], ka_raw};
-    wire signed [KA_W+D_W+2:0] ka_d = ka_s * dsum;
+    wire signed [KA_W+D_W+2:0] ka_d;
+    fx_mul_pipe #(KA_W + 1, D_W + 2) m_kad (clk, ka_s, dsum3, ka_d);
     wire [A_W-1:0] a_n;
     wire ovf_an;
     fx_cast_sized #(KA_W + D_W + 3, KA_F + D_F, A_W, A_F, A_S, A_Q, A_O) c_a (
         .x(ka_d), .y(a_n), .ovf(ovf_an));
-    reg [A_W-1:0] a2;
-    reg [DG_W-1:0] dg2;
-    reg thr2, oa2;
-    reg [TAGW-1:0] tag2;
-    always @(posedge clk) begin
-        if (v_1) begin
-            nb_d[lane_1] <= dk;
-            nb_g[lane_1] <= gk;
-        end
-        a2 <= a_n;
-        dg2 <= dg;
-        thr2 <= (dabs >= td_raw);
-        oa2 <= ovf_an;
-        tag2 <= rst ? {TAGW{1'b0}} : tag1;
-    end
-    // r+2: c = max(cast(a^2), C_MIN)
-    wire signed [A_W:0] a2s = {(A_S != 0) & a2[A_W-1], a2};
-    wire signed [2*A_W+1:0] asq = a2s * a2s;
+    reg [A_W-1:0] a7;
+    reg oa7;
+    always @(posedge clk) {a7, oa7} <= {a_n, ovf_an};
+    // r+7 -> r+10: a^2; r+11: cast(a^2); r+12: c = max(cast(a^2), C_MIN), the loop entry
+    wire signed [A_W:0] a7s = {(A_S != 0) & a7[A_W-1], a7};
+    wire signed [2*A_W+1:0] asq;
+    fx_mul_pipe #(A_W + 1, A_W + 1) m_asq (clk, a7s, a7s, asq);
     wire [C_W-1:0] c_n;
     wire ovf_cn;
     fx_cast_sized #(2 * A_W + 2, 2 * A_F, C_W, C_F, C_S, C_Q, C_O) c_c (
         .x(asq), .y(c_n), .ovf(ovf_cn));
-    reg [C_W-1:0] c3;
-    reg [A_W-1:0] a3;
-    reg [DG_W-1:0] dg3;
-    reg thr3, oa3, oc3;
-    reg [TAGW-1:0] tag3;
+    reg [C_W-1:0] c11, cE;
+    reg oc11;
     always @(posedge clk) begin
-        c3 <= (c_n < cmin_raw) ? cmin_raw : c_n;   // unsigned (validated by the config)
-        {a3, dg3, thr3, oa3, oc3} <= {a2, dg2, thr2, oa2, ovf_cn};
-        tag3 <= rst ? {TAGW{1'b0}} : tag2;
+        {c11, oc11} <= {c_n, ovf_cn};
+        cE <= (c11 < cmin_raw) ? cmin_raw : c11;   // unsigned (validated by the config)
     end
-    // r+3, the loop entry: S~_k+1, Q~_k+1 of the lane (bypassed from the write-back)
-    wire v_3 = tag3[TAGW-1];
-    wire [LW-1:0] lane_3 = tag3[XW+1 +: LW];
+    // the values that travel beside the slot to the loop entry E = r + SWEEP_READ
+    localparam integer EW = A_W + DG_W + 3;      // a, dG, |D| >= T_D, ovf a, ovf c
+    wire [A_W-1:0] aE;
+    wire [DG_W-1:0] dgE;
+    wire thrE, oaE, ocE;
+    fx_delay #(A_W + 1, SWEEP_READ - 7) d_aE (clk, {a7, oa7}, {aE, oaE});
+    fx_delay #(DG_W, SWEEP_READ - 3) d_dgE (clk, dg3, dgE);
+    fx_delay #(1, SWEEP_READ - 5) d_thrE (clk, thr5, thrE);
+    fx_delay #(1, SWEEP_READ - 11) d_ocE (clk, oc11, ocE);
+    // E: the lane's S~_k+1, Q~_k+1 (its state, written at the write-back) into the
+    // operand registers (E+1)
+    wire [TAGW-1:0] tgE = `P2_BTAG(SWEEP_READ);
+    wire [LW-1:0] lane_E = tgE[XW+1 +: LW];
     reg [ST_W-1:0] s_state [0:LANES-1];
     reg [Q_W-1:0] q_state [0:LANES-1];
-    reg [ST_W-1:0] s_wb;
-    reg [Q_W-1:0] q_wb;
-    reg [TAGW-1:0] tag_wb;
-    wire wb_v = tag_wb[TAGW-1];
-    wire [LW-1:0] wb_lane = tag_wb[XW+1 +: LW];
-    wire byp = wb_v && (wb_lane == lane_3);
-    wire [ST_W-1:0] s_op = byp ? s_wb : s_state[lane_3];
-    wire [Q_W-1:0] q_op = byp ? q_wb : q_state[lane_3];
-    wire signed [ST_W:0] s_op_s = {1'b0, s_op};
-    wire signed [Q_W:0] q_op_s = {(Q_S != 0) & q_op[Q_W-1], q_op};
-    wire signed [C_W:0] c3s = {1'b0, c3};
-    // den = cast(1 + c S~)
+    reg [ST_W-1:0] s_op1;
+    reg [Q_W-1:0] q_op1;
+    reg [C_W-1:0] c_op1;
+    reg [DG_W-1:0] dg_op1;
+    always @(posedge clk) {s_op1, q_op1, c_op1, dg_op1} <= {s_state[lane_E], q_state[lane_E], cE, dgE};
+    // E+1 -> E+4: c S~, S~ dG (fx_mul_pipe)
+    wire signed [ST_W:0] s_op1s = {1'b0, s_op1};
+    localparam integer CS_W = C_W + ST_W + 2;
+    wire signed [CS_W-1:0] cs;
+    wire signed [C_W:0] c_op1s = {1'b0, c_op1};
+    wire signed [DG_W-1:0] dg_op1s = dg_op1;
+    fx_mul_pipe #(C_W + 1, ST_W + 1) m_cs (clk, c_op1s, s_op1s, cs);
+    wire signed [ST_W+DG_W:0] sdg;
+    fx_mul_pipe #(ST_W + 1, DG_W) m_sdg (clk, s_op1s, dg_op1s, sdg);
+    wire [Q_W-1:0] q4;
+    fx_delay #(Q_W, MUL_LAT) d_q4 (clk, q_op1, q4);
+    // E+5: 1 + c S~, Q~ - S~ dG (one carry chain each)
     localparam integer DN_W = C_W + ST_W + 4 + F_DEN + (F_DEN - C_F - ST_F);
-    wire signed [DN_W-1:0] cs = c3s * s_op_s;
-    wire signed [DN_W-1:0] den_x = ($signed({{(DN_W-1){1'b0}}, 1'b1}) <<< F_DEN)
-                                 + (cs <<< (F_DEN - C_F - ST_F));
-    wire [DEN_W-1:0] den_n;
-    wire ovf_denn;
-    fx_cast_sized #(DN_W, F_DEN, DEN_W, DEN_F, DEN_S, DEN_Q, DEN_O) c_den (
-        .x(den_x), .y(den_n), .ovf(ovf_denn));
-    // h = cast(Q~ - S~ dG)
     localparam integer HN_W = ((Q_W + 1 + F_H - Q_F > ST_W + 1 + DG_W + F_H - ST_F - G_F)
                                ? Q_W + 1 + F_H - Q_F : ST_W + 1 + DG_W + F_H - ST_F - G_F) + 2;
-    wire signed [DG_W-1:0] dg3s = dg3;
-    wire signed [HN_W-1:0] sdg = s_op_s * dg3s;
-    wire signed [HN_W-1:0] qx = q_op_s;
-    wire signed [HN_W-1:0] h_x = (qx <<< (F_H - Q_F)) - (sdg <<< (F_H - ST_F - G_F));
-    wire [H_W-1:0] h_n;
-    wire ovf_hn;
-    fx_cast_sized #(HN_W, F_H, H_W, H_F, H_S, H_Q, H_O) c_h (.x(h_x), .y(h_n), .ovf(ovf_hn));
-    reg [DEN_W-1:0] den4;
-    reg [H_W-1:0] h4;
-    reg oden4, oh4;
-    reg [TAGW-1:0] tag4;
+    wire signed [DN_W-1:0] cs_x = cs;
+    wire signed [HN_W-1:0] sdg_x = sdg;
+    wire signed [HN_W-1:0] q4_x = $signed({(Q_S != 0) & q4[Q_W-1], q4});
+    reg signed [DN_W-1:0] den_x5;
+    reg signed [HN_W-1:0] h_x5;
     always @(posedge clk) begin
-        {den4, h4, oden4, oh4} <= {den_n, h_n, ovf_denn, ovf_hn};
-        tag4 <= rst ? {TAGW{1'b0}} : tag3;
+        den_x5 <= ($signed({{(DN_W-1){1'b0}}, 1'b1}) <<< F_DEN) + (cs_x <<< (F_DEN - C_F - ST_F));
+        h_x5 <= (q4_x <<< (F_H - Q_F)) - (sdg_x <<< (F_H - ST_F - G_F));
     end
-    // the divider: r = divide(1, den) at r + 4 + T_DIV
+    // E+6: den = cast(1 + c S~) (the divider's operand), h = cast(Q~ - S~ dG)
+    wire [DEN_W-1:0] den_n;
+    wire [H_W-1:0] h_n;
+    wire ovf_denn, ovf_hn;
+    fx_cast_sized #(DN_W, F_DEN, DEN_W, DEN_F, DEN_S, DEN_Q, DEN_O) c_den (
+        .x(den_x5), .y(den_n), .ovf(ovf_denn));
+    fx_cast_sized #(HN_W, F_H, H_W, H_F, H_S, H_Q, H_O) c_h (.x(h_x5), .y(h_n), .ovf(ovf_hn));
+    reg [DEN_W-1:0] den6;
+    reg [H_W-1:0] h6;
+    reg oden6, oh6;
+    always @(posedge clk) {den6, h6, oden6, oh6} <= {den_n, h_n, ovf_denn, ovf_hn};
+    // E+6+T_DIV: r = divide(1, den)
     wire [R_W-1:0] r_q;
     wire ovf_rq;
     generate
         if (DIVIDER != 0) begin : g_recip
             fx_div_reciprocal #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, RECIP_L,
                                 RECIP_R, ROM_FILE, 0) u_div (
-                .clk(clk), .n(2'sb01), .d({1'b0, den4}), .y(r_q), .ovf(ovf_rq));
+                .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end else begin : g_rest
             fx_div_restoring #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, 0) u_div (
-                .clk(clk), .n(2'sb01), .d({1'b0, den4}), .y(r_q), .ovf(ovf_rq));
+                .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end
     endgenerate
-    // the values that wait beside the divider (r+3 -> r+4+T_DIV)
-    localparam integer SIDE_W = A_W + C_W + DG_W + 1 + 2 + ST_W + Q_W;
-    wire [SIDE_W-1:0] side_in = {a3, c3, dg3, thr3, oa3, oc3, s_op, q_op};
-    wire [SIDE_W-1:0] side_out;
-    wire [DEN_W+H_W+2-1:0] side2_out;
-    wire [TAGW-1:0] tag_d;
-    fx_delay #(SIDE_W, 1 + T_DIV) u_side (.clk(clk), .d(side_in), .q(side_out));
-    fx_delay #(DEN_W + H_W + 2, T_DIV) u_side2 (.clk(clk), .d({den4, h4, oden4, oh4}),
-                                                .q(side2_out));
-    fx_delay #(TAGW, T_DIV) u_tagd (.clk(clk), .d(tag4), .q(tag_d));
-    // r + 4 + T_DIV: the products r S~_k+1, r h
-    wire [ST_W-1:0] s_old = side_out[Q_W +: ST_W];
-    wire [H_W-1:0] h_d = side2_out[2 +: H_W];
+    // E+6+T_DIV -> E+9+T_DIV: r S~_k+1, r h (fx_mul_pipe)
+    localparam integer RD = E_DEN + T_DIV;       // r holds at E + RD
+    wire [ST_W-1:0] s_old;
+    wire [H_W-1:0] h_d;
+    fx_delay #(ST_W, RD - 1) d_sold (clk, s_op1, s_old);
+    fx_delay #(H_W, T_DIV) d_hd (clk, h6, h_d);
     wire signed [R_W:0] r_s = {(R_S != 0) & r_q[R_W-1], r_q};
-    wire signed [R_W+ST_W+1:0] rs_n = r_s * $signed({1'b0, s_old});
-    wire signed [R_W+H_W+1:0] rh_n = r_s * $signed({(H_S != 0) & h_d[H_W-1], h_d});
-    reg signed [R_W+ST_W+1:0] rs5;
-    reg signed [R_W+H_W+1:0] rh5;
-    reg [R_W-1:0] r5;
-    reg or5;
-    reg [SIDE_W-1:0] side5;
-    reg [DEN_W+H_W+2-1:0] side25;
-    reg [TAGW-1:0] tag5;
-    always @(posedge clk) begin
-        {rs5, rh5, r5, or5, side5, side25} <= {rs_n, rh_n, r_q, ovf_rq, side_out, side2_out};
-        tag5 <= rst ? {TAGW{1'b0}} : tag_d;
-    end
-    // r + 5 + T_DIV: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h) -> the write-back
+    wire signed [R_W+ST_W+1:0] rs;
+    wire signed [R_W+H_W+1:0] rh;
+    wire signed [ST_W:0] s_old_s = {1'b0, s_old};
+    wire signed [H_W:0] h_d_s = {(H_S != 0) & h_d[H_W-1], h_d};
+    fx_mul_pipe #(R_W + 1, ST_W + 1) m_rs (clk, r_s, s_old_s, rs);
+    fx_mul_pipe #(R_W + 1, H_W + 1) m_rh (clk, r_s, h_d_s, rh);
+    // E+10+T_DIV: M + r S~ (one carry chain); r h waits
     localparam integer SN_W = ((MR_W + 1 + F_S - MR_F > R_W + ST_W + 2 + F_S - R_F - ST_F)
                                ? MR_W + 1 + F_S - MR_F : R_W + ST_W + 2 + F_S - R_F - ST_F) + 2;
     wire signed [SN_W-1:0] m_x = $signed({(MR_S != 0) & m_raw[MR_W-1], m_raw});
-    wire signed [SN_W-1:0] rs_x = rs5;
-    wire signed [SN_W-1:0] s_x = (m_x <<< (F_S - MR_F)) + (rs_x <<< (F_S - R_F - ST_F));
+    wire signed [SN_W-1:0] rs_x = rs;
+    reg signed [SN_W-1:0] s_x10;
+    reg signed [R_W+H_W+1:0] rh10;
+    always @(posedge clk) begin
+        s_x10 <= (m_x <<< (F_S - MR_F)) + (rs_x <<< (F_S - R_F - ST_F));
+        rh10 <= rh;
+    end
+    // E+11+T_DIV = E+T_B, the write-back: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h)
+    // into the lane's state and the write-back registers (taps a c den r s h q; the
+    // lane's first slot, column WIDTH-1: S~_end, Q~ = 0 and the others 0)
     wire [ST_W-1:0] s_n;
     wire [Q_W-1:0] q_n;
     wire ovf_sn, ovf_qn;
     fx_cast_sized #(SN_W, F_S, ST_W, ST_F, ST_S, ST_Q, ST_O) c_s (
-        .x(s_x), .y(s_n), .ovf(ovf_sn));
+        .x(s_x10), .y(s_n), .ovf(ovf_sn));
     fx_cast_sized #(R_W + H_W + 2, R_F + H_F, Q_W, Q_F, Q_S, Q_Q, Q_O) c_q (
-        .x(rh5), .y(q_n), .ovf(ovf_qn));
-    wire first5 = tag5[TAGW-2];
-    wire v5 = tag5[TAGW-1];
-    wire count5 = v5 && !first5;
-    // write-back registers: the sweep's taps a, c, den, r, s, h, q (column WIDTH-1: the
-    // start values, the others 0)
+        .x(rh10), .y(q_n), .ovf(ovf_qn));
+    // beside the loop: from E (a, c, dG, |D|, ovf a c), E+1 (S~, Q~ operands), E+6 (den,
+    // h), E+RD (r) to the cycle before the write-back
+    localparam integer SIDE_W = A_W + C_W + DG_W + 3;
+    wire [SIDE_W-1:0] side_E = {aE, cE, dgE, thrE, oaE, ocE};
+    wire [SIDE_W-1:0] side9;
+    wire [ST_W+Q_W-1:0] op9;
+    wire [DEN_W+H_W+1:0] dh9;
+    wire [R_W:0] r9;
+    fx_delay #(SIDE_W, T_B - 1) d_side (clk, side_E, side9);
+    fx_delay #(ST_W + Q_W, T_B - 2) d_op (clk, {s_op1, q_op1}, op9);
+    fx_delay #(DEN_W + H_W + 2, T_B - 1 - E_DEN) d_dh (clk, {den6, h6, oden6, oh6}, dh9);
+    fx_delay #(R_W + 1, T_B - 1 - RD) d_r (clk, {r_q, ovf_rq}, r9);
+    localparam integer WB_T = SWEEP_READ + T_B;  // the write-back's tag: btag(WB_T)
+    wire [TAGW-1:0] tg9 = `P2_BTAG(WB_T - 1);
+    wire first9 = tg9[TAGW-2];
+    wire [LW-1:0] lane9 = tg9[XW+1 +: LW];
+    wire [ST_W-1:0] s_next = first9 ? send_raw : s_n;
+    wire [Q_W-1:0] q_next = first9 ? {Q_W{1'b0}} : q_n;
+    reg [ST_W-1:0] s_wb;
+    reg [Q_W-1:0] q_wb;
     reg [A_W-1:0] wb_a;
     reg [C_W-1:0] wb_c;
     reg [DEN_W-1:0] wb_den;
@@ -432,25 +497,29 @@ module p2_top #(
     reg [Q_W-1:0] wb_qold;
     reg [DG_W-1:0] wb_dg;
     reg wb_thr;
+    reg [6:0] wb_ovf;                // a, c, den, h, r, s, q
     always @(posedge clk) begin
-        s_wb <= first5 ? send_raw : s_n;
-        q_wb <= first5 ? {Q_W{1'b0}} : q_n;
-        wb_a <= first5 ? {A_W{1'b0}} : side5[SIDE_W-1 -: A_W];
-        wb_c <= first5 ? {C_W{1'b0}} : side5[SIDE_W-A_W-1 -: C_W];
-        wb_den <= first5 ? {DEN_W{1'b0}} : side25[DEN_W+H_W+1 -: DEN_W];
-        wb_r <= first5 ? {R_W{1'b0}} : r5;
-        wb_h <= first5 ? {H_W{1'b0}} : side25[H_W+1 : 2];
-        wb_sold <= side5[Q_W +: ST_W];
-        wb_qold <= side5[Q_W-1:0];
-        wb_dg <= side5[SIDE_W-A_W-C_W-1 -: DG_W];
-        wb_thr <= side5[ST_W+Q_W+2];
-        tag_wb <= rst ? {TAGW{1'b0}} : tag5;
-        if (wb_v) begin
-            s_state[wb_lane] <= s_wb;
-            q_state[wb_lane] <= q_wb;
+        s_wb <= s_next;
+        q_wb <= q_next;
+        if (tg9[TAGW-1]) begin
+            s_state[lane9] <= s_next;
+            q_state[lane9] <= q_next;
         end
+        wb_a <= first9 ? {A_W{1'b0}} : side9[SIDE_W-1 -: A_W];
+        wb_c <= first9 ? {C_W{1'b0}} : side9[SIDE_W-A_W-1 -: C_W];
+        wb_den <= first9 ? {DEN_W{1'b0}} : dh9[DEN_W+H_W+1 -: DEN_W];
+        wb_r <= first9 ? {R_W{1'b0}} : r9[R_W:1];
+        wb_h <= first9 ? {H_W{1'b0}} : dh9[H_W+1 : 2];
+        wb_sold <= op9[Q_W +: ST_W];
+        wb_qold <= op9[Q_W-1:0];
+        wb_dg <= side9[3 +: DG_W];
+        wb_thr <= side9[2];
+        wb_ovf <= first9 ? 7'd0 : {side9[1], side9[0], dh9[1], dh9[0], r9[0], ovf_sn, ovf_qn};
     end
-    // overflow counts of the sweep (per signal, a slot's casts once; not the first slot's)
+    wire [TAGW-1:0] tag_wb = `P2_BTAG(WB_T);
+    wire wb_v = tag_wb[TAGW-1];
+    wire [LW-1:0] wb_lane = tag_wb[XW+1 +: LW];
+    // overflow counts (per signal, a slot's casts once; not the first slot's: zeroed)
     always @(posedge clk) begin
         if (rst) begin
             ovf_pix <= 0; ovf_d <= 0; ovf_ghat <= 0; ovf_a <= 0; ovf_c <= 0; ovf_den <= 0;
@@ -461,14 +530,14 @@ module p2_top #(
                 ovf_d <= ovf_d + od2;
                 ovf_ghat <= ovf_ghat + og2;
             end
-            if (count5) begin
-                ovf_a <= ovf_a + side5[ST_W+Q_W+1];
-                ovf_c <= ovf_c + side5[ST_W+Q_W];
-                ovf_den <= ovf_den + side25[1];
-                ovf_h <= ovf_h + side25[0];
-                ovf_r <= ovf_r + or5;
-                ovf_st <= ovf_st + ovf_sn;
-                ovf_q <= ovf_q + ovf_qn;
+            if (wb_v) begin
+                ovf_a <= ovf_a + wb_ovf[6];
+                ovf_c <= ovf_c + wb_ovf[5];
+                ovf_den <= ovf_den + wb_ovf[4];
+                ovf_h <= ovf_h + wb_ovf[3];
+                ovf_r <= ovf_r + wb_ovf[2];
+                ovf_st <= ovf_st + wb_ovf[1];
+                ovf_q <= ovf_q + wb_ovf[0];
             end
         end
     end
@@ -483,125 +552,158 @@ module p2_top #(
                 <= {wb_a, wb_r, wb_sold, wb_qold, wb_dg, wb_thr};
 
     // ---- the forward engine -----------------------------------------------------------
-    // t: the sweep-buffer read (column WIDTH-1: none, zeros); the e operand of the lane
+    // t: the sweep-buffer read (address); ftag(i) holds the tag of the slot read at
+    // t = now - i: (valid, column WIDTH-1, the group's last lane, lane, column, bank)
     localparam integer FTAGW = 3 + LW + XW + 1;
-    reg [SB_W-1:0] fr1_ram;          // the block RAM's registered read
-    reg [FTAGW-1:0] ftag1;
-    wire [SB_W-1:0] fr1 = ftag1[FTAGW-2] ? {SB_W{1'b0}} : fr1_ram;
-    reg [E_W-1:0] e_state [0:LANES-1];
-    reg [E_W-1:0] e_op;
+    localparam integer NFT = FWD_READ + T_F - 2;
     wire f_zero = (fk == WIDTH - 1);
     wire [FTAGW-1:0] ftag_t = {t_v, f_zero, fph == fw_lines - 1, fph[LW-1:0], fk, fb};
-    // e_k+1 of the lane's previous slot, formed in this cycle when P_F = 4 (bypass)
-    wire [E_W-1:0] e_new;
-    reg [FTAGW-1:0] ftag4;
-    wire e_byp = ftag4[FTAGW-1] && (ftag4[XW+1 +: LW] == fph[LW-1:0]);
+    reg [FTAGW*NFT-1:0] ftags;
+    always @(posedge clk)
+        ftags <= rst ? {(FTAGW*NFT){1'b0}} : {ftags[FTAGW*(NFT-1)-1:0], ftag_t};
+    // t+1: the block RAM's read; t+2 = F: its output register (column WIDTH-1: zeros) and
+    // the e operand e_k (tap e: 0 for k = 0, else the lane's state)
+    wire [FTAGW-1:0] ft1 = `P2_FTAG(1);
+    reg [SB_W-1:0] fr1, fr2;
+    reg [E_W-1:0] e_state [0:LANES-1];
+    reg [E_W-1:0] e_op;
     always @(posedge clk) begin
-        fr1_ram <= sb[(fb * LANES + fph[LW-1:0]) * WIDTH + fk];
-        ftag1 <= rst ? {FTAGW{1'b0}} : ftag_t;
-        e_op <= (fk == 0) ? {E_W{1'b0}} : (e_byp ? e_new : e_state[fph[LW-1:0]]);
+        fr1 <= sb[(fb * LANES + fph[LW-1:0]) * WIDTH + fk];
+        fr2 <= ft1[FTAGW-2] ? {SB_W{1'b0}} : fr1;
+        e_op <= (ft1[1 +: XW] == 0) ? {E_W{1'b0}} : e_state[ft1[XW+1 +: LW]];
     end
-    // the taps' valid strobes (one register each, one sample per cycle)
-    wire tap_e_v = ftag1[FTAGW-1];
-    wire tap_w_v = ftag2[FTAGW-1];
-    wire tap_lam_v = ftag3[FTAGW-1];
-    wire tap_z_v = ftag4[FTAGW-1];
-    // t+1: u = e_k - dG; w = cast(S~_k+1 u + Q~_k+1)
-    wire [A_W-1:0] f_a = fr1[SB_W-1 -: A_W];
-    wire [R_W-1:0] f_r = fr1[SB_W-A_W-1 -: R_W];
-    wire [ST_W-1:0] f_s = fr1[SB_W-A_W-R_W-1 -: ST_W];
-    wire [Q_W-1:0] f_q = fr1[DG_W+1 +: Q_W];
-    wire signed [DG_W-1:0] f_dg = fr1[1 +: DG_W];
-    wire f_thr = fr1[0];
+    wire [A_W-1:0] f_a = fr2[SB_W-1 -: A_W];
+    wire [R_W-1:0] f_r = fr2[SB_W-A_W-1 -: R_W];
+    wire [ST_W-1:0] f_s = fr2[SB_W-A_W-R_W-1 -: ST_W];
+    wire [Q_W-1:0] f_q = fr2[DG_W+1 +: Q_W];
+    wire signed [DG_W-1:0] f_dg = fr2[1 +: DG_W];
+    // F+1: u = e_k - dG (one carry chain); -a for z = cast(-a lam)
     localparam integer U_W = ((E_W + 1 + F_U - E_F > DG_W + F_U - G_F)
                               ? E_W + 1 + F_U - E_F : DG_W + F_U - G_F) + 1;
     wire signed [U_W-1:0] e_x = $signed({(E_S != 0) & e_op[E_W-1], e_op});
     wire signed [U_W-1:0] dg_x = f_dg;
-    wire signed [U_W-1:0] u = (e_x <<< (F_U - E_F)) - (dg_x <<< (F_U - G_F));
+    wire signed [A_W+1:0] f_as = $signed({(A_S != 0) & f_a[A_W-1], f_a});
+    reg signed [U_W-1:0] fu_1;
+    reg signed [A_W+1:0] fa_1, fna_1;
+    reg [ST_W-1:0] fs_1;
+    reg [Q_W-1:0] fq_1;
+    reg [R_W-1:0] fr_1;
+    reg fthr_1;
+    always @(posedge clk) begin
+        fu_1 <= (e_x <<< (F_U - E_F)) - (dg_x <<< (F_U - G_F));
+        fa_1 <= f_as;
+        fna_1 <= -f_as;
+        {fs_1, fq_1, fr_1, fthr_1} <= {f_s, f_q, f_r, fr2[0]};
+    end
+    // F+1 -> F+4: S~_k+1 u; F+5: + Q~_k+1; F+6: w = cast(...) (tap w)
     localparam integer WN_W = ((ST_W + 1 + U_W + F_W - ST_F - F_U > Q_W + 1 + F_W - Q_F)
                                ? ST_W + 1 + U_W + F_W - ST_F - F_U : Q_W + 1 + F_W - Q_F) + 2;
-    wire signed [WN_W-1:0] su = $signed({1'b0, f_s}) * u;
-    wire signed [WN_W-1:0] fq_x = $signed({(Q_S != 0) & f_q[Q_W-1], f_q});
-    wire signed [WN_W-1:0] w_x = (su <<< (F_W - ST_F - F_U)) + (fq_x <<< (F_W - Q_F));
+    wire signed [ST_W+U_W:0] su;
+    wire signed [ST_W:0] fs_1s = {1'b0, fs_1};
+    fx_mul_pipe #(ST_W + 1, U_W) m_su (clk, fs_1s, fu_1, su);
+    wire [Q_W-1:0] q4f;
+    fx_delay #(Q_W, MUL_LAT) d_q4f (clk, fq_1, q4f);
+    wire signed [WN_W-1:0] su_x = su;
+    wire signed [WN_W-1:0] fq_x = $signed({(Q_S != 0) & q4f[Q_W-1], q4f});
+    reg signed [WN_W-1:0] w_x5;
+    always @(posedge clk) w_x5 <= (su_x <<< (F_W - ST_F - F_U)) + (fq_x <<< (F_W - Q_F));
     wire [W_W-1:0] w_n;
     wire ovf_wn;
-    fx_cast_sized #(WN_W, F_W, W_W, W_F, W_S, W_Q, W_O) c_w (.x(w_x), .y(w_n), .ovf(ovf_wn));
-    reg [W_W-1:0] w2;
-    reg [A_W-1:0] fa2, fa3, fa4;
-    reg [R_W-1:0] fr2;
-    reg [U_W-1:0] u2, u3, u4;
-    reg thr_2, thr_3, thr_4, ow2;
-    reg [FTAGW-1:0] ftag2, ftag3;
-    always @(posedge clk) begin
-        {w2, fa2, fr2, u2, thr_2, ow2} <= {w_n, f_a, f_r, u, f_thr, ovf_wn};
-        ftag2 <= rst ? {FTAGW{1'b0}} : ftag1;
-    end
-    // t+2: lam = cast(r w)
-    wire signed [R_W+W_W+1:0] rw = $signed({(R_S != 0) & fr2[R_W-1], fr2})
-                                 * $signed({(W_S != 0) & w2[W_W-1], w2});
+    fx_cast_sized #(WN_W, F_W, W_W, W_F, W_S, W_Q, W_O) c_w (.x(w_x5), .y(w_n), .ovf(ovf_wn));
+    reg [W_W-1:0] w6;
+    reg ow6;
+    always @(posedge clk) {w6, ow6} <= {w_n, ovf_wn};
+    // F+6 -> F+9: r w; F+10: lam = cast(r w) (tap lam)
+    wire [R_W-1:0] r6;
+    fx_delay #(R_W, 5) d_r6 (clk, fr_1, r6);
+    wire signed [R_W+W_W+1:0] rw;
+    wire signed [R_W:0] r6s = {(R_S != 0) & r6[R_W-1], r6};
+    wire signed [W_W:0] w6s = {(W_S != 0) & w6[W_W-1], w6};
+    fx_mul_pipe #(R_W + 1, W_W + 1) m_rw (clk, r6s, w6s, rw);
     wire [LAM_W-1:0] lam_n;
     wire ovf_lamn;
     fx_cast_sized #(R_W + W_W + 2, R_F + W_F, LAM_W, LAM_F, LAM_S, LAM_Q, LAM_O) c_lam (
         .x(rw), .y(lam_n), .ovf(ovf_lamn));
-    reg [LAM_W-1:0] lam3;
-    reg olam3, ow3;
-    always @(posedge clk) begin
-        {lam3, fa3, u3, thr_3, olam3, ow3} <= {lam_n, fa2, u2, thr_2, ovf_lamn, ow2};
-        ftag3 <= rst ? {FTAGW{1'b0}} : ftag2;
-    end
-    // t+3: z = cast(-(a lam))
-    wire signed [A_W:0] fa3s = {(A_S != 0) & fa3[A_W-1], fa3};
-    wire signed [A_W+LAM_W+2:0] alam = fa3s * $signed({(LAM_S != 0) & lam3[LAM_W-1], lam3});
-    wire signed [A_W+LAM_W+2:0] nalam = -alam;
+    reg [LAM_W-1:0] lam10;
+    reg olam10;
+    always @(posedge clk) {lam10, olam10} <= {lam_n, ovf_lamn};
+    // F+10 -> F+13: (-a) lam; F+14: z = cast(-(a lam)) (tap z)
+    wire [A_W+1:0] na10;
+    fx_delay #(A_W + 2, 9) d_na10 (clk, fna_1, na10);
+    wire signed [A_W+LAM_W+2:0] nalam;
+    wire signed [A_W+1:0] na10s = na10;
+    wire signed [LAM_W:0] lam10s = {(LAM_S != 0) & lam10[LAM_W-1], lam10};
+    fx_mul_pipe #(A_W + 2, LAM_W + 1) m_alam (clk, na10s, lam10s, nalam);
     wire [Z_W-1:0] z_n;
     wire ovf_zn;
     fx_cast_sized #(A_W + LAM_W + 3, A_F + LAM_F, Z_W, Z_F, Z_S, Z_Q, Z_O) c_z (
         .x(nalam), .y(z_n), .ovf(ovf_zn));
-    reg [Z_W-1:0] z4;
-    reg oz4, olam4, ow4;
-    always @(posedge clk) begin
-        {z4, fa4, u4, thr_4, oz4, olam4, ow4} <= {z_n, fa3, u3, thr_3, ovf_zn, olam3, ow3};
-        ftag4 <= rst ? {FTAGW{1'b0}} : ftag3;
-    end
-    // t+4: e_k+1 = cast(u + a z) into the lane's e state; valid, range
-    localparam integer EN_W = ((U_W + F_E - F_U > A_W + Z_W + 2 + F_E - A_F - Z_F)
-                               ? U_W + F_E - F_U : A_W + Z_W + 2 + F_E - A_F - Z_F) + 2;
-    wire signed [Z_W:0] z4s = {(Z_S != 0) & z4[Z_W-1], z4};
-    wire signed [EN_W-1:0] az = $signed({(A_S != 0) & fa4[A_W-1], fa4}) * z4s;
-    wire signed [EN_W-1:0] u4x = $signed(u4);
-    wire signed [EN_W-1:0] e_x2 = (u4x <<< (F_E - F_U)) + (az <<< (F_E - A_F - Z_F));
+    reg [Z_W-1:0] z14;
+    reg oz14;
+    always @(posedge clk) {z14, oz14} <= {z_n, ovf_zn};
+    // F+14 -> F+17: a z; F+18: u + a z (one carry chain); its cast e_k+1 is written into
+    // the lane's e state at the end of F+18 (read for the lane's next slot at t' + 1)
+    wire [A_W+1:0] a14;
+    fx_delay #(A_W + 2, 13) d_a14 (clk, fa_1, a14);
+    wire signed [Z_W:0] z14s = {(Z_S != 0) & z14[Z_W-1], z14};
+    wire signed [A_W+Z_W+2:0] az;
+    wire signed [A_W+1:0] a14s = a14;
+    fx_mul_pipe #(A_W + 2, Z_W + 1) m_az (clk, a14s, z14s, az);
+    wire [U_W-1:0] u17;
+    fx_delay #(U_W, 16) d_u17 (clk, fu_1, u17);
+    localparam integer EN_W = ((U_W + F_E - F_U > A_W + Z_W + 3 + F_E - A_F - Z_F)
+                               ? U_W + F_E - F_U : A_W + Z_W + 3 + F_E - A_F - Z_F) + 2;
+    wire signed [EN_W-1:0] az_x = az;
+    wire signed [EN_W-1:0] u17_x = $signed(u17);
+    reg signed [EN_W-1:0] e_x18;
+    always @(posedge clk) e_x18 <= (u17_x <<< (F_E - F_U)) + (az_x <<< (F_E - A_F - Z_F));
+    wire [E_W-1:0] e_new;
     wire ovf_en;
-    fx_cast_sized #(EN_W, F_E, E_W, E_F, E_S, E_Q, E_O) c_e (.x(e_x2), .y(e_new), .ovf(ovf_en));
-    wire fv4 = ftag4[FTAGW-1];
-    wire fz4 = ftag4[FTAGW-2];
+    fx_cast_sized #(EN_W, F_E, E_W, E_F, E_S, E_Q, E_O) c_e (.x(e_x18), .y(e_new), .ovf(ovf_en));
+    wire [FTAGW-1:0] ft20 = `P2_FTAG(FWD_READ + 18);
+    always @(posedge clk) if (ft20[FTAGW-1]) e_state[ft20[XW+1 +: LW]] <= e_new;
+    // F+15: valid, range (threshold); F+16: the output register
+    wire [0:0] thr14;
+    fx_delay #(1, 13) d_thr14 (clk, fthr_1, thr14);
     wire signed [Z_W:0] rmax_s = {(Z_S != 0) & rmax_raw[Z_W-1], rmax_raw};
-    wire ok4 = thr_4 && (z4s > 0) && (z4s <= rmax_s);
-    reg valid5;
-    reg [Z_W-1:0] range5;
-    reg [FTAGW-1:0] ftag5;
+    wire ok14 = thr14[0] && (z14s > 0) && (z14s <= rmax_s);
+    reg valid15;
+    reg [Z_W-1:0] range15;
     always @(posedge clk) begin
-        if (fv4) e_state[ftag4[XW+1 +: LW]] <= e_new;
-        valid5 <= ok4;
-        range5 <= ok4 ? z4 : rmax_raw;
-        ftag5 <= rst ? {FTAGW{1'b0}} : ftag4;
+        valid15 <= ok14;
+        range15 <= ok14 ? z14 : rmax_raw;
+    end
+    // the taps' valid strobes (one register each, one sample per cycle)
+    wire [FTAGW-1:0] ft_e = `P2_FTAG(FWD_READ);
+    wire [FTAGW-1:0] ft_w = `P2_FTAG(FWD_READ + 6);
+    wire [FTAGW-1:0] ft_lam = `P2_FTAG(FWD_READ + 10);
+    wire [FTAGW-1:0] ft_z = `P2_FTAG(FWD_READ + 14);
+    wire [FTAGW-1:0] ft_vr = `P2_FTAG(FWD_READ + 15);
+    wire tap_e_v = ft_e[FTAGW-1];
+    wire tap_w_v = ft_w[FTAGW-1];
+    wire tap_lam_v = ft_lam[FTAGW-1];
+    wire tap_z_v = ft_z[FTAGW-1];
+    always @(posedge clk) begin
         if (rst) begin
             ovf_w <= 0; ovf_lam <= 0; ovf_z <= 0; ovf_e <= 0;
-        end else if (fv4 && !fz4) begin
-            ovf_w <= ovf_w + ow4;
-            ovf_lam <= ovf_lam + olam4;
-            ovf_z <= ovf_z + oz4;
-            ovf_e <= ovf_e + ovf_en;
+        end else begin
+            if (tap_w_v && !ft_w[FTAGW-2]) ovf_w <= ovf_w + ow6;
+            if (tap_lam_v && !ft_lam[FTAGW-2]) ovf_lam <= ovf_lam + olam10;
+            if (tap_z_v && !ft_z[FTAGW-2]) ovf_z <= ovf_z + oz14;
+            if (ft20[FTAGW-1] && !ft20[FTAGW-2]) ovf_e <= ovf_e + ovf_en;
         end
     end
-    // t+6: the output register (taps valid, range; m_axis): TUSER on the frame's first
+    // F+16: the output register (taps valid, range; m_axis): TUSER on the frame's first
     // word, TLAST on the group's last (its last lane, column WIDTH-1)
     reg out_first;
     always @(posedge clk) begin
-        m_axis_tvalid <= rst ? 1'b0 : ftag5[FTAGW-1];
-        m_axis_tdata <= {valid5, range5};
-        m_axis_tuser <= ftag5[FTAGW-1] && out_first;
-        m_axis_tlast <= ftag5[FTAGW-1] && ftag5[FTAGW-3] && (ftag5[1 +: XW] == WIDTH - 1);
+        m_axis_tvalid <= rst ? 1'b0 : ft_vr[FTAGW-1];
+        m_axis_tdata <= {valid15, range15};
+        m_axis_tuser <= ft_vr[FTAGW-1] && out_first;
+        m_axis_tlast <= ft_vr[FTAGW-1] && ft_vr[FTAGW-3] && (ft_vr[1 +: XW] == WIDTH - 1);
         if (rst) out_first <= 1'b1;
-        else if (ftag5[FTAGW-1]) out_first <= 1'b0;
+        else if (ft_vr[FTAGW-1]) out_first <= 1'b0;
     end
+`undef P2_BTAG
+`undef P2_FTAG
 endmodule

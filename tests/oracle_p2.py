@@ -178,10 +178,21 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
     controllers that start each group's sweep and forward pass. Raises ``ValueError`` where
     a group's input would overwrite a line buffer its sweep still reads."""
     m, n = in_cycles.shape
-    lanes = config.lanes or (1 + divider_latency(config.divider, config.fmt("p2_r").word) + 2)
     t_div = divider_latency(config.divider, config.fmt("p2_r").word)
-    t_b = 1 + t_div + 2  # den (1), the divider, r S~ then + M (2)
-    p_b, p_f = max(lanes, t_b), max(lanes, 4)  # periods per column: one slot per lane
+    mul = 3  # hdl/fx_pipe.v fx_mul_pipe: partial products, pair sums, final sum
+    ram = 2  # a block RAM read: address, then the DP16KD output register
+    # backward loop: operand register, c S~ (mul), + 1, cast den; the divider; r S~ (mul),
+    # + M, cast S~ into the lane's state
+    t_b = 1 + mul + 1 + 1 + t_div + mul + 1 + 1
+    # forward loop: u; S~ u (mul), + Q~, cast w; r w (mul), cast lam; (-a) lam (mul), cast
+    # z; a z (mul), + u, cast e into the lane's state; the e operand register
+    t_f = 1 + mul + 1 + 1 + mul + 1 + mul + 1 + mul + 1 + 1 + 1
+    entry = ram + 1 + mul + 1 + mul + 1 + 1  # read, D, KA D, cast a, a^2, cast, max C_MIN
+    w_at = ram + 1 + mul + 1 + 1  # after a forward slot's read: u, S~ u, + Q~, cast
+    lam_at, z_at = w_at + mul + 1, w_at + 2 * (mul + 1)
+    out_at = z_at + 1 + 1  # threshold compare, output register
+    lanes = config.lanes or max(t_b, t_f)
+    p_b, p_f = max(lanes, t_b), max(lanes, t_f)  # periods per column: one slot per lane
     sweep_len, fwd_len = n * p_b, n * p_f  # n slots per lane (the first loads S~_end)
     out = {k: np.zeros((m, n), dtype=np.int64) for k in ("pix_in", *TAPS)}
     sweep_end = fwd_end = -(10**18)  # the engines are free from these cycles on
@@ -197,7 +208,7 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
         if g >= 2:  # each sweep-buffer write (column i <= n - 2, lane l, at the slot's
             # write-back) no earlier than group g - 2's forward read of the same entry
             for i in range(n - 1):
-                write = sweep + (n - 1 - i) * p_b + 3 + t_b
+                write = sweep + (n - 1 - i) * p_b + entry + t_b
                 sweep += max(0, fwd_starts[g - 2] + i * p_f - write)
         sweep_end = sweep + sweep_len
         fwd = max(sweep_end + t_b, fwd_end)
@@ -209,11 +220,12 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
                 out["pix_in"][j, i] = in_cycles[j, i]
                 out["d"][j, i] = out["g_hat"][j, i] = in_cycles[j, i] + 2
                 slot = sweep + (n - 1 - i) * p_b + lane  # column i's line-buffer read
-                write_back = slot + 1 + 1 + 1 + t_b  # read, A, c, then the loop
+                write_back = slot + entry + t_b  # to the loop entry, then the loop
                 for k in ("a", "c", "den", "r", "s", "h", "q"):
                     out[k][j, i] = write_back
                 read = fwd + i * p_f + lane  # column i's sweep-buffer read
-                out["e"][j, i] = read + 1
-                out["w"][j, i], out["lam"][j, i], out["z"][j, i] = read + 2, read + 3, read + 4
-                out["valid"][j, i] = out["range"][j, i] = read + 6  # threshold, register
+                out["e"][j, i] = read + ram  # the e operand beside the RAM's output
+                out["w"][j, i], out["lam"][j, i] = read + w_at, read + lam_at
+                out["z"][j, i] = read + z_at
+                out["valid"][j, i] = out["range"][j, i] = read + out_at
     return out

@@ -566,9 +566,9 @@ P2_TAP_PORTS: Mapping[str, tuple[str, str]] = {
     "h": ("wb_h", "wb_v"),
     "q": ("q_wb", "wb_v"),
     "e": ("e_op", "tap_e_v"),
-    "w": ("w2", "tap_w_v"),
-    "lam": ("lam3", "tap_lam_v"),
-    "z": ("z4", "tap_z_v"),
+    "w": ("w6", "tap_w_v"),
+    "lam": ("lam10", "tap_lam_v"),
+    "z": ("z14", "tap_z_v"),
     "valid": ("m_axis_tdata[Z_W]", "m_axis_tvalid"),
     "range": ("m_axis_tdata[Z_W-1:0]", "m_axis_tvalid"),
 }
@@ -590,6 +590,7 @@ def p2_parameters(manifest: Mapping, rom_file: str | Path | None = None) -> dict
     frame size, the lanes, the divider and its latency (``rtl_model/runtime.py
     divider_latency``, the one place the model reads it from) and every signal's format
     and modes."""
+    from rangefx.rtl_model.p2.config import default_lanes
     from rangefx.rtl_model.runtime import divider_latency
 
     if manifest.get("pipeline") != "p2":
@@ -599,7 +600,7 @@ def p2_parameters(manifest: Mapping, rom_file: str | Path | None = None) -> dict
     m, n = manifest["shape"]
     r_word = _format(signals["p2_r"]["format"])[0]
     t_div = divider_latency(design["divider"], r_word)
-    lanes = int(design.get("lanes", 0)) or 1 + t_div + 2
+    lanes = int(design.get("lanes", 0)) or default_lanes(design["divider"], r_word)
     params: dict[str, int | str] = {
         "WIDTH": int(n), "HEIGHT": int(m), "LANES": lanes, "T_DIV": t_div,
         "DIVIDER": int(design["divider"] == "reciprocal"),

@@ -17,7 +17,22 @@ from ..config import Terms, WordLengthConfig, signed_bits
 from ..fixedpoint import FixedFormat
 from ..runtime import DIVIDERS, divider_latency
 
-__all__ = ["P2_SIGNALS", "P2Config", "loop_latency"]
+__all__ = [
+    "ADD_LATENCY",
+    "BRAM_READ",
+    "CAST_LATENCY",
+    "DEN_LATENCY",
+    "FWD_LOOP",
+    "MUL_LATENCY",
+    "OPERAND_LATENCY",
+    "P2_SIGNALS",
+    "STATE_LATENCY",
+    "SWEEP_READ",
+    "P2Config",
+    "backward_loop_latency",
+    "default_lanes",
+    "loop_latency",
+]
 
 #: (name, meaning) of every P2 signal and register, in datapath order.
 _SIGNAL_TABLE: tuple[tuple[str, str], ...] = (
@@ -124,15 +139,56 @@ class P2Config(WordLengthConfig):
         yield "p2_r", need, f"{self.divider} divider"
 
     def effective_lanes(self) -> int:
-        """Lanes of the sweep engine (``lanes``, or the loop latency when 0)."""
-        return self.lanes or loop_latency(self)
+        """Lanes of the sweep engine (``lanes``, or :func:`default_lanes` when 0)."""
+        return self.lanes or default_lanes(self.divider, self.formats["p2_r"].word)
 
 
 #: P2 signals in datapath order.
 P2_SIGNALS: tuple[str, ...] = P2Config.signals()
 
 
+#: Declared latencies (cycles) of P2's hardware units (docs/p2_datapath.md, "Hardware"):
+#: every unit does one multiply, one carry chain or one cast per cycle.
+MUL_LATENCY = 3  # hdl/fx_pipe.v fx_mul_pipe: 18x18 partial products, pair sums, final sum
+ADD_LATENCY = 1  # one carry chain (an add, a subtract or a compare), registered
+CAST_LATENCY = 1  # fx_cast_sized: the rounding carry and the overflow mode, registered
+BRAM_READ = 2  # a block RAM read: the address registered, then DP16KD's output register
+OPERAND_LATENCY = 1  # a lane's loop state (LUT RAM) read into the loop's operand register
+#: Cycles from a sweep slot's line-buffer read to its loop entry (c at the loop's
+#: multiplier): read, D = d_k + d_k+1, KA D, cast a, a^2, cast, max(., C_MIN).
+SWEEP_READ = (
+    BRAM_READ + ADD_LATENCY + MUL_LATENCY + CAST_LATENCY + MUL_LATENCY + CAST_LATENCY + ADD_LATENCY
+)
+#: Cycles from the loop entry to the divider's operand ``den``: the operand register,
+#: ``c S~``, ``+ 1``, the cast.
+DEN_LATENCY = OPERAND_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
+#: Cycles from the divider's ``r`` to ``S~_k`` in the lane's state: ``r S~``, ``+ M``, the cast.
+STATE_LATENCY = MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
+#: The forward recurrence ``e_k -> e_k+1``: ``u = e - dG``; ``S~ u``, ``+ Q~``, cast ``w``;
+#: ``r w``, cast ``lam``; ``(-a) lam``, cast ``z``; ``a z``, ``+ u``, cast ``e`` into the
+#: lane's state; the e operand register.
+FWD_LOOP = (
+    ADD_LATENCY
+    + (MUL_LATENCY + ADD_LATENCY + CAST_LATENCY)
+    + 2 * (MUL_LATENCY + CAST_LATENCY)
+    + (MUL_LATENCY + ADD_LATENCY + CAST_LATENCY)
+    + OPERAND_LATENCY
+)
+
+
+def backward_loop_latency(divider: str, quotient_word: int) -> int:
+    """Cycles of the backward recurrence ``S~_k+1 -> S~_k`` with a divider and its
+    quotient word: ``DEN_LATENCY`` + the divider + ``STATE_LATENCY``."""
+    return DEN_LATENCY + divider_latency(divider, quotient_word) + STATE_LATENCY
+
+
+def default_lanes(divider: str, quotient_word: int) -> int:
+    """Lanes when the config says 0: the longer loop latency (backward or forward), the
+    fewest lanes that sustain one pixel per clock without blanking."""
+    return max(backward_loop_latency(divider, quotient_word), FWD_LOOP)
+
+
 def loop_latency(config: P2Config) -> int:
-    """Cycles of the backward recurrence ``S~_k+1 -> S~_k``: product ``A^2 S~`` and cast
-    (1), divider, product ``r S~`` plus ``M`` and cast (2)."""
-    return 1 + divider_latency(config.divider, config.formats["p2_r"].word) + 2
+    """Cycles of the backward recurrence ``S~_k+1 -> S~_k`` of ``config``
+    (:func:`backward_loop_latency`)."""
+    return backward_loop_latency(config.divider, config.formats["p2_r"].word)

@@ -50,16 +50,29 @@ from ..kernels import cast_site as _cast
 from ..kernels import divide_into as _divide_into
 from ..pipeline import PipelineResult, build_result
 from ..stream import input_cycles, line_starts
-from .config import P2_SIGNALS, P2Config, loop_latency
+from .config import (
+    ADD_LATENCY,
+    BRAM_READ,
+    CAST_LATENCY,
+    FWD_LOOP,
+    MUL_LATENCY,
+    P2_SIGNALS,
+    SWEEP_READ,
+    P2Config,
+    loop_latency,
+)
 
 __all__ = [
     "FWD_LOOP",
     "FWD_READ",
     "IN_LATENCY",
+    "LAM_OFFSET",
     "N_SITES",
     "OUT_LATENCY",
     "P2_TAPS",
     "SWEEP_READ",
+    "W_OFFSET",
+    "Z_OFFSET",
     "P2Registers",
     "buffer_bits",
     "group_starts",
@@ -83,10 +96,15 @@ P2_TAPS = (
 #: Cast sites in the kernel (each logs its own raw min/max).
 N_SITES = 16
 IN_LATENCY = 2  # input cast + d/Ĝ adder, then the line-buffer write
-SWEEP_READ = 3  # a sweep slot's line-buffer read, then A, then c: the loop entry
-FWD_LOOP = 4  # forward recurrence e_k -> w -> λ/β -> z -> e_k+1
-FWD_READ = 1  # a forward slot's sweep-buffer read: the e operand register
-OUT_LATENCY = FWD_READ + 5  # read, e operand, w, λ/β, z, threshold/valid, output register
+FWD_READ = BRAM_READ  # a forward slot's sweep-buffer read: with it, the e operand register
+#: Cycles after a forward slot's sweep-buffer read at which its taps leave (Hardware):
+#: ``e`` with the read; ``w`` after ``u``, ``S~ u``, ``+ Q~``, the cast; ``lam`` and ``z``
+#: after a product and a cast each; ``valid``/``range`` after the threshold compare and
+#: the output register.
+W_OFFSET = FWD_READ + ADD_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
+LAM_OFFSET = W_OFFSET + MUL_LATENCY + CAST_LATENCY
+Z_OFFSET = LAM_OFFSET + MUL_LATENCY + CAST_LATENCY
+OUT_LATENCY = Z_OFFSET + ADD_LATENCY + 1
 
 
 @njit(cache=True, nogil=True)
@@ -572,7 +590,8 @@ def group_starts(
         raise ValueError(
             f"P2 cannot sustain one pixel per clock: a group of {lanes} lines arrives in "
             f"{period} cycles but its backward sweep needs {back} (loop latency {tb}) and its "
-            f"forward pass {fwd}; use lanes >= {tb} or more horizontal blanking"
+            f"forward pass {fwd} (loop latency {tf}); use lanes >= {max(tb, tf)} or more "
+            "horizontal blanking"
         )
     firsts = np.ascontiguousarray(line_first, dtype=np.int64)
     lasts = np.ascontiguousarray(line_last, dtype=np.int64)
@@ -625,7 +644,7 @@ def _group_recurrence(firsts, lasts, lanes, back, fwd, tb, reads, hold):
         if gi >= 2:  # the sweep buffer it writes is read out by group gi - 2 in time
             b0 = max(b0, starts[gi - 2, 1] + hold)
         # lane l writes its sweep-buffer column 0 at b0 + l + (n - 1) P_b + SWEEP_READ + T_b
-        # and reads it at f0 + l: later, as P_b >= T_b > SWEEP_READ
+        # and reads it at f0 + l: later, as P_b >= T_b > SWEEP_READ (T_b = 11 + T_div)
         f0 = b0 + back + tb
         f0 = f0 if gi == 0 else max(f0, starts[gi - 1, 1] + fwd)
         if gi >= 2 and starts[gi - 2, 0] + reads > firsts[first] + IN_LATENCY:

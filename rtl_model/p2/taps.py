@@ -14,7 +14,8 @@ pass after the sweep. The cycle of each sample therefore comes from the schedule
   lane's first: it writes back the start values ``S~_end``, ``Q~ = 0`` (the other taps 0);
 * forward-pass taps of column ``k``, whose slot reads the sweep buffer at
   ``forward_start + k P_f``: ``e`` (``e_k``, the e operand register: ``e_0 = 0``) at
-  ``+ FWD_READ``, ``w``, ``lam``, ``z`` at ``+ FWD_READ`` plus 1, 2, 3; ``valid`` and
+  ``+ FWD_READ``, ``w``, ``lam``, ``z`` at ``+ W_OFFSET``, ``LAM_OFFSET``, ``Z_OFFSET``
+  (each the register after its cast); ``valid`` and
   ``range`` (the output register) at ``+ OUT_LATENCY``, the output cycle. Column
   ``n - 1``'s slot reads a zero entry (``w = lam = z = 0``, invalid, ``range_max``).
 
@@ -30,7 +31,16 @@ import numpy as np
 
 from ..pipeline import VALID_FORMAT, TapSpec
 from .config import P2Config, loop_latency
-from .model import FWD_READ, IN_LATENCY, OUT_LATENCY, P2_TAPS, SWEEP_READ
+from .model import (
+    FWD_READ,
+    IN_LATENCY,
+    LAM_OFFSET,
+    OUT_LATENCY,
+    P2_TAPS,
+    SWEEP_READ,
+    W_OFFSET,
+    Z_OFFSET,
+)
 
 __all__ = ["TAP_SIGNALS", "TAP_STAGE", "tap_cycles", "tap_names", "tap_table"]
 
@@ -71,9 +81,9 @@ TAP_STAGE: Mapping[str, str | None] = MappingProxyType(
 #: Cycles after the forward step's start at which each forward tap leaves.
 _FORWARD_OFFSET = {
     "e": FWD_READ,
-    "w": FWD_READ + 1,
-    "lam": FWD_READ + 2,
-    "z": FWD_READ + 3,
+    "w": W_OFFSET,
+    "lam": LAM_OFFSET,
+    "z": Z_OFFSET,
     "valid": OUT_LATENCY,
     "range": OUT_LATENCY,
 }
