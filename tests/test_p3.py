@@ -62,11 +62,17 @@ def test_default_on_lab_meets_the_issue_targets():
 @pytest.mark.parametrize("factor", [4, 8, 16, 19])
 def test_no_overflow_on_the_motorcycle_pair(factor):
     """The factors ``rangefx eval`` scores, as shipped (the limit from the width) and
-    with the search range as a user's max_disparity: 0 overflows, P3 within 0.5 % of
-    G6."""
+    with the search range as a user's max_disparity, the vertical term off (the default)
+    and on: 0 overflows, P3 within 0.5 % of G6."""
     case = real_pair_case("motorcycle", factor)
     md = float(search_range(load_motorcycle(factor)))
-    for config in (P3.default_config(), P3.default_config(max_disparity=md)):
+    configs = (
+        P3.default_config(),
+        P3.default_config(max_disparity=md),
+        P3.default_config(vertical=True),
+        P3.default_config(vertical=True, max_disparity=md),
+    )
+    for config in configs:
         result = P3.run(case, config, taps=False)
         golden = P3.golden(case, config).result
         assert result.overflow_total == 0, {k: v for k, v in result.overflows.items() if v}
@@ -183,12 +189,15 @@ def test_oracle_and_model_agree_on_negative_fraction_bits(seed, quant):
 )
 def test_no_overflow_when_the_cameras_differ(perturb):
     """1/4, the right image as a real rig's (``rangefx eval --perturb``): the shipped
-    formats still give 0 overflows (a gain of 0.9 drives |du| to 34.8 px)."""
+    formats still give 0 overflows with the vertical term off and on (a gain of 0.9
+    drives |du| to 34.8 px)."""
     case = real_pair_case("motorcycle", 4)
     data = perturb_right(load_motorcycle(4), Perturbation(**perturb))
     image2 = np.clip(np.rint(data.image2), 0, 255).astype(np.int64)
-    result = P3.run(replace(case, image2=image2), taps=False)
-    assert result.overflow_total == 0, {k: v for k, v in result.overflows.items() if v}
+    for vertical in (False, True):
+        config = P3.default_config(vertical=vertical)
+        result = P3.run(replace(case, image2=image2), config, taps=False)
+        assert result.overflow_total == 0, {k: v for k, v in result.overflows.items() if v}
 
 
 def test_p3_builds_the_normalisations_it_models():

@@ -6,7 +6,10 @@ is the fast implementation of that page (numba kernels on raw int64 values) and
 by the 5-tap binomial reduce, the start estimate expanded (bilinear, doubled) from the
 coarser level, then ``warps`` stages of Keys cubic warp of E2, central differences,
 the window sums of ``g²``, ``g e``, ``e²`` (separable: row pass, column pass), the
-divider ``du = -Σge / Σgg`` and the clipped update; at level 0 the residual test, the
+divider ``du = -Σge / Σgg`` and the clipped update — with ``vertical`` (eq 6's vertical
+term kept) also ``gy`` from the central differences down the columns, the window sums
+of ``gy²``, ``g gy``, ``gy e``, the 2x2 system's ``det`` and ``nu`` and ``du = -nu /
+det`` where ``det > 0`` —; at level 0 the residual test (1-D or the 2x2 fit's), the
 gradient test and the range divider ``z = f B / u``. Every filter replicates its
 borders, as the streaming schedule (:func:`rangefx.golden.multiscale.streaming_schedule`)
 does at the frame edges; the values do not depend on timing, the cycle stamps follow
