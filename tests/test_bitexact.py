@@ -218,6 +218,8 @@ P3_DESIGNS = (
      "coarse_lag": 2, "normalise_radius": 2},
     {"normalise": "none", "radius": 2, "sigma": 1.0, "levels": 2},
     {"normalise_radius": 1, "radius": 2, "sigma": 1.0, "levels": 3},
+    {"vertical": True, "radius": 2, "sigma": 1.0, "levels": 3, "warps": 2},
+    {"vertical": True, "radius": 1, "sigma": 0.8, "levels": 2, "normalise": "none"},
 )  # fmt: skip
 
 
