@@ -93,3 +93,34 @@ def test_a_pipeline_that_runs_whole_frames_refuses_bands(pipeline, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"rangefx: error: {pipeline} cannot run in bands of lines: its lines are "
                    "not independent"]  # fmt: skip
+
+
+@pytest.mark.parametrize("pipeline", list(PIPELINES))
+def test_a_frame_above_half_the_free_memory_is_banded_where_the_lines_allow(monkeypatch, pipeline):
+    """The whole-frame estimate (``run_memory_bytes``, per pipeline) decides: at most half
+    of the memory available, the whole frame; above it, bands for a pipeline whose lines
+    are independent (the other half is the machine's other processes': a P2 8192x8192
+    run once grew to 10.7 GB whole while they took the rest), the whole frame for the
+    others up to all of it, and a refusal beyond."""
+    from rangefx.tools import errors
+    from rangefx.tools.errors import UserError
+    from rangefx.tools.studies.banded import plan_bands
+    from rangefx.tools.studies.runner import run_memory_bytes
+
+    pipe = PIPELINES[pipeline]
+    shape = (2048, 2048)
+    whole = run_memory_bytes(shape[0] * shape[1], pipeline)
+    assert run_memory_bytes(shape[0] * shape[1]) >= whole > run_memory_bytes(1, pipeline)
+    for available, want in ((2 * whole, None), (2 * whole - 2, "bands"), (whole, "bands")):
+        monkeypatch.setattr(errors, "available_memory_bytes", lambda a=available: a)
+        lines = plan_bands(pipe, shape)
+        if want is None or not pipe.line_independent:
+            assert lines is None, (available, lines)
+        else:
+            assert isinstance(lines, int) and 1 <= lines < shape[0], (available, lines)
+    monkeypatch.setattr(errors, "available_memory_bytes", lambda: whole - 1)
+    if pipe.line_independent:
+        assert 1 <= plan_bands(pipe, shape) < shape[0]
+    else:
+        with pytest.raises(UserError, match="would need about"):
+            plan_bands(pipe, shape)

@@ -35,6 +35,7 @@ __all__ = [
     "range_source",
     "require_run_memory",
     "run_case",
+    "run_memory_bytes",
 ]
 
 
@@ -75,19 +76,30 @@ def check_input_levels(
     return total
 
 
-#: Peak resident memory of ``rangefx run`` (golden beside a pipeline): a base (the
-#: interpreter, numpy, numba and the compiled kernels; 230-380 MB measured at 512x512)
-#: plus bytes per pixel (measured 2048x2048 minus 512x512: golden 190, P1 309, P2 146,
-#: P3 272; AMD EPYC, ``/usr/bin/time -f %M rangefx run --pipeline P``). The estimate
-#: takes the largest with a third of headroom.
-RUN_BASE_BYTES = 400 * 2**20
-RUN_BYTES_PER_PIXEL = 400
+#: Peak resident memory of ``rangefx run`` (a pipeline beside its golden, or a golden
+#: method alone): a base (the interpreter, numpy, numba and the loaded kernels) plus
+#: bytes per pixel, per pipeline. Fitted to ``/usr/bin/time -f %M rangefx run --pipeline
+#: P --left L.npy --right R.npy`` at 512x512 and 2048x2048 (random 8-bit pair, AMD EPYC,
+#: warm kernel cache): base ~200 MB; golden 195, P1 316, P2 176, P3 323 B a pixel; the
+#: figures here are those with 15 % of headroom, so the estimate is 14-21 % above the
+#: measured peak at both sizes (docs/guarantees.md). A pipeline not listed is estimated
+#: at the largest.
+RUN_BASE_BYTES = 220 * 2**20
+RUN_BYTES_PER_PIXEL: dict[str, int] = {"golden": 224, "p1": 363, "p2": 202, "p3": 371}
 
 
-def require_run_memory(what: str, pixels: int, runs: int = 1) -> None:
+def run_memory_bytes(pixels: int, pipeline: str | None = None, runs: int = 1) -> int:
+    """Estimated peak bytes of ``runs`` concurrent runs of ``pipeline`` (a registry name,
+    ``"golden"`` for a golden method alone, None for the largest) on ``pixels`` pixels."""
+    per_pixel = RUN_BYTES_PER_PIXEL.get(pipeline or "", max(RUN_BYTES_PER_PIXEL.values()))
+    return RUN_BASE_BYTES + runs * pixels * per_pixel
+
+
+def require_run_memory(what: str, pixels: int, runs: int = 1, pipeline: str | None = None) -> None:
     """Refuse, before rendering or running, ``runs`` concurrent runs of ``pixels`` pixels
-    that would need more memory than this machine has (one line naming ``what``)."""
-    require_memory(what, RUN_BASE_BYTES + runs * pixels * RUN_BYTES_PER_PIXEL)
+    of ``pipeline`` (None: the largest) that would need more memory than this machine has
+    (one line naming ``what``)."""
+    require_memory(what, run_memory_bytes(pixels, pipeline, runs))
 
 
 def load_config(pipeline: Pipeline, path: str | None = None, **design: Any) -> WordLengthConfig:
@@ -127,17 +139,41 @@ def golden_case(
         raise UserError(str(exc)) from None
 
 
+#: Pixels a band of :func:`compare_ranges` takes at once.
+_COMPARE_CHUNK_PIXELS = 1 << 20
+
+
 def compare_ranges(fixed: PipelineResult | RangeResult, golden: RangeResult) -> dict[str, float]:
     """Fixed vs golden on one pair: relative range difference on pixels valid in both
     (median and 95th percentile; NaN when no pixel is valid in both) and the fraction of
     pixels whose valid flags agree."""
-    both = fixed.valid & golden.valid
-    n_both = int(np.count_nonzero(both))
-    rel = np.abs(fixed.range[both] - golden.range[both]) / golden.range[both]
+    # in bands of rows, into one array of the differences: a whole-frame expression held
+    # five frame-sized temporaries at once (a banded 8192x8192 run's peak); the values,
+    # their order and so the figures are the whole-frame expression's, bit for bit
+    m = fixed.valid.shape[0]
+    step = max(1, _COMPARE_CHUNK_PIXELS // max(1, fixed.valid[:1].size))
+    agree = 0
+    counts = []
+    for j in range(0, m, step):
+        both = fixed.valid[j : j + step] & golden.valid[j : j + step]
+        counts.append(int(np.count_nonzero(both)))
+        agree += int(np.count_nonzero(fixed.valid[j : j + step] == golden.valid[j : j + step]))
+    n_both = sum(counts)
+    rel = np.empty(n_both)
+    k = 0
+    for j, count in zip(range(0, m, step), counts, strict=True):
+        both = fixed.valid[j : j + step] & golden.valid[j : j + step]
+        ref = golden.range[j : j + step][both]
+        rel[k : k + count] = np.abs(fixed.range[j : j + step][both] - ref) / ref
+        k += count
+    # in place (no copy of the frame's differences): the median and the percentile depend
+    # only on the values, which the partial sort of the first leaves as they were
+    median = float(np.median(rel, overwrite_input=True)) if n_both else float("nan")
+    p95 = float(np.percentile(rel, 95, overwrite_input=True)) if n_both else float("nan")
     return {
-        "median_rel_range_diff": float(np.median(rel)) if n_both else float("nan"),
-        "p95_rel_range_diff": float(np.percentile(rel, 95)) if n_both else float("nan"),
-        "valid_agreement": float(np.mean(fixed.valid == golden.valid)),
+        "median_rel_range_diff": median,
+        "p95_rel_range_diff": p95,
+        "valid_agreement": agree / fixed.valid.size,
         "n_valid_both": n_both,
     }
 
