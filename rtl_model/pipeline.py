@@ -83,6 +83,12 @@ class Case:
             isinstance(k, str) for k in self.settings
         ):
             raise ValueError("case settings must map settings keys (str) to settings")
+        if self.scene is not None and not isinstance(self.scene, Scene):
+            # a case built positionally as before settings moved to ``settings``
+            raise ValueError(
+                f"case scene must be a Scene, not {type(self.scene).__name__} (a pipeline's "
+                "settings go in settings={key: ...})"
+            )
 
     @classmethod
     def from_scene(cls, scene: Scene, settings: Mapping[str, Any] | None = None) -> Case:

@@ -381,6 +381,8 @@ def test_a_case_holds_every_pipelines_settings_by_key():
         Case.from_images(scene.image1, scene.image2)
     with pytest.raises(ValueError, match="must be a RiccatiConfig"):
         PIPELINES["p2"].settings(pair.with_setting("riccati", loose))
+    with pytest.raises(ValueError, match=r"settings go in settings=\{key: \.\.\.\}"):
+        Case(pair.image1, pair.image2, pair.camera, pair.motion, "stereo", loose)
 
 
 # -- the command line is one API call -------------------------------------------------------
