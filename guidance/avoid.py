@@ -991,8 +991,9 @@ def plan_safe_manoeuvre(
     accepted when it keeps what the start leaves (never closer than it already is, less
     10 %, at least 0.5 ft).
 
-    Candidates whose straight chord keeps that floor (:func:`_chord_clearance`, a
-    geometric test) are solved first, in their order; the others after them. ``None``
+    From such a start, candidates whose straight chord keeps that floor
+    (:func:`_chord_clearance`, a geometric test) are solved first, in their order; the
+    others after them (elsewhere the order is the least departure first). ``None``
     when no candidate has such a plan, unless ``closest_if_none``: then the candidate
     least short of that floor (within the limits first), ``keeps_floor=False``
     (the caller reports it; never a landing)."""
@@ -1007,7 +1008,7 @@ def plan_safe_manoeuvre(
     v = np.asarray(v, dtype=np.float64)
     hold = _hold_field(field)
     cands = manoeuvre_candidates(r, v, boxes, cfg)
-    if boxes and cands:
+    if cands and escape_direction(r, boxes, cfg.clearance_ft) is not None:
         speed = float(np.linalg.norm(v))
         ok = [_chord_clearance(r, p, boxes, cfg.clearance_ft, speed) >= 0.0 for _, p in cands]
         cands = [c for c, k in zip(cands, ok, strict=True) if k] + [

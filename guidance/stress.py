@@ -142,6 +142,7 @@ class StressResult:
                 k: sum(r["manoeuvre"] == k for r in rows)
                 for k in sorted({r["manoeuvre"] for r in rows if r["manoeuvre"]})
             },
+            "landings_after_manoeuvre": sum(r["landed_after_manoeuvre"] for r in rows),
             "collisions": sum(r["collision"] for r in rows),
             "crashes": sum(r["outcome"] == "crash" for r in rows),
             "landings_keeping_clearance": sum(r["clearance_kept"] for r in landed),
