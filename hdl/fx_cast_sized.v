@@ -132,10 +132,17 @@ module fx_cast_sized #(
         if (SH > 0) begin : g_drop
             wire signed [XW-1:0]  xe = x;
             wire        [SHP-1:0] rem = xe[SHP-1:0];
-            wire        [SHP-1:0] half = ({SHP{1'b0}} | 1'b1) << (SHP - 1);
             assign q = xe >>> SHP;
-            assign above = rem > half;
-            assign tie = rem == half;
+            // rem against half = 2^(SH-1) without a carry chain (Yosys maps a comparison
+            // with a constant to one): the bit at SH - 1 and whether any bit below is set
+            if (SHP > 1) begin : g_lo
+                wire low = |rem[SHP-2:0];
+                assign above = rem[SHP-1] & low;
+                assign tie = rem[SHP-1] & ~low;
+            end else begin : g_one
+                assign above = 1'b0;
+                assign tie = rem[0];
+            end
             assign nonzero = |rem;
         end else begin : g_keep
             wire signed [XW-1:0] xe = x;
