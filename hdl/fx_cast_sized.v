@@ -7,42 +7,31 @@
 // 64 bits: the input is an IN_W-bit two's complement exact value, the quantised value is
 // carried in max(input bits kept, OUT_W + 1) + 1 bits.
 //
-//   fx_round_sat : the rounding carry and the overflow mode, shared by both casts below
+//   fx_round, fx_sat: the rounding carry; the overflow mode
+//   fx_round_sat : both in one, shared by both casts below
 //   fx_cast_sized: a cast whose shift IN_F - OUT_F is a parameter (any sign)
 //   fx_cast_var  : a right shift that varies per sample (the reciprocal divider's
 //                  normalisation), 0 <= sh < 2^SH_W
-// All combinational (fx_cast_var with REG = 1: one register between shift and rounding).
+// All combinational (fx_cast_var with REG = 1: one register between shift and rounding;
+// REG = 2: and one between rounding and overflow).
 `timescale 1ns / 1ps
 
-// Rounding carry from (floor q, remainder class) and overflow into OUT_W bits.
-module fx_round_sat #(
+// The rounded value: floor q plus the rounding carry of the quantisation mode, in
+// CW = max(QW, OUT_W + 1) + 1 bits (fx_round_sat, or fx_cast_var with REG = 2).
+module fx_round #(
     parameter integer QW    = 8,   // bits of the floor q (two's complement)
     parameter integer OUT_W = 8,
-    parameter integer OUT_S = 0,
-    parameter integer QUANT = 0,
-    parameter integer OVF   = 0
+    parameter integer QUANT = 0
 ) (
     input  wire signed [QW-1:0]    q,        // floor(x / 2^sh)
     input  wire                    above,    // remainder > 1/2 LSB
     input  wire                    tie,      // remainder == 1/2 LSB (and sh > 0)
     input  wire                    nonzero,  // remainder != 0
-    output reg         [OUT_W-1:0] y,
-    output reg                     ovf
+    output reg  signed [((QW > OUT_W + 1) ? QW : OUT_W + 1):0] qr
 );
     localparam integer CW = ((QW > OUT_W + 1) ? QW : OUT_W + 1) + 1;
-    localparam [CW-1:0] ONE = {{(CW-1){1'b0}}, 1'b1};
-    // the largest and smallest codes of the output format
-    localparam [CW-1:0] HI = OUT_S ? (ONE << (OUT_W - 1)) - ONE : (ONE << OUT_W) - ONE;
-    localparam [CW-1:0] LO_SAT = OUT_S ? ~HI : {CW{1'b0}};
-    // SAT_SYM never gives -2^(W-1); for W = 1 ap_fixed keeps -1 (as SAT)
-    localparam integer SYM = (OUT_S && OVF == 3 && OUT_W > 1) ? 1 : 0;
-    localparam [CW-1:0] LO = SYM ? ~HI + ONE : LO_SAT;
-    // the bits above the output word (from its sign bit when signed) must repeat the sign
-    localparam integer TOP = OUT_S ? OUT_W - 1 : OUT_W;
-
     wire neg = q[QW-1];  // floor(x / 2^sh) < 0 exactly when x < 0
-    reg  up, above_hi, below_lo;
-    reg  signed [CW-1:0] qr;
+    reg  up;
     always @* begin
         case (QUANT)
             0: up = 1'b0;                       // TRN: toward -inf
@@ -56,6 +45,31 @@ module fx_round_sat #(
         endcase
         qr = q;  // sign-extended to CW bits
         qr = qr + $signed({{(CW-1){1'b0}}, up});
+    end
+endmodule
+
+// The overflow mode acting on a rounded value qr of CW bits, into OUT_W bits.
+module fx_sat #(
+    parameter integer CW    = 10,
+    parameter integer OUT_W = 8,
+    parameter integer OUT_S = 0,
+    parameter integer OVF   = 0
+) (
+    input  wire signed [CW-1:0]    qr,
+    output reg         [OUT_W-1:0] y,
+    output reg                     ovf
+);
+    localparam [CW-1:0] ONE = {{(CW-1){1'b0}}, 1'b1};
+    // the largest and smallest codes of the output format
+    localparam [CW-1:0] HI = OUT_S ? (ONE << (OUT_W - 1)) - ONE : (ONE << OUT_W) - ONE;
+    localparam [CW-1:0] LO_SAT = OUT_S ? ~HI : {CW{1'b0}};
+    // SAT_SYM never gives -2^(W-1); for W = 1 ap_fixed keeps -1 (as SAT)
+    localparam integer SYM = (OUT_S && OVF == 3 && OUT_W > 1) ? 1 : 0;
+    localparam [CW-1:0] LO = SYM ? ~HI + ONE : LO_SAT;
+    // the bits above the output word (from its sign bit when signed) must repeat the sign
+    localparam integer TOP = OUT_S ? OUT_W - 1 : OUT_W;
+    reg above_hi, below_lo;
+    always @* begin
         // range checks on the top bits, not CW-bit comparisons
         above_hi = ~qr[CW-1] & (|qr[CW-2:TOP]);
         below_lo = qr[CW-1] & (OUT_S ? ~(&qr[CW-2:TOP]) : 1'b1);
@@ -67,6 +81,28 @@ module fx_round_sat #(
             default: y = above_hi ? HI[OUT_W-1:0] : (below_lo ? LO[OUT_W-1:0] : qr[OUT_W-1:0]);
         endcase
     end
+endmodule
+
+// Rounding carry from (floor q, remainder class) and overflow into OUT_W bits.
+module fx_round_sat #(
+    parameter integer QW    = 8,   // bits of the floor q (two's complement)
+    parameter integer OUT_W = 8,
+    parameter integer OUT_S = 0,
+    parameter integer QUANT = 0,
+    parameter integer OVF   = 0
+) (
+    input  wire signed [QW-1:0]    q,        // floor(x / 2^sh)
+    input  wire                    above,    // remainder > 1/2 LSB
+    input  wire                    tie,      // remainder == 1/2 LSB (and sh > 0)
+    input  wire                    nonzero,  // remainder != 0
+    output wire        [OUT_W-1:0] y,
+    output wire                    ovf
+);
+    localparam integer CW = ((QW > OUT_W + 1) ? QW : OUT_W + 1) + 1;
+    wire signed [CW-1:0] qr;
+    fx_round #(QW, OUT_W, QUANT) u_r (.q(q), .above(above), .tie(tie), .nonzero(nonzero),
+                                      .qr(qr));
+    fx_sat #(CW, OUT_W, OUT_S, OVF) u_s (.qr(qr), .y(y), .ovf(ovf));
 endmodule
 
 // x * 2^-IN_F (IN_W-bit two's complement) cast into (OUT_S, OUT_W, OUT_F).
@@ -96,10 +132,17 @@ module fx_cast_sized #(
         if (SH > 0) begin : g_drop
             wire signed [XW-1:0]  xe = x;
             wire        [SHP-1:0] rem = xe[SHP-1:0];
-            wire        [SHP-1:0] half = ({SHP{1'b0}} | 1'b1) << (SHP - 1);
             assign q = xe >>> SHP;
-            assign above = rem > half;
-            assign tie = rem == half;
+            // rem against half = 2^(SH-1) without a carry chain (Yosys maps a comparison
+            // with a constant to one): the bit at SH - 1 and whether any bit below is set
+            if (SHP > 1) begin : g_lo
+                wire low = |rem[SHP-2:0];
+                assign above = rem[SHP-1] & low;
+                assign tie = rem[SHP-1] & ~low;
+            end else begin : g_one
+                assign above = 1'b0;
+                assign tie = rem[0];
+            end
             assign nonzero = |rem;
         end else begin : g_keep
             wire signed [XW-1:0] xe = x;
@@ -122,7 +165,8 @@ module fx_cast_var #(
     parameter integer OUT_S = 0,
     parameter integer QUANT = 0,
     parameter integer OVF   = 0,
-    parameter integer REG   = 0     // 1: the shifted value and remainder class registered
+    parameter integer REG   = 0     // 1: the shifted value and remainder class registered,
+                                    // 2: and the rounded value (latency 2)
 ) (
     input  wire                    clk,
     input  wire signed [IN_W-1:0]  x,
@@ -151,6 +195,19 @@ module fx_cast_var #(
             assign {q_r, above_r, tie_r, nonzero_r} = {q, hbit & low, hbit & ~low, hbit | low};
         end
     endgenerate
-    fx_round_sat #(XW, OUT_W, OUT_S, QUANT, OVF) u_rs (
-        .q(q_r), .above(above_r), .tie(tie_r), .nonzero(nonzero_r), .y(y), .ovf(ovf));
+    localparam integer CW = ((XW > OUT_W + 1) ? XW : OUT_W + 1) + 1;
+    wire signed [CW-1:0] qr;
+    fx_round #(XW, OUT_W, QUANT) u_r (.q(q_r), .above(above_r), .tie(tie_r),
+                                      .nonzero(nonzero_r), .qr(qr));
+    wire signed [CW-1:0] qr_r;
+    generate
+        if (REG > 1) begin : g_reg2
+            reg signed [CW-1:0] q2;
+            always @(posedge clk) q2 <= qr;
+            assign qr_r = q2;
+        end else begin : g_comb2
+            assign qr_r = qr;
+        end
+    endgenerate
+    fx_sat #(CW, OUT_W, OUT_S, OVF) u_s (.qr(qr_r), .y(y), .ovf(ovf));
 endmodule

@@ -13,8 +13,11 @@
 //                      products, a normalising cast; latency 9 (+ 10 with PIPE = 1:
 //                      the magnitudes, the leading one and the seed index each registered
 //                      (+3), the products in 3 stages each (fx_mul_pipe, +6), the cast's
-//                      shift registered before its rounding (+1))
-// P1 (p1_range.v, p1_frontend.v) uses FRONT = 1 / PIPE = 1 to close its clock (docs/hdl.md).
+//                      shift registered before its rounding (+1); + 14 with PIPE = 2:
+//                      the same with products of 4 stages, their operands registered in
+//                      the DSP (fx_mul_pipe IREG, +9), and the cast's rounded value
+//                      registered before its overflow mode (+2))
+// P1 (p1_range.v, p1_frontend.v) uses FRONT = 1 / PIPE = 2 to close its clock (docs/hdl.md).
 // D = 0 gives 0 when N = 0, otherwise the overflow mode of S acting on an infinite value
 // with the sign of N (ovf = 1).
 `timescale 1ns / 1ps
@@ -141,7 +144,7 @@ module fx_div_reciprocal #(
     parameter integer L = 8,            // seed ROM index bits (recip_lut_bits)
     parameter integer R = 20,           // reciprocal fraction bits (recip_bits)
     parameter ROM_FILE = "recip_rom.mem",
-    parameter integer PIPE = 0          // 1: + 10 stages, see above
+    parameter integer PIPE = 0          // 1: + 10 stages, 2: + 14, see above
 ) (
     input  wire                    clk,
     input  wire signed [N_W-1:0]   n,
@@ -230,9 +233,9 @@ module fx_div_reciprocal #(
         {mr_1, an_1, p_1} <= {mr_0, an_0, p_0};
         {neg_1, dz_1, nz_1} <= fl_0;
     end
-    // stages 3-8 (PIPE: products of ML = 3 register stages, fx_pipe.v):
+    // stages 3-8 (PIPE: products of ML = 3 (PIPE = 2: 4) register stages, fx_pipe.v):
     // t = floor(mR y0 2^-R), e = 2^(R+1) - t; y1 = floor(y0 e 2^-R); |N| y1, its sign, the shift
-    localparam integer ML = (PIPE != 0) ? 3 : 1;
+    localparam integer ML = (PIPE > 1) ? 4 : ((PIPE != 0) ? 3 : 1);
     wire [2*R+1:0] m1;
     fx_umul #(R + 1, YW, PIPE) u_m1 (clk, mr_1, y0_1, m1);
     wire [2*R+1:0] t_full = m1 >> R;
@@ -260,7 +263,8 @@ module fx_div_reciprocal #(
                     : (neg_6 ? -$signed(mag) : $signed(mag));
         sh_7 <= dz_6 ? {SH_W{1'b0}} : SH0 + SHL0 + p_6;
     end
-    // stage 9: the cast (PIPE: its shift registered before the rounding, + 1)
+    // stage 9: the cast (PIPE: its shift registered before the rounding, + 1; PIPE = 2:
+    // and its rounded value before the overflow mode, + 1)
     wire [OUT_W-1:0] y_c;
     wire             ovf_c;
     fx_cast_var #(XW, SH_W, SH_MAX, OUT_W, OUT_S, QUANT, OVF, PIPE) u_cast (

@@ -13,7 +13,7 @@
 //   t+7 col_s1, col_s2, col_state (p1_colfilt: line buffer read issued at t+3, its data
 //       out registered at t+4; product, casts);
 //       consistent: col2_state, ex = col2_out beside them (x-derivative latency 0)
-//   paper: t+10 N = s1 r2 (fx_mul_pipe), t+10+DIV_LAT ex = div_quot (ex_v)
+//   paper: t+11 N = s1 r2 (fx_mul_pipe IREG, 4 stages), t+11+DIV_LAT ex = div_quot (ex_v)
 // The stream outputs E_hat = s1, ex, ey = s2 leave together, aligned with ex (out_*), for
 // the range stage (p1_range) or the frame store.
 //
@@ -38,8 +38,8 @@ module p1_frontend #(
 `include "p1_frontend_params.vh"
     // derived: the x-derivative's format and the stage latencies
     parameter integer EX_W = CONSISTENT ? X2_W : DQ_W,
-    parameter integer DIV_LAT = DIVIDER ? 9 + 10 : DQ_W + 4 + 1,  // PIPE / FRONT
-    parameter integer EX_LAT = CONSISTENT ? 0 : 3 + DIV_LAT
+    parameter integer DIV_LAT = DIVIDER ? 9 + 14 : DQ_W + 4 + 1,  // PIPE = 2 / FRONT
+    parameter integer EX_LAT = CONSISTENT ? 0 : 4 + DIV_LAT
 ) (
     input  wire              clk,
     input  wire              rst,
@@ -310,10 +310,10 @@ module p1_frontend #(
             end
             wire signed [S1_W:0] s1_s = {(S1_S != 0) & col_s1[S1_W-1], col_s1};
             wire signed [R2_W:0] r2_s = {(R2_S != 0) & r2_d[2][R2_W-1], r2_d[2]};
-            wire signed [NW-1:0] nprod;   // t+10 (FX_MUL_LAT = 3)
-            fx_mul_pipe #(S1_W + 1, R2_W + 1) u_n (clk, s1_s, r2_s, nprod);
+            wire signed [NW-1:0] nprod;   // t+11 (FX_MUL_LAT = 4)
+            fx_mul_pipe #(S1_W + 1, R2_W + 1, 1) u_n (clk, s1_s, r2_s, nprod);
             wire [R1_W-1:0] d9;
-            fx_delay #(R1_W, 3) d_r1 (clk, r1_d[2], d9);
+            fx_delay #(R1_W, 4) d_r1 (clk, r1_d[2], d9);
             wire signed [NW-1:0] n9 = nprod;
             // the divider takes two's complement operands: D = r1 with its sign bit
             wire signed [R1_W:0] d9_s = {(R1_S != 0) & d9[R1_W-1], d9};
@@ -321,7 +321,7 @@ module p1_frontend #(
                 fx_div_reciprocal #(
                     .N_W(NW), .N_F(S1_F + R2_F), .D_W(R1_W + 1), .D_F(R1_F),
                     .OUT_W(DQ_W), .OUT_F(DQ_F), .OUT_S(DQ_S), .QUANT(DQ_Q), .OVF(DQ_O),
-                    .L(RECIP_L), .R(RECIP_R), .ROM_FILE(ROM_FILE), .PIPE(1)
+                    .L(RECIP_L), .R(RECIP_R), .ROM_FILE(ROM_FILE), .PIPE(2)
                 ) u_div (.clk(clk), .n(n9), .d(d9_s), .y(ex_w), .ovf(ovf_dq_w));
             end else begin : g_restoring
                 fx_div_restoring #(

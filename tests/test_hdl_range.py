@@ -210,6 +210,7 @@ def test_rounding_mutant_is_caught_at_the_first_differing_pixel(tmp_path):
         (14, 1, 3, (1, 12, 5)),  # left shift by 2, signed
         (14, 0, 4, (0, 6, -2)),  # unsigned in and out, negative output fraction
         (14, 1, 9, (1, 4, 0)),  # a 4-bit output: most inputs overflow
+        (14, 1, 3, (1, 10, 2)),  # a right shift by 1: the dropped bit is the tie
     ],
 )
 def test_sized_cast_equals_the_generic_cast_on_every_input(iw, signed, f_in, out, tmp_path):

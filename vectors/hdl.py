@@ -235,7 +235,6 @@ def frontend_instances(manifest: Mapping) -> dict[str, str]:
     return {"e1": "fe0", "e2": "g_stereo.fe1"}
 
 
-
 def bench_header(
     manifest: Mapping, rom_file: str | Path | None, lead: int, overrides: Mapping[str, int] = {}
 ) -> str:

@@ -907,15 +907,17 @@ def frame_registers(
     )  # fmt: skip
 
 
-#: Register stages of a pipelined product in the RTL (``hdl/fx_pipe.v`` fx_mul_pipe: the
-#: 18 x 18 partial products, their sums in pairs, the final sum).
-MUL_LATENCY = 3
+#: Register stages of a pipelined product in the RTL (``hdl/fx_pipe.v`` fx_mul_pipe with
+#: ``IREG``: the operands' 18-bit chunks and the 18 x 18 partial products, both in the
+#: MULT18X18D's own registers, then the partial products' sums in pairs, the final sum).
+MUL_LATENCY = 4
 
-#: Stages the P1 RTL adds to a divider (``hdl/fx_divide.v`` ``PIPE`` / ``FRONT``): the
-#: reciprocal divider registers |N| |D|, the leading one and the seed index before its
-#: ROM read (3), computes its three products in 3 stages each (6) and registers its
-#: cast's shift (1); the restoring divider registers |N| |D| before its first bit (1).
-DIVIDER_FRONT = {"reciprocal": 10, "restoring": 1}
+#: Stages the P1 RTL adds to a divider (``hdl/fx_divide.v`` ``PIPE = 2`` / ``FRONT``):
+#: the reciprocal divider registers |N| |D|, the leading one and the seed index before its
+#: ROM read (3), computes its three products in 4 stages each (9) and registers its
+#: cast's shift and its rounded value (2); the restoring divider registers |N| |D| before
+#: its first bit (1).
+DIVIDER_FRONT = {"reciprocal": 14, "restoring": 1}
 
 #: Cycles by which the column filter issues its line-buffer read ahead of its pixel
 #: (``hdl/p1_colfilt.v``: the block RAM's data out is registered before the filter uses
@@ -948,8 +950,8 @@ def stage_latencies(config: P1Config) -> dict[str, int]:
         "row_filter": 2,
         "column_filter": 3,
         "x_derivative": x_derivative,
-        "range_coords": 3 + MUL_LATENCY + 2 + MUL_LATENCY + 2,  # 13
-        "range_products": MUL_LATENCY + 2 + MUL_LATENCY + 1,  # 9
+        "range_coords": 3 + MUL_LATENCY + 2 + MUL_LATENCY + 2,  # 15
+        "range_products": MUL_LATENCY + 2 + MUL_LATENCY + 1,  # 11
         "range_divider": 1 + rdiv,
         "threshold": 1,
     }

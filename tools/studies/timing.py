@@ -152,6 +152,10 @@ TARGETS: dict[str, TimingTarget] = {
                           ("SB_LUT4", "SB_DFF", "SB_CARRY", "SB_MAC16", "SB_RAM40_4K"),
                           ("ICESTORM_LC", "ICESTORM_RAM", "ICESTORM_DSP", "SB_IO")),
 }  # fmt: skip
+#: Verilog defines of each target's synthesis: on the ECP5, ``hdl/fx_pipe.v`` fx_mul18
+#: instantiates MULT18X18D with its input and output registers clocked (Yosys maps ``*``
+#: to a DSP with every register bypassed).
+TARGET_DEFINES = {"ecp5": "-DRANGEFX_ECP5_DSP", "ice40": ""}
 #: What can be timed: the whole P1 (``top``) or one stream's front end alone.
 STAGES = ("top", "frontend")
 
@@ -543,7 +547,14 @@ def time_top(
     params = _stage_parameters(pipeline, config, shape, mode, stage)
     wrapper, pins = timed.wrappers[stage](params)
     command = family.synth(timed.module, dev)
-    synth_key = _key(wrapper, command, yosys, tools["yosys"], sources=timed.sources)
+    synth_key = _key(
+        wrapper,
+        command,
+        TARGET_DEFINES.get(target, ""),
+        yosys,
+        tools["yosys"],
+        sources=timed.sources,
+    )
     root = cache_dir()
     synth_file = root / f"synth-{target}-{synth_key}.json"
     runs: list[SeedTiming] = []
@@ -568,7 +579,8 @@ def time_top(
                 write_recip_rom(config, work / "recip_rom.mem")
             (work / f"{timed.module}.v").write_text(wrapper)
             sources = " ".join(str(HDL_DIR / s) for s in timed.sources)
-            script = (f"read_verilog -I{HDL_DIR} {sources} {timed.module}.v\n"
+            defines = TARGET_DEFINES.get(target, "")
+            script = (f"read_verilog {defines} -I{HDL_DIR} {sources} {timed.module}.v\n"
                       f"{command}\ntee -q -o stat.json stat -json\n")  # fmt: skip
             (work / "synth.ys").write_text(script)
             _run([*yosys, "-q", "-s", "synth.ys"], work, f"yosys ({target}) on {rtl.module}",
