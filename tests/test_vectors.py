@@ -367,7 +367,7 @@ def test_motion_mode_one_stream_of_two_frames(tmp_path):
     im1 = rng.integers(0, 256, (6, 9))
     case = Case(
         im1, np.roll(im1, 1, axis=0), PinholeCamera(9, 6, 40.0), MotionIncrement.stereo(0.2),
-        "motion", RangingConfig(),
+        "motion", settings={"ranging": RangingConfig()},
     )  # fmt: skip
     vs = build_vectors(
         "p1",
