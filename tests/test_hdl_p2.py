@@ -166,8 +166,9 @@ def _tap_cycles(vec, tap: str, m: int, n: int) -> np.ndarray:
 
 
 def test_lane_delay_mutant_is_reported_at_the_first_write_back(tmp_path, monkeypatch):
-    """The sweep engine's write-back tag taken one stage too late (the RTL text patched):
-    the write-back of every slot leaves a cycle late, so the first mismatch is the frame's
+    """The sweep engine's write-back tags one stage too late (the RTL text patched: the
+    lanes' state writes and the taps' strobes a cycle late, the loop's values not): the
+    write-back of every slot leaves a cycle late, so the first mismatch is the frame's
     first write-back sample (row 0, column n-1, got one cycle late) and every sample of
     the write-back taps is a cycle mismatch."""
     vec, _vs = _vectors(tmp_path, P2Config.default(), CROP)
