@@ -300,7 +300,8 @@ module p2_top #(
     // r: the line-buffer read (address); a tag (valid, first slot, lane, column, bank)
     // travels beside every slot: btag(i) holds the tag of the slot read at r = now - i
     localparam integer TAGW = 2 + LW + XW + 1;
-    localparam integer NBT = SWEEP_READ + T_B;
+    localparam integer WB_T = SWEEP_READ + T_B;  // the write-back's tag: btag(WB_T)
+    localparam integer NBT = WB_T;
     wire [TAGW-1:0] tag_r = {r_v, (st_t == 0), ph[LW-1:0], r_col, sb_bank};
     reg [TAGW*NBT-1:0] btags;
     always @(posedge clk)
@@ -480,7 +481,6 @@ module p2_top #(
     fx_delay #(ST_W + Q_W, T_B - 2) d_op (clk, {s_op1, q_op1}, op9);
     fx_delay #(DEN_W + H_W + 2, T_B - 1 - E_DEN) d_dh (clk, {den6, h6, oden6, oh6}, dh9);
     fx_delay #(R_W + 1, T_B - 1 - RD) d_r (clk, {r_q, ovf_rq}, r9);
-    localparam integer WB_T = SWEEP_READ + T_B;  // the write-back's tag: btag(WB_T)
     wire [TAGW-1:0] tg9 = `P2_BTAG(WB_T - 1);
     wire first9 = tg9[TAGW-2];
     wire [LW-1:0] lane9 = tg9[XW+1 +: LW];

@@ -185,13 +185,16 @@ def test_a_rounding_mutant_of_the_sweep_engine_is_reported_where_its_model_diffe
 
 
 def test_the_lanes_tag_delay_off_by_one_is_reported_at_the_first_write_back(tmp_path, monkeypatch):
-    """The lane tags beside the divider (``u_tagd``) one cycle longer than the divider, in
-    a patched copy, replayed through ``rangefx.api.replay``: every write-back sample
-    leaves one cycle late, so the first mismatch is the earliest write-back sample of the
+    """The sweep engine's write-back tag taken one stage too late (``WB_T``, in a patched
+    copy; the lanes' state writes and the taps' strobes a cycle late, the loop's values
+    not), replayed through ``rangefx.api.replay``: every write-back sample leaves one
+    cycle late, so the first mismatch is the earliest write-back sample of the
     manifest (its cycle, row and column; got one cycle later) and each write-back tap
     has one cycle mismatch per pixel; the input taps are exact in cycle."""
     vec, _vs = _vectors(tmp_path, "p2", P2Config.default(), CROPS["p2"], GAPS)
-    _patched_hdl(tmp_path, monkeypatch, r"(fx_delay #\(TAGW, )(T_DIV)(\) u_tagd)", r"\1\2 + 1\3")
+    _patched_hdl(
+        tmp_path, monkeypatch, r"(localparam integer WB_T = SWEEP_READ \+ T_B)(;)", r"\1 + 1\2"
+    )
     result = api.replay(vec, "icarus", bench="plain")
     assert not result.ok
     figures = result.figures
