@@ -229,37 +229,34 @@ def _expand_kernel(uc, m, n, fm, st, ov):
     return out
 
 
-@njit((_P, _I, _R, _I, _I, _P, _P, _R), cache=True, nogil=True)
-def _window_rows(p, f_p, win, s, site, fm, st, ov):
-    """Row pass of the window: ``Σ_k w_|k| p[x + k]``, replicated borders, cast into ``s``.
-    The row is copied with its replicated borders once, so the taps need no clamp, and
-    the symmetric taps are paired (``w_k (p[x-k] + p[x+k])``: the same integer sum)."""
-    m, n = p.shape
+@njit((_R, _R, _I, _R, _I, _I, _P, _P, _R, _R, _R, _R), cache=True, nogil=True)
+def _window_row(p, q, f_in, win, s, site, fm, st, ov, pad, acc, out):
+    """Row pass of the window on one line of the product ``p q`` (``f_in`` fraction bits:
+    the product's plus the window's): ``Σ_k w_|k| (p q)[x + k]``, replicated borders,
+    cast into ``s``. The product is formed as the line is copied with its replicated
+    borders (``pad``), so no product plane is written, the taps need no clamp, and the
+    symmetric taps are paired (``w_k (pq[x-k] + pq[x+k])``: the same integer sum)."""
+    n = p.shape[0]
     r = win.shape[0] - 1
-    f_in = fm[WIN, 1] + f_p
-    out = np.empty((m, n), dtype=np.int64)
-    pad = np.empty(n + 2 * r, dtype=np.int64)
-    acc = np.empty(n, dtype=np.int64)
-    for y in range(m):
-        for k in range(n + 2 * r):
-            pad[k] = p[y, min(max(k - r, 0), n - 1)]
-        for x in range(n):
-            a = win[0] * pad[x + r]
-            for k in range(1, r + 1):
-                a += win[k] * (pad[x + r - k] + pad[x + r + k])
-            acc[x] = a
-        _cast_logged_row(acc, f_in, s, site, fm, st, ov, out[y])
-    return out
+    for k in range(n + 2 * r):
+        c = min(max(k - r, 0), n - 1)
+        pad[k] = p[c] * q[c]
+    for x in range(n):
+        a = win[0] * pad[x + r]
+        for k in range(1, r + 1):
+            a += win[k] * (pad[x + r - k] + pad[x + r + k])
+        acc[x] = a
+    _cast_logged_row(acc, f_in, s, site, fm, st, ov, out)
 
 
-@njit((_P, _R, _I, _I, _I, _P, _P, _R), cache=True, nogil=True)
-def _window_cols(p, win, s_in, s, site, fm, st, ov):
-    """Column pass of the window on the row sums of signal ``s_in``, cast into ``s``;
-    accumulated a whole row at a time (the clamped line index once per tap and row)."""
+@njit((_P, _R, _I, _I, _I, _P, _P, _R, _P), cache=True, nogil=True)
+def _window_cols(p, win, s_in, s, site, fm, st, ov, out):
+    """Column pass of the window on the row sums of signal ``s_in``, cast into ``s``
+    (written into ``out``); accumulated a whole row at a time (the clamped line index
+    once per tap and row)."""
     m, n = p.shape
     r = win.shape[0] - 1
     f_in = fm[WIN, 1] + fm[s_in, 1]
-    out = np.empty((m, n), dtype=np.int64)
     acc = np.empty(n, dtype=np.int64)
     for y in range(m):
         mid = p[y]
@@ -271,7 +268,6 @@ def _window_cols(p, win, s_in, s, site, fm, st, ov):
             for x in range(n):
                 acc[x] += w * (above[x] + below[x])
         _cast_logged_row(acc, f_in, s, site, fm, st, ov, out[y])
-    return out
 
 
 @njit(cache=True, nogil=True)
@@ -333,12 +329,29 @@ def _level_kernel(
         taps[1] = u
         if vertical:
             taps[2] = ay
+    # the planes a stage writes, allocated once per level (taps copy them out)
     w = np.empty((m, n), dtype=np.int64)
+    wx = np.empty((m, n), dtype=np.int64)
     g = np.empty((m, n), dtype=np.int64)
     e = np.empty((m, n), dtype=np.int64)
+    rgg = np.empty((m, n), dtype=np.int64)
+    rge = np.empty((m, n), dtype=np.int64)
+    ree = np.empty((m, n), dtype=np.int64)
+    du = np.empty((m, n), dtype=np.int64)
+    r = win.shape[0] - 1
+    pad = np.empty(n + 2 * r, dtype=np.int64)
+    f_wgg, f_wge, f_wee = fm[WIN, 1] + 2 * f_g, fm[WIN, 1] + f_g + f_e, fm[WIN, 1] + 2 * f_e
+    mv = m if vertical else 0  # the vertical term's planes: empty when it is off
+    gy = np.empty((mv, n), dtype=np.int64)
+    ryy = np.empty((mv, n), dtype=np.int64)
+    rgy = np.empty((mv, n), dtype=np.int64)
+    rye = np.empty((mv, n), dtype=np.int64)
+    f_wyy, f_wgy = fm[WIN, 1] + 2 * f_gy, fm[WIN, 1] + f_g + f_gy
+    f_wye = fm[WIN, 1] + f_gy + f_e
     for k in range(warps):
-        # the warp: W(x) = E2(x - u) from the row buffer, Keys weights from the ROM
-        wx = np.empty((m, n), dtype=np.int64)
+        # per line: the warp W(x) = E2(x - u) from the row buffer (Keys weights from the
+        # ROM), Wx, g and e, and the window's row pass on the three products (formed as
+        # the row pass reads them: no product plane)
         for y in range(m):
             for x in range(n):
                 src = (np.int64(x) << f_u) - u[y, x] + half
@@ -359,27 +372,27 @@ def _level_kernel(
                 row2[x] = _at(a[y, x], f_l, fe) - _at(wy[x], f_warp, fe)
             _cast_logged_row(row, f_grad + 1, G, base + L_G, fm, st, ov, g[y])
             _cast_logged_row(row2, fe, E, base + L_E, fm, st, ov, e[y])
-        rgg = _window_rows(g * g, 2 * f_g, win, RGG, base + L_RGG, fm, st, ov)
-        rge = _window_rows(g * e, f_g + f_e, win, RGE, base + L_RGE, fm, st, ov)
-        ree = _window_rows(e * e, 2 * f_e, win, REE, base + L_REE, fm, st, ov)
-        sgg[:, :] = _window_cols(rgg, win, RGG, SGG, base + L_SGG, fm, st, ov)
-        sge[:, :] = _window_cols(rge, win, RGE, SGE, base + L_SGE, fm, st, ov)
-        see[:, :] = _window_cols(ree, win, REE, SEE, base + L_SEE, fm, st, ov)
-        du = np.empty((m, n), dtype=np.int64)
+            gl, el = g[y], e[y]
+            _window_row(gl, gl, f_wgg, win, RGG, base + L_RGG, fm, st, ov, pad, row, rgg[y])
+            _window_row(gl, el, f_wge, win, RGE, base + L_RGE, fm, st, ov, pad, row, rge[y])
+            _window_row(el, el, f_wee, win, REE, base + L_REE, fm, st, ov, pad, row, ree[y])
+        _window_cols(rgg, win, RGG, SGG, base + L_SGG, fm, st, ov, sgg)
+        _window_cols(rge, win, RGE, SGE, base + L_SGE, fm, st, ov, sge)
+        _window_cols(ree, win, REE, SEE, base + L_SEE, fm, st, ov, see)
         if vertical:  # the 2x2 normal equations in (u, v), v discarded
             wy = _column_difference(w, f_warp, GRAD, base + L_WY, fm, st, ov)
-            gy = np.empty((m, n), dtype=np.int64)
             for y in range(m):
                 for x in range(n):
                     row[x] = ay[y, x] + wy[y, x]
-                _cast_logged_row(row, f_grad + 1, GY, base + L_GY, fm, st, ov, gy[y])
-            ryy = _window_rows(gy * gy, 2 * f_gy, win, RYY, base + L_RYY, fm, st, ov)
-            rgy = _window_rows(g * gy, f_g + f_gy, win, RGY, base + L_RGY, fm, st, ov)
-            rye = _window_rows(gy * e, f_gy + f_e, win, RYE, base + L_RYE, fm, st, ov)
+                gl, el, yl = g[y], e[y], gy[y]
+                _cast_logged_row(row, f_grad + 1, GY, base + L_GY, fm, st, ov, yl)
+                _window_row(yl, yl, f_wyy, win, RYY, base + L_RYY, fm, st, ov, pad, row, ryy[y])
+                _window_row(gl, yl, f_wgy, win, RGY, base + L_RGY, fm, st, ov, pad, row, rgy[y])
+                _window_row(yl, el, f_wye, win, RYE, base + L_RYE, fm, st, ov, pad, row, rye[y])
             syy, sgy, sye, det, nu = sums[3], sums[4], sums[5], sums[6], sums[7]
-            syy[:, :] = _window_cols(ryy, win, RYY, SYY, base + L_SYY, fm, st, ov)
-            sgy[:, :] = _window_cols(rgy, win, RGY, SGY, base + L_SGY, fm, st, ov)
-            sye[:, :] = _window_cols(rye, win, RYE, SYE, base + L_SYE, fm, st, ov)
+            _window_cols(ryy, win, RYY, SYY, base + L_SYY, fm, st, ov, syy)
+            _window_cols(rgy, win, RGY, SGY, base + L_SGY, fm, st, ov, sgy)
+            _window_cols(rye, win, RYE, SYE, base + L_SYE, fm, st, ov, sye)
             for y in range(m):
                 for x in range(n):
                     row[x] = (_at(sgg[y, x] * syy[y, x], f_sgg + f_syy, fd)
