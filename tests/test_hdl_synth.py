@@ -166,3 +166,17 @@ def test_hdl_synth_and_timing_take_the_filter_form_and_pole(command, monkeypatch
     with pytest.raises(Stop):
         main(["hdl", command, "--filter-form", "direct", "--pole", "0.375", "--json"])
     assert seen == [("p1", "direct", 0.375)]
+
+
+def test_the_ice40_script_drops_the_lut_ram_style_that_ice40_cannot_map():
+    """iCE40 has no LUT RAM: the delay lines' ``ram_style = "distributed"`` is unset before
+    ``synth_ice40`` (else Yosys stops: no valid mapping for the memory); other targets
+    keep it."""
+    from rangefx.tools.studies import synth
+
+    script = synth._yosys_script  # the script's text, before any Yosys run
+    ice40 = script("p1_top", ("p1_top.v",), {"PIX_W": 8}, "ice40").splitlines()
+    unset = ice40.index("setattr -unset ram_style m:*")
+    assert unset < next(i for i, ln in enumerate(ice40) if ln.startswith("synth_ice40"))
+    for target in ("ecp5", "xcup"):
+        assert "ram_style" not in script("p1_top", ("p1_top.v",), {}, target)

