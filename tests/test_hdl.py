@@ -365,7 +365,9 @@ def _ecp5_cells(tmp_path, defines: str) -> dict[str, int]:
         "           output signed [69:0] y);\n"
         "    fx_mul_pipe #(35, 35, 1) u (clk, a, b, y);\nendmodule\n"
     )
-    script = (f"read_verilog {defines} {HDL_DIR / 'fx_pipe.v'} top.v\n"
+    # a relative name: the yowasp-* builds mount their own directory on /tmp
+    shutil.copyfile(HDL_DIR / "fx_pipe.v", tmp_path / "fx_pipe.v")
+    script = (f"read_verilog {defines} fx_pipe.v top.v\n"
               "synth_ecp5 -top top\ntee -q -o stat.json stat -json\n")  # fmt: skip
     (tmp_path / "s.ys").write_text(script)
     run = subprocess.run([*yosys_command(), "-q", "-s", "s.ys"], cwd=tmp_path,

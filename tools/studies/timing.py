@@ -578,9 +578,16 @@ def time_top(
             if config.divider == "reciprocal":
                 write_recip_rom(config, work / "recip_rom.mem")
             (work / f"{timed.module}.v").write_text(wrapper)
-            sources = " ".join(str(HDL_DIR / s) for s in timed.sources)
+            # the sources are copied beside the wrapper and read by relative names: the
+            # yowasp-* builds mount their own temporary directory on /tmp, so a checkout
+            # under the host's /tmp is not where its absolute paths point
+            rtl_dir = work / "rtl"
+            rtl_dir.mkdir()
+            for path in (*(HDL_DIR / s for s in timed.sources), *HDL_DIR.glob("*.vh")):
+                shutil.copyfile(path, rtl_dir / path.name)
+            sources = " ".join(f"rtl/{s}" for s in timed.sources)
             defines = TARGET_DEFINES.get(target, "")
-            script = (f"read_verilog {defines} -I{HDL_DIR} {sources} {timed.module}.v\n"
+            script = (f"read_verilog {defines} -Irtl {sources} {timed.module}.v\n"
                       f"{command}\ntee -q -o stat.json stat -json\n")  # fmt: skip
             (work / "synth.ys").write_text(script)
             _run([*yosys, "-q", "-s", "synth.ys"], work, f"yosys ({target}) on {rtl.module}",
