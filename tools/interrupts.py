@@ -35,6 +35,7 @@ __all__ = [
     "claim_the_end",
     "cleanup_if_stuck",
     "deferred_signals",
+    "end_with_status_on_stop_signal",
     "exit_now",
     "handle_stop_signals",
     "numba_compiling",
@@ -238,6 +239,18 @@ def handle_stop_signals(watchdog: bool = False) -> Callable[[], None]:
         sys.unraisablehook = earlier_hook
 
     return restore
+
+
+def end_with_status_on_stop_signal(status: int) -> None:
+    """After a command has ended (its output in place or its error printed): each of
+    :data:`STOP_SIGNALS` ends the process at once with ``status`` (:func:`exit_now`), so a
+    signal during the interpreter's own exit neither kills it by the default action (no
+    line, exit -1) nor reports an interrupt of work that is done. Main thread only."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    _installs[0] += 1  # a redelivery still on its way is for a command that is over
+    for s in STOP_SIGNALS:
+        signal.signal(s, lambda _signum, _frame: exit_now(status))
 
 
 def exit_now(status: int) -> None:

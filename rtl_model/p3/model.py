@@ -276,7 +276,7 @@ def _window_cols(p, win, s_in, s, site, fm, st, ov, out):
         _cast_logged_row(acc, f_in, s, site, fm, st, ov, out[y])
 
 
-@njit(cache=True, nogil=True)
+@njit((_P, _I, _I, _I, _P, _P, _R), cache=True, nogil=True)
 def _column_difference(p, f_p, s, site, fm, st, ov):
     """Central difference down the columns (replicated borders), cast into ``s``: the
     line below minus the line above, exact at ``f_p + 1`` fraction bits (the ½)."""

@@ -32,6 +32,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from ..errors import UserError
+from ..interrupts import cleanup_if_stuck
 
 __all__ = ["LOCK_SUFFIX", "hidden_stem", "lock_path", "output_lock"]
 
@@ -150,7 +151,11 @@ def output_lock(directory: str | os.PathLike[str], command: str | None = None) -
         with _HELD_LOCK:
             _HELD[lock] = 1
         try:
-            yield lock
+            # a command the watchdog ends (its main thread inside a long kernel, where no
+            # signal handler runs) leaves no lock file: its flock dies with it, the file
+            # would not (`vectors gen` on lab, SIGHUP ~3.5 s in: the lock file stayed)
+            with cleanup_if_stuck(lambda: os.unlink(lock)):
+                yield lock
         finally:
             with _HELD_LOCK:
                 del _HELD[lock]
