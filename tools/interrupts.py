@@ -35,9 +35,9 @@ __all__ = [
     "claim_the_end",
     "cleanup_if_stuck",
     "deferred_signals",
-    "end_with_status_on_stop_signal",
     "exit_now",
     "handle_stop_signals",
+    "ignore_stop_signals_at_exit",
     "numba_compiling",
     "pending_signal",
     "raise_if_interrupted",
@@ -241,16 +241,18 @@ def handle_stop_signals(watchdog: bool = False) -> Callable[[], None]:
     return restore
 
 
-def end_with_status_on_stop_signal(status: int) -> None:
-    """After a command has ended (its output in place or its error printed): each of
-    :data:`STOP_SIGNALS` ends the process at once with ``status`` (:func:`exit_now`), so a
-    signal during the interpreter's own exit neither kills it by the default action (no
-    line, exit -1) nor reports an interrupt of work that is done. Main thread only."""
+def ignore_stop_signals_at_exit() -> None:
+    """After a command has ended (its output in place or its error printed), as the
+    program: :data:`STOP_SIGNALS` are ignored while the interpreter exits, so the process
+    ends with the command's status. A Python handler would not do: Python's finalisation
+    resets every signal with a Python handler to the default action before it tears the
+    modules down (seconds under load), and a SIGTERM or SIGHUP then killed a `sweep` whose
+    results were complete (exit -15 / -1, no line). Main thread only."""
     if threading.current_thread() is not threading.main_thread():
         return
     _installs[0] += 1  # a redelivery still on its way is for a command that is over
     for s in STOP_SIGNALS:
-        signal.signal(s, lambda _signum, _frame: exit_now(status))
+        signal.signal(s, signal.SIG_IGN)
 
 
 def exit_now(status: int) -> None:

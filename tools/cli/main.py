@@ -24,9 +24,9 @@ from ..errors import UserError
 from ..interrupts import (
     Interrupted,
     claim_the_end,
-    end_with_status_on_stop_signal,
     exit_now,
     handle_stop_signals,
+    ignore_stop_signals_at_exit,
     pending_signal,
     raise_if_interrupted,
     set_stop_line,
@@ -155,7 +155,6 @@ def _interrupted_message(args: argparse.Namespace | None, exc: BaseException) ->
 def main(argv: Sequence[str] | None = None) -> int:
     restore = handle_stop_signals(watchdog=argv is None)
     args = None
-    ended = [1]  # the status Python exits with when an exception leaves the command
     try:
         words = sys.argv[1:] if argv is None else list(argv)
         # only the named command's module is imported (a refusal does not wait for the
@@ -170,13 +169,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         with _output_locked(args):
             status = args.func(args)
             raise_if_interrupted()  # one a finaliser swallowed ends the command all the same
-        ended[0] = status
         return status
     except UserError as exc:
         if pending_signal() is not None:  # the error came from the interrupted work
             return _report_interrupt(args, Interrupted(pending_signal()), argv is None)
         print(f"rangefx: error: {exc}", file=sys.stderr)
-        ended[0] = 2
         return 2
     except KeyboardInterrupt as exc:
         return _report_interrupt(args, exc, argv is None)
@@ -189,11 +186,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         restore()
         if argv is None:
-            # as the program, the command is over: a stop signal during the interpreter's
-            # exit (joining numba's and the pools' threads took seconds at load 20) ends the
-            # process at once with the command's status, not by the default action with no
-            # line (exit -1: SIGHUPs to a finishing `sweep` in the tests)
-            end_with_status_on_stop_signal(ended[0])
+            # as the program, the command is over: a stop signal while the interpreter
+            # exits no longer stops anything (ignore_stop_signals_at_exit)
+            ignore_stop_signals_at_exit()
 
 
 def _report_interrupt(args: argparse.Namespace | None, exc: BaseException, as_program: bool) -> int:
