@@ -1209,9 +1209,9 @@ def timing(
     stage: str = "top",
     mode: str = "stereo",
     shape: Sequence[int] = (512, 512),
-    device: str = "85k",
-    package: str = "CABGA381",
-    speed: int = 6,
+    device: str | None = None,
+    package: str | None = None,
+    speed: int | None = None,
     seeds: int = 3,
     freq_mhz: float = 148.5,
     target: str = "ecp5",
@@ -1228,8 +1228,10 @@ def timing(
     config, design
         The word-length config and design fields, as :func:`run`.
     target, device, package, speed
-        The FPGA: ``ecp5`` LFE5U-25F/-45F/-85F (``"25k"``, ``"45k"``, ``"85k"``), its
-        package and speed grade (6 the slowest).
+        The FPGA family (:data:`rangefx.tools.studies.timing.TARGETS`: ``ecp5``,
+        ``ice40``), its device (ECP5 LFE5U-25F/-45F/-85F: ``"25k"``, ``"45k"``, ``"85k"``,
+        default ``"85k"``; iCE40: ``"up5k"`` (default), ``"hx8k"``), package (default: the
+        device's first) and speed grade (ECP5: default 6, the slowest; iCE40: none).
     seeds
         nextpnr runs with seeds 1..``seeds``; Fmax is their median.
     freq_mhz

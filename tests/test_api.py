@@ -337,10 +337,16 @@ def test_demo_refuses_bad_settings_before_any_work_and_writes_its_files(tmp_path
 
 def test_synth_and_timing_are_what_the_command_line_prints(tmp_path, monkeypatch, capsys):
     """Yosys area of P1's front end and its place-and-route timing on 16-pixel lines (the
-    smallest designs): the API's figures are ``rangefx hdl synth|timing --json``'s."""
+    smallest designs): the API synthesises what it is asked (one stage, no probes, the
+    frame, the speed grade, the seeds), and ``rangefx hdl synth|timing --json`` prints
+    the same figures (the CLI calls the API and prints)."""
     monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
     area = api.synth("p1", stage="frontend", shape=(16, 16), probes=False)
-    assert area.figures["stages"]["frontend"]["lut"] > 0
+    fig = area.figures
+    assert (fig["pipeline"], fig["config"], fig["target"], fig["headline"]) == (
+        "p1", "default", "xcup", "stages")  # fmt: skip
+    assert fig["shape"] == [16, 16] and set(fig["stages"]) == {"frontend"} and "probes" not in fig
+    assert fig["stages"]["frontend"]["lut"] > 0 and not fig["stages"]["frontend"]["cached"]
     argv = ["hdl", "synth", "--stage", "frontend", "--width", "16", "--height", "16",
             "--no-probes", "--json"]  # fmt: skip
     assert main(argv) == 0
@@ -352,17 +358,49 @@ def test_synth_and_timing_are_what_the_command_line_prints(tmp_path, monkeypatch
     assert json.loads((out / "synth.json").read_text()) == area.to_dict()
 
     fmax = api.timing("p1", stage="frontend", shape=(8, 16), seeds=1, speed=8)
-    assert fmax.result.fmax_mhz["clk"] == fmax.figures["fmax_mhz"]["clk"] > 0
+    fig = fmax.figures
+    assert (fig["stage"], fig["shape"], fig["speed"], fig["device"]) == (
+        "frontend",
+        [8, 16],
+        8,
+        "85k",
+    )
+    assert [s["seed"] for s in fig["seeds"]] == [1] and not fig["seeds"][0]["cached"]
+    assert fmax.result.fmax_mhz["clk"] == fig["fmax_mhz"]["clk"] > 0
     argv = ["hdl", "timing", "--stage", "frontend", "--width", "16", "--height", "8",
             "--seeds", "1", "--speed", "8", "--json"]  # fmt: skip
     assert main(argv) == 0
     again = json.loads(capsys.readouterr().out)
-    assert again["seeds"][0]["cached"] and again["fmax_mhz"] == fmax.figures["fmax_mhz"]
+    assert again["seeds"][0]["cached"] and again["fmax_mhz"] == fig["fmax_mhz"]
     assert json.loads((fmax.write(tmp_path / "t") / "timing.json").read_text())["pins"] > 0
+
+
+def test_synth_and_timing_errors_are_one_line(tmp_path, monkeypatch):
+    """A pipeline without RTL, Verilog Yosys cannot read (one line with Yosys's error),
+    and the device defaults of the family asked for (iCE40's ``up5k``, not ECP5's
+    ``85k``: the options pass their checks and the flow reaches its first tool)."""
+    from rangefx.tools.studies import synth, timing
+
     with pytest.raises(UserError, match="pipeline p3 has no RTL"):
         api.synth("p3")
     with pytest.raises(UserError, match="pipeline p3 has no RTL"):
         api.timing("p3")
+    monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
+    broken = tmp_path / "hdl"
+    shutil.copytree(synth.HDL_DIR, broken)
+    frontend = broken / "p1_frontend.v"
+    frontend.write_text(frontend.read_text().replace("endmodule", "endmodul", 1))
+    monkeypatch.setattr(synth, "HDL_DIR", broken)
+    with pytest.raises(UserError, match=r"^yosys failed on frontend \(xcup\): ") as err:
+        api.synth("p1", stage="frontend", shape=(16, 16), probes=False, use_cache=False)
+    assert "\n" not in str(err.value)
+
+    def no_tool():
+        raise AssertionError("a tool ran")
+
+    monkeypatch.setattr(timing, "yosys_command", no_tool)
+    with pytest.raises(AssertionError, match="a tool ran"):
+        api.timing("p1", target="ice40", stage="frontend", shape=(8, 16), seeds=1)
 
 
 def test_a_case_holds_every_pipelines_settings_by_key():

@@ -26,11 +26,10 @@ import json
 from rangefx.rtl_model.p1.config import FILTER_FORMS
 from rangefx.vectors.replay import BENCHES, SIMULATORS
 
-from ..studies.runner import load_config
-from ..studies.synth import AREA_KEYS, STAGES, TARGETS, rtl_top, synth_pipeline
+from ..studies.synth import AREA_KEYS, STAGES, TARGETS
 from ..studies.timing import STAGES as TIMING_STAGES
 from ..studies.timing import TARGETS as TIMING_TARGETS
-from ..studies.timing import TimingResult, time_top
+from ..studies.timing import TimingResult
 from .options import add_design_args, design_from_args, int_at_least, pipeline_from_args
 
 __all__ = [
@@ -128,22 +127,23 @@ def _text(r: dict) -> str:
 
 
 def cmd_synth(args: argparse.Namespace) -> int:
+    from rangefx import api
+
     pipeline = pipeline_from_args(args)
-    rtl = rtl_top(pipeline.name)  # one line for a pipeline without RTL, before any work
-    config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
-    parts = ("top", *rtl.stages) if args.stage == "all" else (args.stage,)
-    shape = (args.height, args.width)
-    report = synth_pipeline(pipeline.name, config, args.target, shape, args.mode, parts,
-                            use_cache=not args.no_cache, probes=not args.no_probes)  # fmt: skip
-    report = {"pipeline": pipeline.name, "config": config.name, **report}
+    report = api.synth(
+        pipeline, args.config, target=args.target, shape=(args.height, args.width),
+        mode=args.mode, stage=args.stage, use_cache=not args.no_cache, probes=not args.no_probes,
+        **design_from_args(pipeline, args),
+    ).figures  # fmt: skip
     if args.json:
         print(json.dumps(report))
         return 0
-    print(f"{pipeline.name.upper()} {args.mode} {shape[0]}x{shape[1]}, config {config.name}, "
-          f"Yosys {args.target}:")  # fmt: skip
+    print(f"{pipeline.name.upper()} {args.mode} {args.height}x{args.width}, config "
+          f"{report['config']}, Yosys {args.target}:")  # fmt: skip
     print(f"  {'':<22} " + " ".join(f"{k:>6}" for k in AREA_KEYS) + "  cached")
-    if report["headline"] == rtl.module:
-        print(f"  {'whole ' + rtl.module:<22} " + " ".join(f"{report[k]:>6}" for k in AREA_KEYS)
+    top = report["headline"]  # the whole top's module, or "stages"
+    if top != "stages":
+        print(f"  {'whole ' + top:<22} " + " ".join(f"{report[k]:>6}" for k in AREA_KEYS)
               + f"  {'yes' if report['cached'] else 'no'}")  # fmt: skip
     if "probes" in report:
         p = report["probes"]
@@ -170,14 +170,31 @@ def add_filter_args(p) -> None:
     p.add_argument("--pole", type=float, help="filter pole (default: the config's, 0.5)")
 
 
+def _add_rtl_args(p) -> None:
+    """The arguments ``hdl synth`` and ``hdl timing`` share: the pipeline, its design and
+    filter options, the mode, the frame the RTL is sized for,
+    ``--no-cache`` and ``--json``; each command adds its own tool's."""
+    p.add_argument("--pipeline", default="p1", help="pipeline with RTL in hdl/: p1 or p2 "
+                   "(default p1)")  # fmt: skip
+    add_design_args(p, estimator=False)
+    add_filter_args(p)
+    p.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
+                   help="stereo: two front ends, motion: one and the frame store (default "
+                   "stereo)")  # fmt: skip
+    p.add_argument("--width", type=int_at_least(2, "--width"), default=512,
+                   help="line width the line buffers and counters are sized for (512)")  # fmt: skip
+    p.add_argument("--height", type=int_at_least(2, "--height"), default=512,
+                   help="frame height the row counter is sized for (512)")  # fmt: skip
+    p.add_argument("--no-cache", action="store_true",
+                   help="run the tools again even when the cache holds the result")  # fmt: skip
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
 def add_synth_parser(hs) -> None:
     """``hdl synth``: added to the ``hdl`` group's subparsers ``hs``."""
     s = hs.add_parser("synth", help="Yosys area of the whole P1 or P2 RTL, its probes and "
                       "its stages")  # fmt: skip
-    s.add_argument("--pipeline", default="p1", help="pipeline with RTL in hdl/: p1 or p2 "
-                   "(default p1)")  # fmt: skip
-    add_design_args(s, estimator=False)
-    add_filter_args(s)
+    _add_rtl_args(s)
     s.add_argument("--target", choices=tuple(TARGETS), default="xcup",
                    help="Yosys flow: synth_xilinx -family xc7|xcup, synth_ecp5, synth_ice40 "
                    "(default xcup)")  # fmt: skip
@@ -185,30 +202,22 @@ def add_synth_parser(hs) -> None:
                    help="what to synthesise: top (the whole p1_top or p2_top, and its probes "
                    "apart), P1's frontend (one stream, x-derivative included) or range, or all "
                    "(P2: the top)")  # fmt: skip
-    s.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
-                   help="stereo: two frontend stages, motion: one (default stereo)")  # fmt: skip
-    s.add_argument("--width", type=int_at_least(2, "--width"), default=512,
-                   help="line width the line buffers and counters are sized for (512)")  # fmt: skip
-    s.add_argument("--height", type=int_at_least(2, "--height"), default=512,
-                   help="frame height the row counter is sized for (512)")  # fmt: skip
-    s.add_argument("--no-cache", action="store_true",
-                   help="synthesise again even when the cache holds the result")  # fmt: skip
     s.add_argument("--no-probes", action="store_true",
                    help="skip the third synthesis that measures what the taps and overflow "
                    "counters cost")  # fmt: skip
-    s.add_argument("--json", action="store_true", help="print one JSON object")
     s.set_defaults(func=cmd_synth)
 
 
 def cmd_timing(args: argparse.Namespace) -> int:
+    from rangefx import api
+
     pipeline = pipeline_from_args(args)
-    rtl_top(pipeline.name)  # one line for a pipeline without RTL, before any work
-    config = load_config(pipeline, args.config, **design_from_args(pipeline, args))
-    result = time_top(
-        pipeline.name, config, target=args.target, device=args.device, package=args.package,
+    result = api.timing(
+        pipeline, args.config, target=args.target, device=args.device, package=args.package,
         speed=args.speed, seeds=args.seeds, freq_mhz=args.freq, shape=(args.height, args.width),
         mode=args.mode, stage=args.stage, use_cache=not args.no_cache,
-    )  # fmt: skip
+        **design_from_args(pipeline, args),
+    ).result  # fmt: skip
     if args.json:
         print(json.dumps(result.to_dict()))
     else:
@@ -245,10 +254,7 @@ def add_timing_parser(hs) -> None:
     """``hdl timing``: added to the ``hdl`` group's subparsers ``hs``."""
     t = hs.add_parser("timing", help="place-and-route Fmax, critical path and utilisation "
                       "of the P1 or P2 RTL (Yosys + nextpnr)")  # fmt: skip
-    t.add_argument("--pipeline", default="p1", help="pipeline with RTL in hdl/: p1 or p2 "
-                   "(default p1)")  # fmt: skip
-    add_design_args(t, estimator=False)
-    add_filter_args(t)
+    _add_rtl_args(t)
     t.add_argument("--target", choices=tuple(TIMING_TARGETS), default="ecp5",
                    help="FPGA family: ecp5 (Yosys synth_ecp5, nextpnr-ecp5; default) or "
                    "ice40 (synth_ice40, nextpnr-ice40)")  # fmt: skip
@@ -264,15 +270,6 @@ def add_timing_parser(hs) -> None:
                    help="nextpnr runs (seeds 1..N); Fmax is their median (default 3)")  # fmt: skip
     t.add_argument("--freq", type=float, default=148.5,
                    help="frequency nextpnr aims at, MHz (default 148.5, 1080p60)")  # fmt: skip
-    t.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
-                   help="stereo: two front ends, motion: one and the frame store")  # fmt: skip
     t.add_argument("--stage", choices=TIMING_STAGES, default="top",
                    help="top: the whole P1 or P2 (default), frontend: one P1 stream's")  # fmt: skip
-    t.add_argument("--width", type=int_at_least(2, "--width"), default=512,
-                   help="line width the line buffers and counters are sized for (512)")  # fmt: skip
-    t.add_argument("--height", type=int_at_least(2, "--height"), default=512,
-                   help="frame height the counters are sized for (512)")  # fmt: skip
-    t.add_argument("--no-cache", action="store_true",
-                   help="place and route again even when the cache holds the result")  # fmt: skip
-    t.add_argument("--json", action="store_true", help="print one JSON object")
     t.set_defaults(func=cmd_timing)
