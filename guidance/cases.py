@@ -35,9 +35,8 @@ from .obstacles import (
     FrameMap,
     ParkedVehicle,
     RangeMapSource,
-    golden_range_source,
     obstacles_from_range,
-    runway_frame_map,
+    runway_range,
     synthetic_runway_obstacles,
 )
 from .simulate import SimulationConfig, SimulationResult, simulate, trajectory_metrics
@@ -127,27 +126,19 @@ def runway_case(
     obstacle points (:func:`.obstacles.obstacles_from_range`, ≤ ``max_points`` by voxel
     clustering) and the extents (:func:`.extraction.extract_obstacles` with the
     range-error equation on the same image pair); truth is the scene's vehicles."""
-    from rangefx.golden.methods import SCENE_RANGING
-    from rangefx.golden.scenes import render_scene
-
-    scene = render_scene("runway") if scene is None else scene
-    source = source or golden_range_source()
-    rng_map, valid = source(scene)
-    fmap = runway_frame_map(scene)
-    cfg = SCENE_RANGING.get(scene.name)
-    max_range = None if cfg is None else 0.999 * cfg.range_max
+    r = runway_range(source, scene=scene)
     pts = obstacles_from_range(
-        rng_map, valid, scene.camera, scene.motion,
-        max_points=max_points, max_range=max_range, frame_map=fmap,
+        r.range_map, r.valid, r.scene.camera, r.scene.motion,
+        max_points=max_points, max_range=r.max_range, frame_map=r.frame_map,
     )  # fmt: skip
-    ex_cfg = replace(extraction or ExtractionConfig(), max_range=max_range)
+    ex_cfg = replace(extraction or ExtractionConfig(), max_range=r.max_range)
     ex = extract_obstacles(
-        rng_map, valid, scene.camera, scene.motion,
-        images=(scene.image1, scene.image2), frame_map=fmap, config=ex_cfg,
+        r.range_map, r.valid, r.scene.camera, r.scene.motion,
+        images=(r.scene.image1, r.scene.image2), frame_map=r.frame_map, config=ex_cfg,
     )  # fmt: skip
-    truth = scene_truth_boxes(scene.name, fmap)
-    info = {"valid_pixels": int(np.count_nonzero(valid)), "obstacle_points": len(pts)}
-    return GuidanceCase(name, pts, ex.obstacles, truth, ex, info, scene, fmap)
+    truth = scene_truth_boxes(r.scene.name, r.frame_map)
+    info = {"valid_pixels": int(np.count_nonzero(r.valid)), "obstacle_points": len(pts)}
+    return GuidanceCase(name, pts, ex.obstacles, truth, ex, info, r.scene, r.frame_map)
 
 
 def runway_scene_for(modes: tuple[str, ...], **render):

@@ -68,7 +68,7 @@ from rangefx.golden.geometry import (
     k_coefficients,
 )
 
-from .obstacles import FrameMap, ParkedVehicle, guidance_from_ned
+from .obstacles import FrameMap, ParkedVehicle, guidance_from_ned, usable_range
 
 __all__ = [
     "BoxSet",
@@ -638,16 +638,7 @@ def extract_obstacles(
         ``ε``), ``along_ray_outliers``, ``isolated``, ``inliers``.
     """
     cfg = config or ExtractionConfig()
-    rng_map = np.asarray(range_map, dtype=np.float64)
-    ok = np.asarray(valid, dtype=bool)
-    if rng_map.shape != (camera.height, camera.width) or ok.shape != rng_map.shape:
-        raise ValueError(
-            f"range map {rng_map.shape} and valid {ok.shape} must match the camera "
-            f"({camera.height}, {camera.width})"
-        )
-    ok = ok & np.isfinite(rng_map) & (rng_map > 0)
-    if cfg.max_range is not None:
-        ok &= rng_map <= cfg.max_range
+    rng_map, ok = usable_range(range_map, valid, camera, cfg.max_range)
     counts = {"valid": int(ok.sum())}
     xp, yp = camera.pixel_grid()
     pn = np.full((*rng_map.shape, 3), np.nan)

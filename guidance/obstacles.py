@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -38,14 +39,17 @@ __all__ = [
     "FrameMap",
     "ParkedVehicle",
     "RangeMapSource",
+    "RunwayRange",
     "golden_range_source",
     "guidance_from_ned",
     "ned_from_guidance",
     "obstacles_from_range",
     "reduce_points",
     "runway_frame_map",
+    "runway_range",
     "runway_scene_obstacles",
     "synthetic_runway_obstacles",
+    "usable_range",
 ]
 
 
@@ -244,6 +248,25 @@ def reduce_points(
         cell *= math.sqrt(2.0)
 
 
+def usable_range(
+    range_map: np.ndarray, valid: np.ndarray, camera: PinholeCamera, max_range: float | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(range_map as float64, the pixels to use)``: valid, finite, positive and, unless
+    ``max_range`` is None, not beyond it. ``ValueError`` unless ``range_map`` and
+    ``valid`` are both the camera's shape."""
+    rng_map = np.asarray(range_map, dtype=np.float64)
+    ok = np.asarray(valid, dtype=bool)
+    if rng_map.shape != (camera.height, camera.width) or ok.shape != rng_map.shape:
+        raise ValueError(
+            f"range map {rng_map.shape} and valid {ok.shape} must match the camera "
+            f"({camera.height}, {camera.width})"
+        )
+    ok = ok & np.isfinite(rng_map) & (rng_map > 0)
+    if max_range is not None:
+        ok &= rng_map <= max_range
+    return rng_map, ok
+
+
 def obstacles_from_range(
     range_map: np.ndarray,
     valid: np.ndarray,
@@ -293,16 +316,7 @@ def obstacles_from_range(
     ValueError
         Shape mismatch, or no valid point left (the guidance law needs ``n >= 1``).
     """
-    rng_map = np.asarray(range_map, dtype=np.float64)
-    ok = np.asarray(valid, dtype=bool)
-    if rng_map.shape != (camera.height, camera.width) or ok.shape != rng_map.shape:
-        raise ValueError(
-            f"range map {rng_map.shape} and valid {ok.shape} must match the camera "
-            f"({camera.height}, {camera.width})"
-        )
-    ok = ok & np.isfinite(rng_map) & (rng_map > 0)
-    if max_range is not None:
-        ok &= rng_map <= max_range
+    rng_map, ok = usable_range(range_map, valid, camera, max_range)
     xp, yp = camera.pixel_grid()
     pc = camera_points_from_range(rng_map[ok], xp[ok], yp[ok], camera.f_px)  # eq 32
     pn = inertial_from_camera(motion, pc)  # eq 33
@@ -361,6 +375,33 @@ def runway_frame_map(
     )
 
 
+class RunwayRange(NamedTuple):
+    """The ``runway`` scene ranged (:func:`runway_range`): the scene, its range map and
+    validity, the map to the guidance frame and the range the points are kept below."""
+
+    scene: Any
+    range_map: np.ndarray
+    valid: np.ndarray
+    frame_map: FrameMap
+    max_range: float | None
+
+
+def runway_range(source: RangeMapSource | None = None, *, scene=None) -> RunwayRange:
+    """Render ``runway`` (unless ``scene`` is given) and range it with ``source`` (default
+    :func:`golden_range_source` with ``g4_consistent``; a fixed-point pipeline is another
+    source); the frame map is :func:`runway_frame_map` (the scene's helicopter placed at
+    the example's start, flying along -y) and ``max_range`` just below the scene's
+    ranging ``range_max`` (None for a scene without one)."""
+    from rangefx.golden.methods import SCENE_RANGING
+    from rangefx.golden.scenes import render_scene
+
+    scene = render_scene("runway") if scene is None else scene
+    rng_map, valid = (source or golden_range_source())(scene)
+    cfg = SCENE_RANGING.get(scene.name)
+    max_range = None if cfg is None else 0.999 * cfg.range_max
+    return RunwayRange(scene, rng_map, valid, runway_frame_map(scene), max_range)
+
+
 def runway_scene_obstacles(
     source: RangeMapSource | None = None,
     *,
@@ -370,40 +411,20 @@ def runway_scene_obstacles(
     min_height: float | None = 0.5,
     seed: int = 0,
 ) -> tuple[np.ndarray, object, FrameMap, dict]:
-    """End-to-end obstacle points from the ``runway`` scene.
-
-    Renders ``runway`` (unless ``scene`` is given), gets ``(range, valid)`` from
-    ``source`` (default :func:`golden_range_source` with ``g4_consistent``; the lead's
-    fixed-point P1 pipeline is another source), keeps valid points below the ranging
-    ``range_max``, maps them to the guidance frame with :func:`runway_frame_map` (the
-    scene's helicopter placed at the example's start, flying along -y), and reduces
-    them to ``max_points``.
+    """End-to-end obstacle points from the ``runway`` scene: :func:`runway_range`, then
+    the valid points below the ranging ``range_max`` mapped to the guidance frame and
+    reduced to ``max_points`` (:func:`obstacles_from_range`).
 
     Returns
     -------
     points, scene, frame_map, info
-        ``info`` has ``valid_pixels`` and ``points_above_ground`` counts.
+        ``info`` has ``valid_pixels`` and ``obstacle_points`` counts.
     """
-    from rangefx.golden.methods import SCENE_RANGING
-    from rangefx.golden.scenes import render_scene
-
-    scene = render_scene("runway") if scene is None else scene
-    source = source or golden_range_source()
-    rng_map, valid = source(scene)
-    fmap = runway_frame_map(scene)
-    cfg = SCENE_RANGING.get(scene.name)
-    max_range = None if cfg is None else 0.999 * cfg.range_max
+    r = runway_range(source, scene=scene)
     pts = obstacles_from_range(
-        rng_map,
-        valid,
-        scene.camera,
-        scene.motion,
-        max_points=max_points,
-        method=method,
-        min_height=min_height,
-        max_range=max_range,
-        frame_map=fmap,
-        seed=seed,
-    )
-    info = {"valid_pixels": int(np.count_nonzero(valid)), "obstacle_points": len(pts)}
-    return pts, scene, fmap, info
+        r.range_map, r.valid, r.scene.camera, r.scene.motion,
+        max_points=max_points, method=method, min_height=min_height,
+        max_range=r.max_range, frame_map=r.frame_map, seed=seed,
+    )  # fmt: skip
+    info = {"valid_pixels": int(np.count_nonzero(r.valid)), "obstacle_points": len(pts)}
+    return pts, r.scene, r.frame_map, info
