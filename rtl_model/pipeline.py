@@ -375,7 +375,7 @@ class Pipeline(abc.ABC):
     search_range_field: ClassVar[str | None] = None
     #: The model's lines are independent: a band of lines run alone gives those rows of
     #: the whole frame's outputs, taps and overflows, and its golden likewise (P2: the
-    #: sweep and G5 run along each line). Then :meth:`run_lines` and
+    #: sweep and G5 run along each line). Then :meth:`run` with ``lines=`` and
     #: :meth:`golden_lines` process a large frame in bands
     #: (:func:`rangefx.tools.studies.banded.run_in_bands`); else they raise ValueError.
     line_independent: ClassVar[bool] = False
@@ -507,15 +507,24 @@ class Pipeline(abc.ABC):
         taps: bool = True,
         threads: int = 2,
         log: bool = True,
+        lines: tuple[int, int] | None = None,
     ) -> PipelineResult:
         """Run the bit-accurate model on ``case`` (default config if ``config`` is None);
         ``ValueError`` for bad inputs: a config of another pipeline, a mode the pipeline
         does not model, bad images or timing. ``log`` (``fipref``'s LoggingMode): keep
         every signal's min/max; off, :attr:`PipelineResult.minmax` is empty and nothing
-        else changes (overflow counts are always kept)."""
+        else changes (overflow counts are always kept). ``lines`` ``(j0, j1)``: the
+        frame's lines ``j0 <= j < j1`` only (a pipeline whose :attr:`line_independent`
+        is set; ``ValueError`` for any other): its arrays have ``j1 - j0`` rows, equal to
+        those rows of the whole frame's run, with the frame's cycle stamps."""
         config = self.check_config(self.default_config() if config is None else config)
         self.check_mode(case)
-        return self.simulate(case, config, timing or TimingConfig(), taps, threads, log)
+        timing = timing or TimingConfig()
+        if lines is None:
+            return self.simulate(case, config, timing, taps, threads, log)
+        if not self.line_independent:
+            raise ValueError(f"{self.name}'s lines are not independent: it runs whole frames")
+        return self.simulate(case, config, timing, taps, threads, log, lines)
 
     def simulate(
         self,
@@ -525,15 +534,20 @@ class Pipeline(abc.ABC):
         taps: bool,
         threads: int,
         log: bool = True,
+        lines: tuple[int, int] | None = None,
     ) -> PipelineResult:
         """The model itself, on checked arguments (:meth:`run` is the public entry): by
         default :attr:`run_model` on the case's images, camera and motion and this
-        pipeline's settings (a pipeline whose model takes more overrides this)."""
+        pipeline's settings, and ``lines=`` when :meth:`run` is given a band of lines (only
+        for a pipeline that sets :attr:`line_independent`). A pipeline whose model takes
+        more overrides this."""
         if self.run_model is None:
             raise NotImplementedError(f"pipeline {self.name} has neither run_model nor simulate")
+        band = {} if lines is None else {"lines": lines}
         return self.run_model(
             case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
-            timing=timing, taps=taps, threads=threads, log=log, **self.model_options(case),
+            timing=timing, taps=taps, threads=threads, log=log, **band,
+            **self.model_options(case),
         )  # fmt: skip
 
     def golden(
@@ -548,49 +562,6 @@ class Pipeline(abc.ABC):
     @abc.abstractmethod
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         """The golden itself, on checked arguments (:meth:`golden` is the public entry)."""
-
-    def run_lines(
-        self,
-        case: Case,
-        lines: tuple[int, int],
-        config: WordLengthConfig | None = None,
-        timing: TimingConfig | None = None,
-        *,
-        taps: bool = True,
-        threads: int = 2,
-        log: bool = True,
-    ) -> PipelineResult:
-        """:meth:`run` on the frame's lines ``j0 <= j < j1`` only (a pipeline whose
-        :attr:`line_independent` is set): its arrays have ``j1 - j0`` rows, equal to those
-        rows of the whole frame's run, with the frame's cycle stamps; ``ValueError`` for
-        any other pipeline."""
-        config = self.check_config(self.default_config() if config is None else config)
-        self.check_mode(case)
-        if not self.line_independent:
-            raise ValueError(f"{self.name}'s lines are not independent: it runs whole frames")
-        return self.simulate_lines(case, config, timing or TimingConfig(), taps, threads, log,
-                                   lines)  # fmt: skip
-
-    def simulate_lines(
-        self,
-        case: Case,
-        config: WordLengthConfig,
-        timing: TimingConfig,
-        taps: bool,
-        threads: int,
-        log: bool,
-        lines: tuple[int, int],
-    ) -> PipelineResult:
-        """The model on a band of lines, checked arguments (:meth:`run_lines`): by default
-        :attr:`run_model` with ``lines=`` for a pipeline that sets :attr:`line_independent`
-        (a pipeline whose model takes more overrides this)."""
-        if not self.line_independent or self.run_model is None:
-            raise ValueError(f"{self.name}'s lines are not independent: it runs whole frames")
-        return self.run_model(
-            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
-            timing=timing, taps=taps, threads=threads, log=log, lines=lines,
-            **self.model_options(case),
-        )  # fmt: skip
 
     def golden_lines(
         self, case: Case, lines: tuple[int, int], config: WordLengthConfig | None = None

@@ -3,7 +3,7 @@
 
 A pipeline whose lines are independent (:attr:`Pipeline.line_independent`: P2, whose
 sweep and golden G5 run along each line) runs a frame band by band
-(:meth:`Pipeline.run_lines`, :meth:`Pipeline.golden_lines`); each band's rows go into
+(:meth:`Pipeline.run` with ``lines``, :meth:`Pipeline.golden_lines`); each band's rows go into
 the frame's arrays, which live in memory-mapped ``.npy`` files of a temporary directory
 (unlinked at once: nothing is left on disk) rather than in the heap, so a band's work
 arrays and the model's taps are all that is held at once. The result is the whole-frame
@@ -133,9 +133,7 @@ def run_in_bands(
     try:
         for j0 in range(0, m, band_lines):
             j1 = min(m, j0 + band_lines)
-            res = pipeline.run_lines(
-                case, (j0, j1), config, timing, taps=taps, threads=threads
-            )  # fmt: skip
+            res = pipeline.run(case, config, timing, taps=taps, threads=threads, lines=(j0, j1))
             gold = pipeline.golden_lines(case, (j0, j1), config)
             first = first or res
             for name, count in res.overflows.items():
