@@ -1217,15 +1217,16 @@ def _runway_preset(stereo_baseline: float | None = None) -> _Preset:
     increments = (-0.08 * deg, 0.059 * deg, 0.12 * deg)
     attitude2 = tuple(a + b for a, b in zip(attitude1, increments, strict=True))
     position1 = (0.0, 0.0, -altitude)
-    position2 = (5.41, -0.44, -altitude + 0.02)
-    motion = MotionIncrement.from_attitudes(
-        camera_angles=(0.0, -3.0 * deg, 0.0),
-        camera_offset=(8.0, 0.0, 1.0),
-        attitude1=attitude1,
-        attitude2=attitude2,
-        position1=position1,
-        position2=position2,
-    )
+
+    def helicopter(attitude2: tuple[float, ...], position2: tuple[float, ...]) -> MotionIncrement:
+        """From view 1 to a view at ``attitude2``, ``position2`` of the same camera
+        mounting on the vehicle."""
+        return MotionIncrement.from_attitudes(
+            camera_angles=(0.0, -3.0 * deg, 0.0), camera_offset=(8.0, 0.0, 1.0),
+            attitude1=attitude1, attitude2=attitude2, position1=position1, position2=position2,
+        )  # fmt: skip
+
+    motion = helicopter(attitude2, (5.41, -0.44, -altitude + 0.02))
     centre, rot = _view(motion, 1)
     axis = rot[:, 0]
     kind = "motion"
@@ -1233,13 +1234,8 @@ def _runway_preset(stereo_baseline: float | None = None) -> _Preset:
         # Camera 2 beside camera 1 along its right axis y_c (rot[:, 1] in NED), same
         # instant and attitude: the vehicle position moves by that vector.
         right = float(stereo_baseline) * rot[:, 1]
-        motion = MotionIncrement.from_attitudes(
-            camera_angles=(0.0, -3.0 * deg, 0.0),
-            camera_offset=(8.0, 0.0, 1.0),
-            attitude1=attitude1,
-            attitude2=attitude1,
-            position1=position1,
-            position2=tuple(float(a + b) for a, b in zip(position1, right, strict=True)),
+        motion = helicopter(
+            attitude1, tuple(float(a + b) for a, b in zip(position1, right, strict=True))
         )
         kind = "stereo"
     e_u = np.array([math.cos(heading), math.sin(heading), 0.0])

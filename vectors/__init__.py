@@ -5,8 +5,7 @@ stream words), :mod:`.export` (HLS and VHDL types of a config), :mod:`.hdl` and
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from rangefx.golden import lazy_exports
 
 _EXPORTS = {
     "FORMATS": "generate",
@@ -20,9 +19,4 @@ _EXPORTS = {
     "vhdl_package": "export",
 }
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _EXPORTS)

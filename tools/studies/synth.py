@@ -23,6 +23,7 @@ under ``$RANGEFX_CACHE/synth`` (default ``~/.cache/rangefx/synth``).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -343,26 +344,6 @@ def synth_stage(
                        use_cache=use_cache, timeout_s=timeout_s)  # fmt: skip
 
 
-def synth_top(
-    config: P1Config,
-    target: str = "xcup",
-    shape: tuple[int, int] = (512, 512),
-    mode: str = "stereo",
-    *,
-    probes: bool = False,
-    use_cache: bool = True,
-    timeout_s: float = 3600.0,
-) -> tuple[SynthArea, bool]:
-    """Yosys area of the whole ``p1_top`` synthesised flat; returns ``(area, from_cache)``.
-
-    ``probes`` False: the design (taps the datapath does not read and the overflow
-    counters drive nothing, so Yosys removes them); True: with every module's outputs
-    kept. In motion mode the frame store is sized for ``shape``.
-    """
-    return synth_pipeline_top("p1", config, target, shape, mode, probes=probes,
-                              use_cache=use_cache, timeout_s=timeout_s)  # fmt: skip
-
-
 def synth_pipeline_top(
     pipeline: str,
     config,
@@ -385,6 +366,11 @@ def synth_pipeline_top(
     stage = rtl.stage + "+probes" if probes else rtl.stage
     return _synthesise(config, stage, target, params, use_cache=use_cache, timeout_s=timeout_s,
                        drop_ports="" if probes else rtl.probe_ports)  # fmt: skip
+
+
+#: Yosys area of the whole ``p1_top`` synthesised flat, :func:`synth_pipeline_top` of P1:
+#: ``synth_top(config, target, shape, mode, *, probes=False, use_cache=True, timeout_s)``.
+synth_top = functools.partial(synth_pipeline_top, "p1")
 
 
 def _synthesise(
