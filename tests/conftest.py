@@ -23,6 +23,7 @@ Hypothesis runs under one of two profiles (docs/testing.md), chosen by the
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -80,3 +81,18 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 def lab() -> Scene:
     """The ``lab`` scene preset at its full size (512 x 512), rendered once per session."""
     return render_scene("lab")
+
+
+@pytest.fixture
+def error_line(capsys) -> Callable[[], str]:
+    """Read what the command just run printed: nothing on stdout and one ``rangefx:
+    error: ...`` line on stderr (docs/guarantees.md); returns that line."""
+
+    def read() -> str:
+        captured = capsys.readouterr()
+        err = captured.err.strip().splitlines()
+        assert captured.out == "" and len(err) == 1, captured
+        assert err[0].startswith("rangefx: error: "), err
+        return err[0]
+
+    return read

