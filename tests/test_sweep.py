@@ -797,17 +797,30 @@ def test_cli_optimise_bad_margin(error_line, margin):
     assert error_line().startswith("rangefx: error: --margin must be a number in [0, 1)")
 
 
+#: --pipeline p2's options P2 has not (its one mode, its own signals)
+P2_OPTION_ERRORS = [
+    (["--variant", "paper"], "--variant does not apply to pipeline p2"),
+    (["--pole", "0.5"], "--pole does not apply to pipeline p2"),
+    (["--scene", "runway"], "--scene runway: P2 models stereo mode only"),
+    (["--verify", "runway"], "--verify runway: P2 models stereo mode only"),
+    (["--signals", "row_state"], "--signals: unknown P2 signal 'row_state'"),
+    (["--signals", "p2_stt"], "(did you mean 'p2_st'?)"),
+]
+
+
 @pytest.mark.parametrize(
     ("argv", "match"),
     [
+        # a tuning scene is never the held-out one
         (["--scene", "lab", "runway", "--verify", "runway"], "--verify runway: it is a tuning"),
         (["--scene", "lab", "--verify", "lab"], "--verify lab: it is a tuning scene"),
         (["--scene", "lab", "lab"], "named twice"),
         (["--scene", "plane"], "--scene plane: it is held out of tuning, for --verify only"),
         (["--scene", "lab", "plane", "--verify", "plane"], "--scene plane: it is held out"),
+        *((["--pipeline", "p2", *argv], match) for argv, match in P2_OPTION_ERRORS),
     ],
 )
-def test_cli_optimise_verify_must_not_be_a_tuning_scene(error_line, argv, match):
+def test_cli_optimise_option_errors(error_line, argv, match):
     assert cli.main(["optimise", *argv, "--size", "32", "40", "--json"]) == 2
     assert match in error_line()
 
@@ -930,22 +943,6 @@ def test_cli_optimise_p2_json(capsys):
     for key in ("p95_rel_range_diff", "cost_bits", "default_cost_bits", "saturated_registers",
                 "default_median_rel_range_diff", "default_saturated_registers"):  # fmt: skip
         assert key in v
-
-
-@pytest.mark.parametrize(
-    ("argv", "match"),
-    [
-        (["--variant", "paper"], "--variant does not apply to pipeline p2"),
-        (["--pole", "0.5"], "--pole does not apply to pipeline p2"),
-        (["--scene", "runway"], "--scene runway: P2 models stereo mode only"),
-        (["--verify", "runway"], "--verify runway: P2 models stereo mode only"),
-        (["--signals", "row_state"], "--signals: unknown P2 signal 'row_state'"),
-        (["--signals", "p2_stt"], "(did you mean 'p2_st'?)"),
-    ],
-)
-def test_cli_optimise_p2_option_errors(error_line, argv, match):
-    assert cli.main(["optimise", "--pipeline", "p2", "--size", "32", "40", *argv, "--json"]) == 2
-    assert match in error_line()
 
 
 def test_cli_sweep_p2_end_to_end(tmp_path, capsys):

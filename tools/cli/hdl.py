@@ -170,14 +170,17 @@ def add_filter_args(p) -> None:
     p.add_argument("--pole", type=float, help="filter pole (default: the config's, 0.5)")
 
 
-def _add_rtl_args(p) -> None:
+def _add_rtl_args(p, target: tuple[tuple[str, ...], str, str],
+                  stage: tuple[tuple[str, ...], str, str]) -> None:  # fmt: skip
     """The arguments ``hdl synth`` and ``hdl timing`` share: the pipeline, its design and
-    filter options, the mode, the frame the RTL is sized for,
-    ``--no-cache`` and ``--json``; each command adds its own tool's."""
+    filter options, ``--target`` and ``--stage`` (each ``(choices, default, help)``), the
+    mode, the frame the RTL is sized for, ``--no-cache`` and ``--json``."""
     p.add_argument("--pipeline", default="p1", help="pipeline with RTL in hdl/: p1 or p2 "
                    "(default p1)")  # fmt: skip
     add_design_args(p, estimator=False)
     add_filter_args(p)
+    p.add_argument("--target", choices=target[0], default=target[1], help=target[2])
+    p.add_argument("--stage", choices=stage[0], default=stage[1], help=stage[2])
     p.add_argument("--mode", choices=("stereo", "motion"), default="stereo",
                    help="stereo: two front ends, motion: one and the frame store (default "
                    "stereo)")  # fmt: skip
@@ -194,14 +197,14 @@ def add_synth_parser(hs) -> None:
     """``hdl synth``: added to the ``hdl`` group's subparsers ``hs``."""
     s = hs.add_parser("synth", help="Yosys area of the whole P1 or P2 RTL, its probes and "
                       "its stages")  # fmt: skip
-    _add_rtl_args(s)
-    s.add_argument("--target", choices=tuple(TARGETS), default="xcup",
-                   help="Yosys flow: synth_xilinx -family xc7|xcup, synth_ecp5, synth_ice40 "
-                   "(default xcup)")  # fmt: skip
-    s.add_argument("--stage", choices=("top", *STAGES, "all"), default="all",
-                   help="what to synthesise: top (the whole p1_top or p2_top, and its probes "
-                   "apart), P1's frontend (one stream, x-derivative included) or range, or all "
-                   "(P2: the top)")  # fmt: skip
+    _add_rtl_args(
+        s,
+        target=(tuple(TARGETS), "xcup", "Yosys flow: synth_xilinx -family xc7|xcup, "
+                "synth_ecp5, synth_ice40 (default xcup)"),
+        stage=(("top", *STAGES, "all"), "all", "what to synthesise: top (the whole p1_top or "
+               "p2_top, and its probes apart), P1's frontend (one stream, x-derivative "
+               "included) or range, or all (P2: the top)"),
+    )  # fmt: skip
     s.add_argument("--no-probes", action="store_true",
                    help="skip the third synthesis that measures what the taps and overflow "
                    "counters cost")  # fmt: skip
@@ -254,10 +257,13 @@ def add_timing_parser(hs) -> None:
     """``hdl timing``: added to the ``hdl`` group's subparsers ``hs``."""
     t = hs.add_parser("timing", help="place-and-route Fmax, critical path and utilisation "
                       "of the P1 or P2 RTL (Yosys + nextpnr)")  # fmt: skip
-    _add_rtl_args(t)
-    t.add_argument("--target", choices=tuple(TIMING_TARGETS), default="ecp5",
-                   help="FPGA family: ecp5 (Yosys synth_ecp5, nextpnr-ecp5; default) or "
-                   "ice40 (synth_ice40, nextpnr-ice40)")  # fmt: skip
+    _add_rtl_args(
+        t,
+        target=(tuple(TIMING_TARGETS), "ecp5", "FPGA family: ecp5 (Yosys synth_ecp5, "
+                "nextpnr-ecp5; default) or ice40 (synth_ice40, nextpnr-ice40)"),
+        stage=(TIMING_STAGES, "top", "top: the whole P1 or P2 (default), frontend: one P1 "
+               "stream's"),
+    )  # fmt: skip
     devices = {d: t for t, f in TIMING_TARGETS.items() for d in f.devices}
     t.add_argument("--device", choices=tuple(devices),
                    help="ecp5: 25k, 45k, 85k (LFE5U-25F/-45F/-85F; default 85k); ice40: up5k, "
@@ -270,6 +276,4 @@ def add_timing_parser(hs) -> None:
                    help="nextpnr runs (seeds 1..N); Fmax is their median (default 3)")  # fmt: skip
     t.add_argument("--freq", type=float, default=148.5,
                    help="frequency nextpnr aims at, MHz (default 148.5, 1080p60)")  # fmt: skip
-    t.add_argument("--stage", choices=TIMING_STAGES, default="top",
-                   help="top: the whole P1 or P2 (default), frontend: one P1 stream's")  # fmt: skip
     t.set_defaults(func=cmd_timing)
