@@ -13,7 +13,8 @@ Run
 Test vectors
     :func:`generate_vectors` (from a case, a scene name or an existing :class:`RunResult`;
     atomic), :func:`check_vectors`, :func:`diff_vectors` (an RTL dump against a tap),
-    :func:`replay` (the vectors through the Verilog of P1 in a simulator).
+    :func:`replay` (the vectors through the Verilog of their pipeline, P1 or P2, in a
+    simulator).
 Word-length studies
     :func:`sweep` (resumable), :func:`optimise` (with held-out verification).
 Hardware
