@@ -9,11 +9,14 @@
 //
 //   fx_round, fx_sat: the rounding carry; the overflow mode
 //   fx_round_sat : both in one, shared by both casts below
+//   fx_quant_sized: the quantisation half: floor and the dropped bits' class
 //   fx_cast_sized: a cast whose shift IN_F - OUT_F is a parameter (any sign)
+//   fx_cast_reg  : fx_cast_sized with its rounded value registered (latency 1)
 //   fx_cast_var  : a right shift that varies per sample (the reciprocal divider's
 //                  normalisation), 0 <= sh < 2^SH_W
-// All combinational (fx_cast_var with REG = 1: one register between shift and rounding;
-// REG = 2: and one between rounding and overflow).
+// All combinational but fx_cast_reg (one register between rounding and overflow) and
+// fx_cast_var with REG = 1 (one register between shift and rounding; REG = 2: and one
+// between rounding and overflow).
 `timescale 1ns / 1ps
 
 // The rounded value: floor q plus the rounding carry of the quantisation mode, in
@@ -105,29 +108,24 @@ module fx_round_sat #(
     fx_sat #(CW, OUT_W, OUT_S, OVF) u_s (.qr(qr), .y(y), .ovf(ovf));
 endmodule
 
-// x * 2^-IN_F (IN_W-bit two's complement) cast into (OUT_S, OUT_W, OUT_F).
-module fx_cast_sized #(
+// x * 2^-IN_F (IN_W-bit two's complement) as floor(x 2^-SH), SH = IN_F - OUT_F, and the
+// class of the dropped bits (the quantisation half of a cast; QW as fx_cast_sized's).
+module fx_quant_sized #(
     parameter integer IN_W  = 16,
     parameter integer IN_F  = 0,
-    parameter integer OUT_W = 8,
     parameter integer OUT_F = 0,
-    parameter integer OUT_S = 0,
-    parameter integer QUANT = 0,
-    parameter integer OVF   = 0
+    parameter integer QW    = 16
 ) (
     input  wire signed [IN_W-1:0]  x,
-    output wire        [OUT_W-1:0] y,
-    output wire                    ovf
+    output wire signed [QW-1:0]    q,
+    output wire                    above,
+    output wire                    tie,
+    output wire                    nonzero
 );
     localparam integer SH = IN_F - OUT_F;
     localparam integer SHP = (SH > 0) ? SH : 1;
     localparam integer SHL = (SH < 0) ? -SH : 0;
-    // a right shift of SH >= IN_W bits leaves 0 or -1: extend x so the remainder is exact
     localparam integer XW = (SH > 0) ? ((IN_W > SHP) ? IN_W : SHP + 1) : IN_W + SHL;
-    localparam integer QW = (SH > 0) ? XW - SHP + 1 : XW;
-
-    wire signed [QW-1:0] q;
-    wire above, tie, nonzero;
     generate
         if (SH > 0) begin : g_drop
             wire signed [XW-1:0]  xe = x;
@@ -152,8 +150,71 @@ module fx_cast_sized #(
             assign nonzero = 1'b0;
         end
     endgenerate
+endmodule
+
+// x * 2^-IN_F (IN_W-bit two's complement) cast into (OUT_S, OUT_W, OUT_F).
+module fx_cast_sized #(
+    parameter integer IN_W  = 16,
+    parameter integer IN_F  = 0,
+    parameter integer OUT_W = 8,
+    parameter integer OUT_F = 0,
+    parameter integer OUT_S = 0,
+    parameter integer QUANT = 0,
+    parameter integer OVF   = 0
+) (
+    input  wire signed [IN_W-1:0]  x,
+    output wire        [OUT_W-1:0] y,
+    output wire                    ovf
+);
+    localparam integer SH = IN_F - OUT_F;
+    localparam integer SHP = (SH > 0) ? SH : 1;
+    localparam integer SHL = (SH < 0) ? -SH : 0;
+    // a right shift of SH >= IN_W bits leaves 0 or -1: extend x so the remainder is exact
+    localparam integer XW = (SH > 0) ? ((IN_W > SHP) ? IN_W : SHP + 1) : IN_W + SHL;
+    localparam integer QW = (SH > 0) ? XW - SHP + 1 : XW;
+
+    wire signed [QW-1:0] q;
+    wire above, tie, nonzero;
+    fx_quant_sized #(IN_W, IN_F, OUT_F, QW) u_q (
+        .x(x), .q(q), .above(above), .tie(tie), .nonzero(nonzero));
     fx_round_sat #(QW, OUT_W, OUT_S, QUANT, OVF) u_rs (
         .q(q), .above(above), .tie(tie), .nonzero(nonzero), .y(y), .ovf(ovf));
+endmodule
+
+// fx_cast_sized in two clock stages (latency 1): the rounded value registered before
+// the overflow mode, so no cycle holds both the rounding increment (a carry chain) and
+// the saturation (P1's range stage, hdl/p1_range.v).
+module fx_cast_reg #(
+    parameter integer IN_W  = 16,
+    parameter integer IN_F  = 0,
+    parameter integer OUT_W = 8,
+    parameter integer OUT_F = 0,
+    parameter integer OUT_S = 0,
+    parameter integer QUANT = 0,
+    parameter integer OVF   = 0
+) (
+    input  wire                    clk,
+    input  wire signed [IN_W-1:0]  x,
+    output wire        [OUT_W-1:0] y,
+    output wire                    ovf
+);
+    localparam integer SH = IN_F - OUT_F;
+    localparam integer SHP = (SH > 0) ? SH : 1;
+    localparam integer SHL = (SH < 0) ? -SH : 0;
+    localparam integer XW = (SH > 0) ? ((IN_W > SHP) ? IN_W : SHP + 1) : IN_W + SHL;
+    localparam integer QW = (SH > 0) ? XW - SHP + 1 : XW;
+    localparam integer CW = ((QW > OUT_W + 1) ? QW : OUT_W + 1) + 1;
+
+    wire signed [QW-1:0] q;
+    wire above, tie, nonzero;
+    fx_quant_sized #(IN_W, IN_F, OUT_F, QW) u_q (
+        .x(x), .q(q), .above(above), .tie(tie), .nonzero(nonzero));
+    wire signed [CW-1:0] qr;
+    fx_round #(QW, OUT_W, QUANT) u_r (.q(q), .above(above), .tie(tie), .nonzero(nonzero),
+                                      .qr(qr));
+    reg signed [CW-1:0] qr_r;
+    always @(posedge clk) qr_r <= qr;
+    fx_sat #(CW, OUT_W, OUT_S, OVF) u_s (.qr(qr_r), .y(y), .ovf(ovf));
 endmodule
 
 // x >> sh with rounding (sh per sample, 0 <= sh < 2^SH_W), into (OUT_S, OUT_W).

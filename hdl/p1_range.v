@@ -12,11 +12,13 @@
 // frame, s_eol = last pixel of a line; the two streams' outputs E_hat (col_s1), ex
 // (div_quot or col2_out) and ey (col_s2) of the same pixel. The pipeline advances every
 // clock, one carry chain or one product (fx_mul_pipe, FX_MUL_LAT = 4 stages: operands
-// and partial products in the MULT18X18D's registers, two sums) per cycle; each tap
+// and partial products in the MULT18X18D's registers, two sums) per cycle: three-term
+// sums take two cycles, every cast two (fx_cast_reg: the rounded value registered before
+// the overflow mode), the divider's flags are formed from earlier registers. Each tap
 // group leaves at a fixed latency after its input beat, as rtl_model/p1/model.py
 // stage_latencies declares (the schedule: docs/hdl.md):
-//   range_coords   +15               : xp yp c1 a1 b1 k0 k1 k2 vx vy wx wy w0  (c_valid)
-//   range_products +11 (+26 in all)  : gv num den v_sq g_sq g_thr              (p_valid)
+//   range_coords   +19               : xp yp c1 a1 b1 k0 k1 k2 vx vy wx wy w0  (c_valid)
+//   range_products +14 (+33 in all)  : gv num den v_sq g_sq g_thr              (p_valid)
 //   range_divider  +1 + DIV_LAT      : range_q                                 (q_valid)
 //   threshold      +1                : valid, range                            (m_valid)
 // Each group's cast overflow flags leave with it (ovf_c, ovf_p, ovf_q; bit order as the
@@ -122,8 +124,17 @@ module p1_range #(
     // latencies (rtl_model/p1/model.py stage_latencies): range_coords, range_products, and
     // the divider's own (runtime.divider_latency plus its registered operand normalisation)
     localparam integer FX_MUL_LAT = 4;                // fx_mul_pipe IREG = 1
-    localparam integer C_LAT = 2 * FX_MUL_LAT + 7;    // 15
-    localparam integer P_LAT = 2 * FX_MUL_LAT + 3;    // 11
+    localparam integer CAST_LAT = 2;                  // fx_cast_reg + its output register
+    // range_coords: input, sums, casts (xp .. b1 at XY_AT), products, the two-cycle sum
+    // of k, its cast (k at K_AT), products, sums, casts
+    localparam integer XY_AT = 2 + CAST_LAT;                        // 4
+    localparam integer K_AT = XY_AT + FX_MUL_LAT + 2 + CAST_LAT;    // 12
+    localparam integer C_LAT = K_AT + FX_MUL_LAT + 1 + CAST_LAT;    // 19
+    // range_products: products, the two-cycle sum of den (gv v_sq beside it) and casts
+    // (gv den v_sq at GV_AT), num's difference and cast (NUM_AT), products, casts
+    localparam integer GV_AT = FX_MUL_LAT + 2 + CAST_LAT;           // 8
+    localparam integer NUM_AT = GV_AT + 1 + CAST_LAT;               // 11
+    localparam integer P_LAT = GV_AT + FX_MUL_LAT + CAST_LAT;       // 14
     localparam integer DIV_FRONT = DIVIDER ? 14 : 1;  // PIPE = 2 / FRONT = 1
     localparam integer DIV_LAT = (DIVIDER ? 9 : RNG_W + 4) + DIV_FRONT;
 
@@ -189,35 +200,38 @@ module p1_range #(
         b1_x <= `RFX_SX(e1_s2_1, S2_S) + `RFX_SX(e2_s2_1, S2_S);
     end
 
-    // ---- +3: the casts xp, yp, c1, a1, b1 --------------------------------------------------
+    // ---- +3, +4: the casts xp, yp, c1, a1, b1 (rounded value at +3, overflow mode at +4) --
     wire [CO_W-1:0] xp_c, yp_c;
     wire [C1_W-1:0] c1_c;
     wire [GA_W-1:0] a1_c;
     wire [GB_W-1:0] b1_c;
     wire [12:0]     ovf_n;
-    fx_cast_sized #(XPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_xp (xp_x, xp_c, ovf_n[0]);
-    fx_cast_sized #(YPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_yp (yp_x, yp_c, ovf_n[1]);
-    fx_cast_sized #(S1_SW + 1, S1_F, C1_W, C1_F, C1_S, C1_Q, C1_O) u_c1 (c1_x, c1_c, ovf_n[2]);
-    fx_cast_sized #(EX_SW + 1, EX_F + 1, GA_W, GA_F, GA_S, GA_Q, GA_O) u_a1 (
-        a1_x, a1_c, ovf_n[3]);
-    fx_cast_sized #(S2_SW + 1, S2_F + 1, GB_W, GB_F, GB_S, GB_Q, GB_O) u_b1 (
-        b1_x, b1_c, ovf_n[4]);
-    reg [CO_W-1:0] xp3, yp3;
-    reg [C1_W-1:0] c1_3;
-    reg [GA_W-1:0] a1_3;
-    reg [GB_W-1:0] b1_3;
-    reg [4:0]      ovf3;
+    fx_cast_reg #(XPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_xp (clk, xp_x, xp_c, ovf_n[0]);
+    fx_cast_reg #(YPW, F_CO0, CO_W, CO_F, CO_S, CO_Q, CO_O) u_yp (clk, yp_x, yp_c, ovf_n[1]);
+    fx_cast_reg #(S1_SW + 1, S1_F, C1_W, C1_F, C1_S, C1_Q, C1_O) u_c1 (
+        clk, c1_x, c1_c, ovf_n[2]);
+    fx_cast_reg #(EX_SW + 1, EX_F + 1, GA_W, GA_F, GA_S, GA_Q, GA_O) u_a1 (
+        clk, a1_x, a1_c, ovf_n[3]);
+    fx_cast_reg #(S2_SW + 1, S2_F + 1, GB_W, GB_F, GB_S, GB_Q, GB_O) u_b1 (
+        clk, b1_x, b1_c, ovf_n[4]);
+    reg [CO_W-1:0] xp4, yp4;
+    reg [C1_W-1:0] c1_4;
+    reg [GA_W-1:0] a1_4;
+    reg [GB_W-1:0] b1_4;
+    reg [4:0]      ovf4;
     always @(posedge clk) begin
-        {xp3, yp3, c1_3, a1_3, b1_3} <= {xp_c, yp_c, c1_c, a1_c, b1_c};
-        ovf3 <= ovf_n[4:0];
+        {xp4, yp4, c1_4, a1_4, b1_4} <= {xp_c, yp_c, c1_c, a1_c, b1_c};
+        ovf4 <= ovf_n[4:0];
     end
 
-    // ---- +3 .. +9: k_r = cast(M_r0 + M_r1 xp + M_r2 yp, k_rot), summed at FK fraction bits
+    // ---- +5 .. +12: k_r = cast(M_r0 + M_r1 xp + M_r2 yp, k_rot), summed at FK fraction bits:
+    // the products at +8, M_r0 + M_r1 xp at +9, + M_r2 yp at +10 (one carry chain a
+    // cycle), the cast's rounded value at +11, k at +12
     localparam integer FK = `RFX_MAX(KM_F, KM_F + CO_F);
     localparam integer KPW = KM_SW + CO_SW;
     localparam integer KW = `RFX_MAX(KM_SW + FK - KM_F, KPW + FK - KM_F - CO_F) + 2;
-    wire signed [CO_SW-1:0] xp3_s = `RFX_SX(xp3, CO_S);
-    wire signed [CO_SW-1:0] yp3_s = `RFX_SX(yp3, CO_S);
+    wire signed [CO_SW-1:0] xp4_s = `RFX_SX(xp4, CO_S);
+    wire signed [CO_SW-1:0] yp4_s = `RFX_SX(yp4, CO_S);
     wire [3*KR_W-1:0] k_c;
     genvar r;
     generate
@@ -226,21 +240,24 @@ module p1_range #(
             wire signed [KM_SW-1:0] m1 = `RFX_SX(m_raw[(3*r+1)*KM_W +: KM_W], KM_S);
             wire signed [KM_SW-1:0] m2 = `RFX_SX(m_raw[(3*r+2)*KM_W +: KM_W], KM_S);
             wire signed [KPW-1:0] m1x, m2y;
-            fx_mul_pipe #(KM_SW, CO_SW, 1) u_m1x (clk, m1, xp3_s, m1x);
-            fx_mul_pipe #(KM_SW, CO_SW, 1) u_m2y (clk, m2, yp3_s, m2y);
-            reg signed [KW-1:0] k_x;  // +8
-            always @(posedge clk)
-                k_x <= (m0 <<< (FK - KM_F)) + (m1x <<< (FK - KM_F - CO_F))
-                     + (m2y <<< (FK - KM_F - CO_F));
-            fx_cast_sized #(KW, FK, KR_W, KR_F, KR_S, KR_Q, KR_O) u_k (
-                k_x, k_c[r*KR_W +: KR_W], ovf_n[5 + r]);
+            fx_mul_pipe #(KM_SW, CO_SW, 1) u_m1x (clk, m1, xp4_s, m1x);
+            fx_mul_pipe #(KM_SW, CO_SW, 1) u_m2y (clk, m2, yp4_s, m2y);
+            reg signed [KW-1:0]  k_a, k_x;  // +9, +10
+            reg signed [KPW-1:0] m2y_9;
+            always @(posedge clk) begin
+                k_a <= (m0 <<< (FK - KM_F)) + (m1x <<< (FK - KM_F - CO_F));
+                m2y_9 <= m2y;
+                k_x <= k_a + (m2y_9 <<< (FK - KM_F - CO_F));
+            end
+            fx_cast_reg #(KW, FK, KR_W, KR_F, KR_S, KR_Q, KR_O) u_k (
+                clk, k_x, k_c[r*KR_W +: KR_W], ovf_n[5 + r]);
         end
     endgenerate
-    reg [3*KR_W-1:0] k8;
-    reg [2:0]        ovf8;
-    always @(posedge clk) {k8, ovf8} <= {k_c, ovf_n[7:5]};
+    reg [3*KR_W-1:0] k12;
+    reg [2:0]        ovf12;
+    always @(posedge clk) {k12, ovf12} <= {k_c, ovf_n[7:5]};
 
-    // ---- +9 .. +15: vx, vy, wx, wy, w0 -------------------------------------------------------
+    // ---- +13 .. +19: vx, vy, wx, wy, w0: products +16, sums +17, casts +18, +19 ----------------
     localparam integer FGV = `RFX_MAX(FR_F + KT_F, CO_F + KT_F);
     localparam integer VPW = `RFX_MAX(FR_SW + KT_SW + FGV - FR_F - KT_F,
                                       CO_SW + KT_SW + FGV - CO_F - KT_F) + 1;
@@ -249,29 +266,29 @@ module p1_range #(
                                       CO_SW + KR_SW + FGW - CO_F - KR_F) + 1;
     localparam integer F_W0 = `RFX_MAX(KR_F, 0);
     localparam integer W0W = `RFX_MAX(2 + F_W0, KR_SW + F_W0 - KR_F) + 1;
-    wire [CO_W-1:0] xp8, yp8;
-    fx_delay #(2 * CO_W, FX_MUL_LAT + 2) d_xy8 (clk, {xp3, yp3}, {xp8, yp8});
-    wire signed [CO_SW-1:0] xp8_s = `RFX_SX(xp8, CO_S);
-    wire signed [CO_SW-1:0] yp8_s = `RFX_SX(yp8, CO_S);
-    wire signed [KR_SW-1:0] k0_s = `RFX_SX(k8[0 +: KR_W], KR_S);
-    wire signed [KR_SW-1:0] k1_s = `RFX_SX(k8[KR_W +: KR_W], KR_S);
-    wire signed [KR_SW-1:0] k2_s = `RFX_SX(k8[2*KR_W +: KR_W], KR_S);
+    wire [CO_W-1:0] xp12, yp12;
+    fx_delay #(2 * CO_W, K_AT - XY_AT) d_xy12 (clk, {xp4, yp4}, {xp12, yp12});
+    wire signed [CO_SW-1:0] xp12_s = `RFX_SX(xp12, CO_S);
+    wire signed [CO_SW-1:0] yp12_s = `RFX_SX(yp12, CO_S);
+    wire signed [KR_SW-1:0] k0_s = `RFX_SX(k12[0 +: KR_W], KR_S);
+    wire signed [KR_SW-1:0] k1_s = `RFX_SX(k12[KR_W +: KR_W], KR_S);
+    wire signed [KR_SW-1:0] k2_s = `RFX_SX(k12[2*KR_W +: KR_W], KR_S);
     wire signed [FR_SW+KT_SW-1:0] fk4, fk5;
     wire signed [CO_SW+KT_SW-1:0] xk3, yk3;
     wire signed [FR_SW+KR_SW-1:0] fk1, fk2;
     wire signed [CO_SW+KR_SW-1:0] xk0, yk0;
     fx_mul_pipe #(FR_SW, KT_SW, 1) u_fk4 (clk, f_v, k4_v, fk4);
     fx_mul_pipe #(FR_SW, KT_SW, 1) u_fk5 (clk, f_v, k5_v, fk5);
-    fx_mul_pipe #(CO_SW, KT_SW, 1) u_xk3 (clk, xp8_s, k3_v, xk3);
-    fx_mul_pipe #(CO_SW, KT_SW, 1) u_yk3 (clk, yp8_s, k3_v, yk3);
+    fx_mul_pipe #(CO_SW, KT_SW, 1) u_xk3 (clk, xp12_s, k3_v, xk3);
+    fx_mul_pipe #(CO_SW, KT_SW, 1) u_yk3 (clk, yp12_s, k3_v, yk3);
     fx_mul_pipe #(FR_SW, KR_SW, 1) u_fk1 (clk, f_v, k1_s, fk1);
     fx_mul_pipe #(FR_SW, KR_SW, 1) u_fk2 (clk, f_v, k2_s, fk2);
-    fx_mul_pipe #(CO_SW, KR_SW, 1) u_xk0 (clk, xp8_s, k0_s, xk0);
-    fx_mul_pipe #(CO_SW, KR_SW, 1) u_yk0 (clk, yp8_s, k0_s, yk0);
-    wire [KR_W-1:0] k0_11;
-    fx_delay #(KR_W, FX_MUL_LAT) d_k0 (clk, k8[0 +: KR_W], k0_11);
-    wire signed [KR_SW-1:0] k0_11_s = `RFX_SX(k0_11, KR_S);
-    reg signed [VPW-1:0] vx_x, vy_x;  // +14
+    fx_mul_pipe #(CO_SW, KR_SW, 1) u_xk0 (clk, xp12_s, k0_s, xk0);
+    fx_mul_pipe #(CO_SW, KR_SW, 1) u_yk0 (clk, yp12_s, k0_s, yk0);
+    wire [KR_W-1:0] k0_16;
+    fx_delay #(KR_W, FX_MUL_LAT) d_k0 (clk, k12[0 +: KR_W], k0_16);
+    wire signed [KR_SW-1:0] k0_16_s = `RFX_SX(k0_16, KR_S);
+    reg signed [VPW-1:0] vx_x, vy_x;  // +17
     reg signed [WPW-1:0] wx_x, wy_x;
     reg signed [W0W-1:0] w0_x;
     always @(posedge clk) begin
@@ -279,32 +296,35 @@ module p1_range #(
         vy_x <= (fk5 <<< (FGV - FR_F - KT_F)) - (yk3 <<< (FGV - CO_F - KT_F));
         wx_x <= (fk1 <<< (FGW - FR_F - KR_F)) - (xk0 <<< (FGW - CO_F - KR_F));
         wy_x <= (fk2 <<< (FGW - FR_F - KR_F)) - (yk0 <<< (FGW - CO_F - KR_F));
-        w0_x <= ($signed(3'sd1) <<< F_W0) + (k0_11_s <<< (F_W0 - KR_F));
+        w0_x <= ($signed(3'sd1) <<< F_W0) + (k0_16_s <<< (F_W0 - KR_F));
     end
     wire [V_W-1:0] vx_c, vy_c;
     wire [W_W-1:0] wx_c, wy_c, w0_c;
-    fx_cast_sized #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vx (vx_x, vx_c, ovf_n[8]);
-    fx_cast_sized #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vy (vy_x, vy_c, ovf_n[9]);
-    fx_cast_sized #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wx (wx_x, wx_c, ovf_n[10]);
-    fx_cast_sized #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wy (wy_x, wy_c, ovf_n[11]);
-    fx_cast_sized #(W0W, F_W0, W_W, W_F, W_S, W_Q, W_O) u_w0 (w0_x, w0_c, ovf_n[12]);
+    fx_cast_reg #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vx (clk, vx_x, vx_c, ovf_n[8]);
+    fx_cast_reg #(VPW, FGV, V_W, V_F, V_S, V_Q, V_O) u_vy (clk, vy_x, vy_c, ovf_n[9]);
+    fx_cast_reg #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wx (clk, wx_x, wx_c, ovf_n[10]);
+    fx_cast_reg #(WPW, FGW, W_W, W_F, W_S, W_Q, W_O) u_wy (clk, wy_x, wy_c, ovf_n[11]);
+    fx_cast_reg #(W0W, F_W0, W_W, W_F, W_S, W_Q, W_O) u_w0 (clk, w0_x, w0_c, ovf_n[12]);
 
-    // ---- +15: the range_coords taps, each cast's value from its own cycle ---------------------
+    // ---- +19: the range_coords taps, each cast's value from its own cycle ---------------------
     localparam integer G3W = 2 * CO_W + C1_W + GA_W + GB_W + 5;
     localparam integer G8W = 3 * KR_W + 3;
-    wire [G3W-1:0] g3_13;
-    wire [G8W-1:0] g8_13;
-    fx_delay #(G3W, C_LAT - 4) d_g3 (clk, {xp3, yp3, c1_3, a1_3, b1_3, ovf3}, g3_13);
-    fx_delay #(G8W, C_LAT - FX_MUL_LAT - 6) d_g8 (clk, {k8, ovf8}, g8_13);
+    wire [G3W-1:0] g3_18;
+    wire [G8W-1:0] g8_18;
+    fx_delay #(G3W, C_LAT - 1 - XY_AT) d_g3 (clk, {xp4, yp4, c1_4, a1_4, b1_4, ovf4}, g3_18);
+    fx_delay #(G8W, C_LAT - 1 - K_AT) d_g8 (clk, {k12, ovf12}, g8_18);
     always @(posedge clk) begin
         c_valid <= ctl12[2] & ~rst;
-        {xp, yp, c1, a1, b1} <= g3_13[G3W-1:5];
-        {k2, k1, k0} <= g8_13[G8W-1:3];
+        {xp, yp, c1, a1, b1} <= g3_18[G3W-1:5];
+        {k2, k1, k0} <= g8_18[G8W-1:3];
         {vx, vy, wx, wy, w0} <= {vx_c, vy_c, wx_c, wy_c, w0_c};
-        ovf_c <= {ovf_n[12:8], g8_13[2:0], g3_13[4:0]};
+        ovf_c <= {ovf_n[12:8], g8_18[2:0], g3_18[4:0]};
     end
 
-    // ---- +15 .. +26: gv, den, v_sq (+21), num (+23), g_sq and g_thr (+26) -----------------------
+    // ---- after the range_coords taps (+0): products +4; the sums of gv, v_sq and
+    // awx + bwy at +5, den = awx + bwy - cw0 at +6 (gv, v_sq wait beside it); the casts'
+    // rounded values +7, gv den v_sq +8; num: k3 c1 - gv +9, its casts +10, +11; g_sq,
+    // g_thr: products +12, casts +13, +14 = the range_products taps
     localparam integer FGVS = `RFX_MAX(GA_F + V_F, GB_F + V_F);
     localparam integer GVW = `RFX_MAX(GA_SW + V_SW + FGVS - GA_F - V_F,
                                       GB_SW + V_SW + FGVS - GB_F - V_F) + 1;
@@ -333,95 +353,107 @@ module p1_range #(
     fx_mul_pipe #(V_SW, V_SW, 1) u_vx2 (clk, vx_s, vx_s, vx2);
     fx_mul_pipe #(V_SW, V_SW, 1) u_vy2 (clk, vy_s, vy_s, vy2);
     fx_mul_pipe #(KT_SW, C1_SW, 1) u_k3c1 (clk, k3_v, c1_s, k3c1);
-    reg signed [GVW-1:0]        gv_x;  // +20
-    reg signed [DSW-1:0]        den_x;
-    reg signed [2*V_SW:0]       vsq_x;
-    reg signed [KT_SW+C1_SW-1:0] k3c1_17, k3c1_18;
+    reg signed [GVW-1:0]         gv_a, gv_x;   // +5, +6
+    reg signed [DSW-1:0]         den_a, den_x;
+    reg signed [C1_SW+W_SW-1:0]  cw0_5;
+    reg signed [2*V_SW:0]        vsq_a, vsq_x;
     always @(posedge clk) begin
-        gv_x <= (avx <<< (FGVS - GA_F - V_F)) + (bvy <<< (FGVS - GB_F - V_F));
-        den_x <= (awx <<< (FDS - GA_F - W_F)) + (bwy <<< (FDS - GB_F - W_F))
-               - (cw0 <<< (FDS - C1_F - W_F));
-        vsq_x <= vx2 + vy2;
-        k3c1_17 <= k3c1;
-        k3c1_18 <= k3c1_17;
+        gv_a <= (avx <<< (FGVS - GA_F - V_F)) + (bvy <<< (FGVS - GB_F - V_F));
+        den_a <= (awx <<< (FDS - GA_F - W_F)) + (bwy <<< (FDS - GB_F - W_F));
+        cw0_5 <= cw0;
+        vsq_a <= vx2 + vy2;
+        gv_x <= gv_a;
+        den_x <= den_a - (cw0_5 <<< (FDS - C1_F - W_F));
+        vsq_x <= vsq_a;
     end
     wire [GV_W-1:0]  gv_c;
     wire [DEN_W-1:0] den_c;
     wire [VSQ_W-1:0] vsq_c;
     wire [5:0]       ovfp_n;   // bit order gv, num, den, v_sq, g_sq, g_thr
-    fx_cast_sized #(GVW, FGVS, GV_W, GV_F, GV_S, GV_Q, GV_O) u_gv (gv_x, gv_c, ovfp_n[0]);
-    fx_cast_sized #(DSW, FDS, DEN_W, DEN_F, DEN_S, DEN_Q, DEN_O) u_den (
-        den_x, den_c, ovfp_n[2]);
-    fx_cast_sized #(2 * V_SW + 1, 2 * V_F, VSQ_W, VSQ_F, VSQ_S, VSQ_Q, VSQ_O) u_vsq (
-        vsq_x, vsq_c, ovfp_n[3]);
-    reg [GV_W-1:0]  gv18;
-    reg [DEN_W-1:0] den18;
-    reg [VSQ_W-1:0] vsq18;
-    reg [2:0]       ovf18;   // gv, den, v_sq
+    fx_cast_reg #(GVW, FGVS, GV_W, GV_F, GV_S, GV_Q, GV_O) u_gv (clk, gv_x, gv_c, ovfp_n[0]);
+    fx_cast_reg #(DSW, FDS, DEN_W, DEN_F, DEN_S, DEN_Q, DEN_O) u_den (
+        clk, den_x, den_c, ovfp_n[2]);
+    fx_cast_reg #(2 * V_SW + 1, 2 * V_F, VSQ_W, VSQ_F, VSQ_S, VSQ_Q, VSQ_O) u_vsq (
+        clk, vsq_x, vsq_c, ovfp_n[3]);
+    reg [GV_W-1:0]  gv8;
+    reg [DEN_W-1:0] den8;
+    reg [VSQ_W-1:0] vsq8;
+    reg [2:0]       ovf8;   // gv, den, v_sq
     always @(posedge clk) begin
-        {gv18, den18, vsq18} <= {gv_c, den_c, vsq_c};
-        ovf18 <= {ovfp_n[3], ovfp_n[2], ovfp_n[0]};
+        {gv8, den8, vsq8} <= {gv_c, den_c, vsq_c};
+        ovf8 <= {ovfp_n[3], ovfp_n[2], ovfp_n[0]};
     end
-    // num = cast(k3 c1 - gv): +22 exact, +23 cast
+    // num = cast(k3 c1 - gv): +9 exact, +10, +11 cast
     localparam integer FNS = `RFX_MAX(KT_F + C1_F, GV_F);
     localparam integer NSW = `RFX_MAX(KT_SW + C1_SW + FNS - KT_F - C1_F, GV_SW + FNS - GV_F) + 1;
-    wire signed [GV_SW-1:0]  gv18_s = `RFX_SX(gv18, GV_S);
-    wire signed [VSQ_SW-1:0] vsq18_s = `RFX_SX(vsq18, VSQ_S);
+    wire signed [GV_SW-1:0]  gv8_s = `RFX_SX(gv8, GV_S);
+    wire signed [VSQ_SW-1:0] vsq8_s = `RFX_SX(vsq8, VSQ_S);
+    wire signed [KT_SW+C1_SW-1:0] k3c1_8;
+    fx_delay #(KT_SW + C1_SW, GV_AT - FX_MUL_LAT) d_k3c1 (clk, k3c1, k3c1_8);
     reg signed [NSW-1:0] num_x;
     always @(posedge clk)
-        num_x <= (k3c1_18 <<< (FNS - KT_F - C1_F)) - (gv18_s <<< (FNS - GV_F));
+        num_x <= (k3c1_8 <<< (FNS - KT_F - C1_F)) - (gv8_s <<< (FNS - GV_F));
     wire [NUM_W-1:0] num_c;
-    fx_cast_sized #(NSW, FNS, NUM_W, NUM_F, NUM_S, NUM_Q, NUM_O) u_num (
-        num_x, num_c, ovfp_n[1]);
-    reg [NUM_W-1:0] num20;
-    reg             ovf20;
-    always @(posedge clk) {num20, ovf20} <= {num_c, ovfp_n[1]};
-    // g_sq = cast(gv^2), g_thr = cast(TG2 v_sq): +25 products, +26 casts
+    fx_cast_reg #(NSW, FNS, NUM_W, NUM_F, NUM_S, NUM_Q, NUM_O) u_num (
+        clk, num_x, num_c, ovfp_n[1]);
+    reg [NUM_W-1:0] num11;
+    reg             ovf11;
+    always @(posedge clk) {num11, ovf11} <= {num_c, ovfp_n[1]};
+    // g_sq = cast(gv^2), g_thr = cast(TG2 v_sq): +12 products, +13, +14 casts
     wire signed [2*GV_SW-1:0]       gsq_x;
     wire signed [TG2_SW+VSQ_SW-1:0] gthr_x;
-    fx_mul_pipe #(GV_SW, GV_SW, 1) u_gsq (clk, gv18_s, gv18_s, gsq_x);
-    fx_mul_pipe #(TG2_SW, VSQ_SW, 1) u_gthr (clk, tg2_v, vsq18_s, gthr_x);
+    fx_mul_pipe #(GV_SW, GV_SW, 1) u_gsq (clk, gv8_s, gv8_s, gsq_x);
+    fx_mul_pipe #(TG2_SW, VSQ_SW, 1) u_gthr (clk, tg2_v, vsq8_s, gthr_x);
     wire [GSQ_W-1:0] gsq_c, gthr_c;
-    fx_cast_sized #(2 * GV_SW, 2 * GV_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gsq_c (
-        gsq_x, gsq_c, ovfp_n[4]);
-    fx_cast_sized #(TG2_SW + VSQ_SW, TG2_F + VSQ_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gthr_c (
-        gthr_x, gthr_c, ovfp_n[5]);
-    localparam integer G18W = GV_W + DEN_W + VSQ_W + 3;
-    wire [G18W-1:0]     g18_22;
-    wire [NUM_W:0]      g20_22;
-    wire [C1_W-1:0]     c1_22;
-    fx_delay #(G18W, P_LAT - FX_MUL_LAT - 3) d_g18 (clk, {gv18, den18, vsq18, ovf18}, g18_22);
-    fx_delay #(NUM_W + 1, P_LAT - FX_MUL_LAT - 5) d_g20 (clk, {num20, ovf20}, g20_22);
-    fx_delay #(C1_W, P_LAT - 1) d_c1 (clk, c1, c1_22);
-    reg [C1_W-1:0] c1_p;
-    reg            p_sof, p_eol;
+    fx_cast_reg #(2 * GV_SW, 2 * GV_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gsq_c (
+        clk, gsq_x, gsq_c, ovfp_n[4]);
+    fx_cast_reg #(TG2_SW + VSQ_SW, TG2_F + VSQ_F, GSQ_W, GSQ_F, GSQ_S, GSQ_Q, GSQ_O) u_gthr_c (
+        clk, gthr_x, gthr_c, ovfp_n[5]);
+    localparam integer G8PW = GV_W + DEN_W + VSQ_W + 3;
+    wire [G8PW-1:0]     g8_13;
+    wire [NUM_W:0]      g11_13;
+    fx_delay #(G8PW, P_LAT - 1 - GV_AT) d_g8p (clk, {gv8, den8, vsq8, ovf8}, g8_13);
+    fx_delay #(NUM_W + 1, P_LAT - 1 - NUM_AT) d_g11 (clk, {num11, ovf11}, g11_13);
+    reg p_sof, p_eol;
     always @(posedge clk) begin
         p_valid <= ctl21[2] & ~rst;
         {p_sof, p_eol} <= ctl21[1:0];
-        {gv, den, v_sq} <= g18_22[G18W-1:3];
-        num <= g20_22[NUM_W:1];
+        {gv, den, v_sq} <= g8_13[G8PW-1:3];
+        num <= g11_13[NUM_W:1];
         {g_sq, g_thr} <= {gsq_c, gthr_c};
-        c1_p <= c1_22;
-        ovf_p <= {ovfp_n[5], ovfp_n[4], g18_22[2], g18_22[1], g20_22[0], g18_22[0]};
+        ovf_p <= {ovfp_n[5], ovfp_n[4], g8_13[2], g8_13[1], g11_13[0], g8_13[0]};
     end
 
-    // ---- the divider's front end (+1): num / den where |den| >= DMIN and den != 0, else 0 / 1
+    // ---- the divider's front end (+1 after the range_products taps): num / den where
+    // |den| >= DMIN and den != 0, else 0 / 1. Its flags are formed from earlier registers
+    // of the same values, one carry chain a cycle, and wait beside the pipeline: |den| and
+    // den != 0 at +9, den_ok at +10 (from den at +8); |c1| at +1, |c1| >= T_E at +2 (from
+    // the c1 tap); the operand select at +15 then only multiplexes.
     localparam integer DVW = `RFX_MAX(DEN_SW, DEN_F + 2);  // holds 1.0 = 2^DEN_F
     wire signed [NUM_SW-1:0] num_s = `RFX_SX(num, NUM_S);
     wire signed [DEN_SW-1:0] den_s = `RFX_SX(den, DEN_S);
-    wire signed [DEN_SW:0]   den_abs = den_s[DEN_SW-1] ? -den_s : den_s;
-    wire den_ok = (den_abs >= dmin_v) && (den_s != 0);
-    wire signed [C1_SW:0]    c1_abs = `RFX_SX(c1_p, C1_S) < 0 ? -`RFX_SX(c1_p, C1_S)
-                                                                : `RFX_SX(c1_p, C1_S);
+    wire signed [DEN_SW-1:0] den8_s = `RFX_SX(den8, DEN_S);
+    reg  signed [DEN_SW:0]   den_abs9;
+    reg                      den_nz9, den_ok10, c1_ok2;
+    reg  signed [C1_SW:0]    c1_abs1;
+    always @(posedge clk) begin
+        den_abs9 <= den8_s[DEN_SW-1] ? -den8_s : den8_s;
+        den_nz9 <= den8_s != 0;
+        den_ok10 <= (den_abs9 >= dmin_v) && den_nz9;
+        c1_abs1 <= c1_s < 0 ? -c1_s : c1_s;
+        c1_ok2 <= c1_abs1 >= te_v;
+    end
+    wire den_ok, te_ok_q;  // den_ok with the range_products taps; te_ok beside div_n
+    fx_delay #(1, P_LAT - 10) d_den_ok (clk, den_ok10, den_ok);
+    fx_delay #(1, P_LAT - 1) d_te_ok (clk, c1_ok2, te_ok_q);
     reg signed [NUM_SW-1:0] div_n;
     reg signed [DVW-1:0]    div_d;
-    reg                     dv_valid, dv_sof, dv_eol, te_ok, g_ok, den_ok_r;
+    reg                     dv_valid, dv_sof, dv_eol, g_ok, den_ok_r;
     always @(posedge clk) begin
         div_n <= den_ok ? num_s : {NUM_SW{1'b0}};
         div_d <= den_ok ? den_s : ($signed({{(DVW-1){1'b0}}, 1'b1}) <<< DEN_F);
         dv_valid <= p_valid & ~rst;
         {dv_sof, dv_eol} <= {p_sof, p_eol};
-        te_ok <= c1_abs >= te_v;
         g_ok <= `RFX_SX(g_sq, GSQ_S) >= `RFX_SX(g_thr, GSQ_S);
         den_ok_r <= den_ok;
     end
@@ -442,7 +474,7 @@ module p1_range #(
     reg [DIV_LAT-1:0]   valid_d;
     always @(posedge clk) valid_d <= rst ? {DIV_LAT{1'b0}} : {valid_d[DIV_LAT-2:0], dv_valid};
     wire [4:0] flags_q;
-    fx_delay #(5, DIV_LAT) d_flags (clk, {dv_sof, dv_eol, te_ok, g_ok, den_ok_r}, flags_q);
+    fx_delay #(5, DIV_LAT) d_flags (clk, {dv_sof, dv_eol, te_ok_q, g_ok, den_ok_r}, flags_q);
     assign q_valid = valid_d[DIV_LAT-1];
     assign range_q = rq;
     assign ovf_q = rq_ovf;

@@ -198,9 +198,10 @@ def test_vectors_written_before_the_case_held_settings_by_key_still_check(tmp_pa
     ``riccati`` (its manifest stores both, P1 on a user's 3x8 pair with T_E = 3): the
     settings load into ``Case.settings`` by key, and a re-run reproduces every data file
     byte for byte and the manifest's case. The fixture was written when P1's input-to-range
-    latency was 72 cycles (85 since its products were pipelined through the DSPs'
-    registers), so the manifest's cycle entries (each file's first valid cycle, the
-    latency, the total cycles) and only those differ from a fresh run."""
+    latency was 72 cycles (92 since its products were pipelined through the DSPs'
+    registers and the range stage's casts and three-term sums split), so the manifest's
+    cycle entries (each file's first valid cycle, the latency, the total cycles) and
+    only those differ from a fresh run."""
     old = shutil.copytree(FIXTURES / "vectors_v1_p1_image", tmp_path / "v1")
     manifest = load_manifest(old)
     case = manifest["case"]

@@ -214,8 +214,9 @@ def test_rounding_mutant_is_caught_at_the_first_differing_pixel(tmp_path):
     ],
 )
 def test_sized_cast_equals_the_generic_cast_on_every_input(iw, signed, f_in, out, tmp_path):
-    """``fx_cast_sized`` (every cast of p1_range) against the 64-bit ``fx_cast`` on all
-    2^14 inputs, under all 7 x 4 quantisation and overflow modes (Icarus)."""
+    """``fx_cast_sized`` and its two-stage form ``fx_cast_reg`` (every cast of p1_range)
+    against the 64-bit ``fx_cast`` on all 2^14 inputs, under all 7 x 4 quantisation and
+    overflow modes (Icarus)."""
     import subprocess
 
     out_s, out_w, out_f = out

@@ -912,6 +912,14 @@ def frame_registers(
 #: MULT18X18D's own registers, then the partial products' sums in pairs, the final sum).
 MUL_LATENCY = 4
 
+#: Register stages of a cast in the range stage (``hdl/fx_cast_sized.v`` fx_cast_reg: the
+#: rounded value registered before the overflow mode, then the cast's output register).
+CAST_LATENCY = 2
+
+#: Register stages of a three-term sum in the range stage (``k_r``, ``den``: one carry
+#: chain a cycle, the first two terms then the third).
+SUM3_LATENCY = 2
+
 #: Stages the P1 RTL adds to a divider (``hdl/fx_divide.v`` ``PIPE = 2`` / ``FRONT``):
 #: the reciprocal divider registers |N| |D|, the leading one and the seed index before its
 #: ROM read (3), computes its three products in 4 stages each (9) and registers its
@@ -934,12 +942,13 @@ def stage_latencies(config: P1Config) -> dict[str, int]:
     column filter runs beside the first (its ``ex`` leaves with ``s1``): its x-derivative
     adds no cycle; the paper variant's adds the product ``s1 r2`` and the divider.
 
-    The range stage, one carry chain or one product per cycle: ``range_coords`` =
-    input register, exact ``xp yp c1 a1 b1``, their casts, ``M xp`` (product), the sum
+    The range stage, one carry chain or one product per cycle (every cast in two
+    stages, ``CAST_LATENCY``; three-term sums in two, ``SUM3_LATENCY``): ``range_coords``
+    = input register, exact ``xp yp c1 a1 b1``, their casts, ``M xp`` (product), the sum
     and cast of ``k``, the products of ``v`` and ``w``, their sums and casts;
-    ``range_products`` = the products of ``gv den v_sq``, their sums and casts, the
-    product ``gv^2`` and its cast (``num`` beside it); ``range_divider`` = the operand
-    select register and the divider."""
+    ``range_products`` = the products of ``gv den v_sq``, their sums (``den``'s three
+    terms) and casts, the product ``gv^2`` and its cast (``num`` beside it);
+    ``range_divider`` = the operand select register and the divider."""
     front = DIVIDER_FRONT[config.divider]
     div = divider_latency(config.divider, config.formats["div_quot"].word) + front
     rdiv = divider_latency(config.divider, config.formats["range"].word) + front
@@ -950,8 +959,10 @@ def stage_latencies(config: P1Config) -> dict[str, int]:
         "row_filter": 2,
         "column_filter": 3,
         "x_derivative": x_derivative,
-        "range_coords": 3 + MUL_LATENCY + 2 + MUL_LATENCY + 2,  # 15
-        "range_products": MUL_LATENCY + 2 + MUL_LATENCY + 1,  # 11
+        # input, sums; casts; products; k's sum; its cast; products; sums; casts: 19
+        "range_coords": 2 + 2 * MUL_LATENCY + SUM3_LATENCY + 1 + 3 * CAST_LATENCY,
+        # products; den's sum; casts; products (num beside them); casts: 14
+        "range_products": 2 * MUL_LATENCY + SUM3_LATENCY + 2 * CAST_LATENCY,
         "range_divider": 1 + rdiv,
         "threshold": 1,
     }
