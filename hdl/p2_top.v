@@ -71,7 +71,7 @@ module p2_top #(
     // declared latencies (rtl_model/p2/config.py): every unit one multiply (fx_mul_pipe,
     // MUL_LAT stages), one carry chain or one cast per cycle; block RAMs read in LB_READ
     localparam integer MUL_LAT = 3;                  // fx_pipe.v fx_mul_pipe
-    localparam integer LB_READ = 4;                  // p2_ram: address, block, ORed, ORed
+    localparam integer LB_READ = 5;                  // p2_ram: address, read, out, ORed x2
     localparam integer FWD_READ = LB_READ;           // the sweep buffer likewise
     // the loop entry E = r + SWEEP_READ: read, D, KA D, cast a, a^2, cast, max(., C_MIN)
     localparam integer SWEEP_READ = LB_READ + 1 + MUL_LAT + 1 + MUL_LAT + 1 + 1;
@@ -309,8 +309,8 @@ module p2_top #(
         btags <= rst ? {(TAGW*NBT){1'b0}} : {btags[TAGW*(NBT-1)-1:0], tag_r};
 `define P2_BTAG(i) btags[TAGW*((i)-1) +: TAGW]
 `define P2_FTAG(i) ftags[FTAGW*((i)-1) +: FTAGW]
-    // r+1: the address registered, r+2: the block RAMs' read, r+3, r+4: their outputs
-    // combined (p2_ram)
+    // r+1: the address registered, r+2: the block RAMs' read, r+3: their outputs
+    // registered, r+4, r+5: combined (p2_ram)
     assign lb_ra = (sb_bank * LANES + ph[LW-1:0]) * WIDTH + r_col;
     p2_ram #(D_W + G_W, DEPTH, AW) u_lb (
         .clk(clk), .we(v2), .wa(a2w), .wd({d2, g2}), .ra(lb_ra), .zero(1'b0), .rd(lb_q));
@@ -565,9 +565,9 @@ module p2_top #(
     reg [FTAGW*NFT-1:0] ftags;
     always @(posedge clk)
         ftags <= rst ? {(FTAGW*NFT){1'b0}} : {ftags[FTAGW*(NFT-1)-1:0], ftag_t};
-    // t+1: the address registered, t+2: the block RAMs' read; t+3, t+4 = F: their
-    // outputs combined (p2_ram; column WIDTH-1: zeros) and the e operand e_k (tap e: 0
-    // for k = 0, else the lane's state)
+    // t+1: the address registered, t+2: the block RAMs' read, t+3: their outputs
+    // registered; t+4, t+5 = F: combined (p2_ram; column WIDTH-1: zeros) and the e
+    // operand e_k (tap e: 0 for k = 0, else the lane's state)
     wire [FTAGW-1:0] ft1 = `P2_FTAG(FWD_READ - 1);
     assign sb_ra = (fb * LANES + fph[LW-1:0]) * WIDTH + fk;
     assign sb_zero = ft1[FTAGW-2];
@@ -716,13 +716,15 @@ endmodule
 // port), built of blocks of BLK words, one block RAM deep each (a DP16KD holds 1024 x 18).
 // A read's address at cycle r is registered with its one-hot block select (r + 1, the
 // block RAMs' address); at r + 2 each block's read port holds its word if the block holds
-// the address, else zero (the block RAM's synchronous read reset); at r + 3 the blocks'
-// words ORed in fours; at r + 4 (RD = 4) those ORed, or zero if `zero` (sampled at
-// r + 3). A write (at cycle w) is registered likewise and written at the end of w + 1, so
-// reads and writes keep their order. No path holds more than a block RAM's clock-to-out
-// and one LUT, two LUTs, or a register's fan-out to the blocks: one inferred RAM of the
-// whole depth would select among its blocks' outputs in the cycle of the read (25 blocks
-// deep at 512 wide), after the address arithmetic.
+// the address, else zero (the block RAM's synchronous read reset); at r + 3 each block's
+// word in a register beside it; at r + 4 the blocks' words ORed in fours; at r + 5
+// (RD = 5) those ORed, or zero if `zero` (sampled at r + 4). A write (at cycle w) is
+// registered likewise and written at the end of w + 1, so reads and writes keep their
+// order. No path holds more than a block RAM's clock-to-out, a register's fan-out to the
+// blocks, or a route across the die and one or two LUTs: one inferred RAM of the whole
+// depth would select among its blocks' outputs in the cycle of the read (25 blocks deep
+// at 512 wide), after the address arithmetic; the ORs straight after the block RAMs'
+// outputs (their clock-to-out 4.3 ns at speed 8) ran at 103.9 MHz at 512 wide.
 module p2_ram #(
     parameter integer W = 18,
     parameter integer DEPTH = 1024,
@@ -764,13 +766,14 @@ module p2_ram #(
         for (i = 0; i < 4 * NG; i = i + 1) begin : g_blk
             if (i < NB) begin : g_ram
                 reg [W-1:0] mem [0:BK-1];
-                reg [W-1:0] qr;
+                reg [W-1:0] qr, qb;
                 always @(posedge clk) begin
                     if (we1[i]) mem[wa1] <= wd1;
                     if (nsel1[i]) qr <= {W{1'b0}};
                     else qr <= mem[ra1];
+                    qb <= qr;
                 end
-                assign q[W*i +: W] = qr;
+                assign q[W*i +: W] = qb;
             end else begin : g_none
                 assign q[W*i +: W] = {W{1'b0}};
             end

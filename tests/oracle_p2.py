@@ -183,7 +183,7 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
     t_div = divider_latency(config.divider, config.fmt("p2_r").word)
     t_div += 5 if config.divider == "reciprocal" else 0
     mul = 3  # hdl/fx_pipe.v fx_mul_pipe: partial products, pair sums, final sum
-    ram = 4  # a block RAM read: address register, the blocks' reads, ORed in fours, all
+    ram = 5  # a block RAM read: address, the blocks' reads, registered, ORed in fours, all
     # backward loop: operand register, c S~ (mul), + 1, cast den; the divider; r S~ (mul),
     # + M, cast S~ into the lane's state
     t_b = 1 + mul + 1 + 1 + t_div + mul + 1 + 1

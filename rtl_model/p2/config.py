@@ -155,8 +155,9 @@ MUL_LATENCY = 3  # hdl/fx_pipe.v fx_mul_pipe: 18x18 partial products, pair sums,
 ADD_LATENCY = 1  # one carry chain (an add, a subtract or a compare), registered
 CAST_LATENCY = 1  # fx_cast_sized: the rounding carry and the overflow mode, registered
 #: A block RAM read (hdl/p2_top.v p2_ram): the address registered, the blocks' read
-#: ports (zero but the one holding the address), their words ORed in fours, then all.
-BRAM_READ = 4
+#: ports (zero but the one holding the address), their words registered, ORed in fours,
+#: then all.
+BRAM_READ = 5
 OPERAND_LATENCY = 1  # a lane's loop state (LUT RAM) read into the loop's operand register
 #: Cycles from a sweep slot's line-buffer read to its loop entry (c at the loop's
 #: multiplier): read, D = d_k + d_k+1, KA D, cast a, a^2, cast, max(., C_MIN).
