@@ -16,8 +16,12 @@
 //                      shift registered before its rounding (+1); + 14 with PIPE = 2:
 //                      the same with products of 4 stages, their operands registered in
 //                      the DSP (fx_mul_pipe IREG, +9), and the cast's rounded value
-//                      registered before its overflow mode (+2))
-// P1 (p1_range.v, p1_frontend.v) uses FRONT = 1 / PIPE = 2 to close its clock (docs/hdl.md).
+//                      registered before its overflow mode (+2)); UNIT = 1 (a reciprocal:
+//                      n = 1 and d >= 0, the caller's promise) leaves out the magnitude
+//                      stage (PIPE != 0: -1), the |N| y1 product (-ML) and the y1
+//                      register (-1): latency 7, PIPE = 1: 14, PIPE = 2: 17
+// P1 (p1_range.v, p1_frontend.v) uses FRONT = 1 / PIPE = 2 to close its clock (docs/hdl.md);
+// P2 (p2_top.v, r = 1/den) PIPE = 1 / UNIT = 1.
 // D = 0 gives 0 when N = 0, otherwise the overflow mode of S acting on an infinite value
 // with the sign of N (ovf = 1).
 `timescale 1ns / 1ps
@@ -144,7 +148,8 @@ module fx_div_reciprocal #(
     parameter integer L = 8,            // seed ROM index bits (recip_lut_bits)
     parameter integer R = 20,           // reciprocal fraction bits (recip_bits)
     parameter ROM_FILE = "recip_rom.mem",
-    parameter integer PIPE = 0          // 1: + 10 stages, 2: + 14, see above
+    parameter integer PIPE = 0,         // 1: + 10 stages, 2: + 14, see above
+    parameter integer UNIT = 0          // 1: y = 1/d (n = 1, d >= 0): fewer stages, above
 ) (
     input  wire                    clk,
     input  wire signed [N_W-1:0]   n,
@@ -172,10 +177,10 @@ module fx_div_reciprocal #(
     // stages 1-2: magnitude, leading one p, the L seed index bits and mR, the ROM read
     // (two cycles). PIPE cuts the part before the read in three: |N| |D|; p; idx and mR.
     wire [N_W-1:0] an_n = n[N_W-1] ? -n : n;
-    wire [D_W-1:0] ad_n = d[D_W-1] ? -d : d;
-    wire           neg_n = (d == {D_W{1'b0}}) ? n[N_W-1] : n[N_W-1] ^ d[D_W-1];
+    wire [D_W-1:0] ad_n = (UNIT == 0 && d[D_W-1]) ? -d : d;
     wire           dz_n = (d == {D_W{1'b0}});
-    wire           nz_n = (n != {N_W{1'b0}});
+    wire           neg_n = (UNIT != 0) ? 1'b0 : dz_n ? n[N_W-1] : n[N_W-1] ^ d[D_W-1];
+    wire           nz_n = (UNIT != 0) | (n != {N_W{1'b0}});
     wire [N_W-1:0] an, an_b, an_c;     // after cut a (|N| |D|), b (p), c (idx, mR)
     wire [D_W-1:0] ad, ad_b;
     wire [2:0]     fl, fl_b, fl_c;     // neg, dz, nz
@@ -205,10 +210,15 @@ module fx_div_reciprocal #(
             reg [R:0]     mr_c_r;
             always @(posedge clk) begin
                 {an_a, ad_a, fl_a} <= {an_n, ad_n, neg_n, dz_n, nz_n};
-                {an_b_r, ad_b_r, fl_b_r, p_b} <= {an_a, ad_a, fl_a, p_n};
+                {an_b_r, ad_b_r, fl_b_r, p_b} <= {an, ad, fl, p_n};
                 {an_c_r, fl_c_r, p_c_r, idx_c_r, mr_c_r} <= {an_b_r, fl_b_r, p_b, idx, mr};
             end
-            assign {an, ad, fl} = {an_a, ad_a, fl_a};
+            // UNIT: no magnitude to take, no magnitude stage
+            if (UNIT != 0) begin : g_unit
+                assign {an, ad, fl} = {an_n, ad_n, neg_n, dz_n, nz_n};
+            end else begin : g_mag
+                assign {an, ad, fl} = {an_a, ad_a, fl_a};
+            end
             assign {an_b, ad_b, fl_b, p} = {an_b_r, ad_b_r, fl_b_r, p_b};
             assign {an_c, fl_c, p_c, idx_c, mr_c} = {an_c_r, fl_c_r, p_c_r, idx_c_r, mr_c_r};
         end else begin : g_direct
@@ -245,15 +255,26 @@ module fx_div_reciprocal #(
     fx_delay #(YW, ML + 1) d_y0 (clk, y0_1, y0_3);
     wire [YW+EW-1:0] m2;
     fx_umul #(YW, EW, PIPE) u_m2 (clk, y0_3, e_3, m2);
-    reg  [Y1W-1:0] y1_5;
-    always @(posedge clk) y1_5 <= m2 >> R;
-    wire [N_W-1:0] an_5;
-    fx_delay #(N_W, 2 * ML + 2) d_an (clk, an_1, an_5);
+    // |N| y1 (UNIT: y1 itself, straight from m2) and the flags beside the products
     wire [PW-1:0]  m3_6;
-    fx_umul #(N_W, Y1W, PIPE) u_m3 (clk, an_5, y1_5, m3_6);
     wire [PB-1:0]  p_6;
     wire           neg_6, dz_6, nz_6;
-    fx_delay #(PB + 3, 3 * ML + 2) d_pf (clk, {p_1, neg_1, dz_1, nz_1}, {p_6, neg_6, dz_6, nz_6});
+    generate
+        if (UNIT != 0) begin : g_y1
+            wire [PW+YW+EW-1:0] y1_u = m2 >> R;
+            assign m3_6 = y1_u[PW-1:0];
+            fx_delay #(PB + 3, 2 * ML + 1) d_pf (clk, {p_1, neg_1, dz_1, nz_1},
+                                                 {p_6, neg_6, dz_6, nz_6});
+        end else begin : g_m3
+            reg  [Y1W-1:0] y1_5;
+            always @(posedge clk) y1_5 <= m2 >> R;
+            wire [N_W-1:0] an_5;
+            fx_delay #(N_W, 2 * ML + 2) d_an (clk, an_1, an_5);
+            fx_umul #(N_W, Y1W, PIPE) u_m3 (clk, an_5, y1_5, m3_6);
+            fx_delay #(PB + 3, 3 * ML + 2) d_pf (clk, {p_1, neg_1, dz_1, nz_1},
+                                                 {p_6, neg_6, dz_6, nz_6});
+        end
+    endgenerate
     reg signed [XW-1:0] x_7;
     reg [SH_W-1:0]  sh_7;
     wire [XW-1:0]   mag = {{(XW-PW){1'b0}}, m3_6} << SHL0;

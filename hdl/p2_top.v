@@ -35,7 +35,7 @@ module p2_top #(
     parameter integer WIDTH = 32,
     parameter integer HEIGHT = 8,
     parameter integer LANES = 11,
-    parameter integer T_DIV = 8,        // rtl_model/runtime.py divider_latency
+    parameter integer T_DIV = 14,       // rtl_model/p2/config.py divider_latency_p2
     parameter integer DIVIDER = 1,      // 1 reciprocal, 0 restoring
     parameter integer RECIP_L = 8,
     parameter integer RECIP_R = 20,
@@ -71,7 +71,7 @@ module p2_top #(
     // declared latencies (rtl_model/p2/config.py): every unit one multiply (fx_mul_pipe,
     // MUL_LAT stages), one carry chain or one cast per cycle; block RAMs read in LB_READ
     localparam integer MUL_LAT = 3;                  // fx_pipe.v fx_mul_pipe
-    localparam integer LB_READ = 2;                  // address, DP16KD output register
+    localparam integer LB_READ = 5;                  // p2_ram: address, read, out, ORed x2
     localparam integer FWD_READ = LB_READ;           // the sweep buffer likewise
     // the loop entry E = r + SWEEP_READ: read, D, KA D, cast a, a^2, cast, max(., C_MIN)
     localparam integer SWEEP_READ = LB_READ + 1 + MUL_LAT + 1 + MUL_LAT + 1 + 1;
@@ -193,8 +193,9 @@ module p2_top #(
         {d2, g2, a2w, last2, first2, lane2, bank2} <= {d_n, g_n, a1, last1, first1, lane1, bank1};
         {od2, og2, ox1_2, ox2_2} <= {ovf_dn, ovf_gn, ox1, ox2};
     end
-    reg [D_W+G_W-1:0] lb [0:DEPTH-1];
-    always @(posedge clk) if (v2) lb[a2w] <= {d2, g2};
+    // the line buffer (p2_ram), written here, read by the sweep engine
+    wire [D_W+G_W-1:0] lb_q;
+    wire [AW-1:0] lb_ra;
 
     // ---- the sweep controller ----------------------------------------------------------
     reg [1:0] ready;                 // per bank: a group is in the line buffer
@@ -308,12 +309,12 @@ module p2_top #(
         btags <= rst ? {(TAGW*NBT){1'b0}} : {btags[TAGW*(NBT-1)-1:0], tag_r};
 `define P2_BTAG(i) btags[TAGW*((i)-1) +: TAGW]
 `define P2_FTAG(i) ftags[FTAGW*((i)-1) +: FTAGW]
-    // r+1: the block RAM's read, r+2: its output register (DP16KD OUTREG)
-    reg [D_W+G_W-1:0] rd1, rd2;
-    always @(posedge clk) begin
-        rd1 <= lb[(sb_bank * LANES + ph[LW-1:0]) * WIDTH + r_col];
-        rd2 <= rd1;
-    end
+    // r+1: the address registered, r+2: the block RAMs' read, r+3: their outputs
+    // registered, r+4, r+5: combined (p2_ram)
+    assign lb_ra = (sb_bank * LANES + ph[LW-1:0]) * WIDTH + r_col;
+    p2_ram #(D_W + G_W, DEPTH, AW) u_lb (
+        .clk(clk), .we(v2), .wa(a2w), .wd({d2, g2}), .ra(lb_ra), .zero(1'b0), .rd(lb_q));
+    wire [D_W+G_W-1:0] rd2 = lb_q;
     // r+3: D = d_k + d_k+1, dG = G_k+1 - G_k (d_k+1, G_k+1 from the lane's previous slot)
     wire [TAGW-1:0] tg2 = `P2_BTAG(LB_READ);
     wire v_2 = tg2[TAGW-1];
@@ -372,10 +373,10 @@ module p2_top #(
     wire [A_W-1:0] aE;
     wire [DG_W-1:0] dgE;
     wire thrE, oaE, ocE;
-    fx_delay #(A_W + 1, SWEEP_READ - 7) d_aE (clk, {a7, oa7}, {aE, oaE});
-    fx_delay #(DG_W, SWEEP_READ - 3) d_dgE (clk, dg3, dgE);
-    fx_delay #(1, SWEEP_READ - 5) d_thrE (clk, thr5, thrE);
-    fx_delay #(1, SWEEP_READ - 11) d_ocE (clk, oc11, ocE);
+    fx_delay #(A_W + 1, SWEEP_READ - LB_READ - 5) d_aE (clk, {a7, oa7}, {aE, oaE});
+    fx_delay #(DG_W, SWEEP_READ - LB_READ - 1) d_dgE (clk, dg3, dgE);
+    fx_delay #(1, SWEEP_READ - LB_READ - 3) d_thrE (clk, thr5, thrE);
+    fx_delay #(1, SWEEP_READ - LB_READ - 9) d_ocE (clk, oc11, ocE);
     // E: the lane's S~_k+1, Q~_k+1 (its state, written at the write-back) into the
     // operand registers (E+1)
     wire [TAGW-1:0] tgE = `P2_BTAG(SWEEP_READ);
@@ -428,7 +429,7 @@ module p2_top #(
     generate
         if (DIVIDER != 0) begin : g_recip
             fx_div_reciprocal #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, RECIP_L,
-                                RECIP_R, ROM_FILE, 0) u_div (
+                                RECIP_R, ROM_FILE, 1, 1) u_div (
                 .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end else begin : g_rest
             fx_div_restoring #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, 0) u_div (
@@ -543,13 +544,16 @@ module p2_top #(
     end
     // the sweep buffer: entry (bank, lane, k) = a, r, S~_k+1, Q~_k+1, dG, |D| >= T_D of
     // step k, written at the write-back (column WIDTH-1: no entry)
-    reg [SB_W-1:0] sb [0:DEPTH-1];
     wire [XW-1:0] wb_col = tag_wb[1 +: XW];
     wire wb_bank = tag_wb[0];
-    always @(posedge clk)
-        if (wb_v && !tag_wb[TAGW-2])
-            sb[(wb_bank * LANES + wb_lane) * WIDTH + wb_col]
-                <= {wb_a, wb_r, wb_sold, wb_qold, wb_dg, wb_thr};
+    wire [AW-1:0] sb_wa = (wb_bank * LANES + wb_lane) * WIDTH + wb_col;
+    wire [AW-1:0] sb_ra;
+    wire sb_zero;
+    wire [SB_W-1:0] sb_q;
+    p2_ram #(SB_W, DEPTH, AW) u_sb (
+        .clk(clk), .we(wb_v && !tag_wb[TAGW-2]), .wa(sb_wa),
+        .wd({wb_a, wb_r, wb_sold, wb_qold, wb_dg, wb_thr}), .ra(sb_ra), .zero(sb_zero),
+        .rd(sb_q));
 
     // ---- the forward engine -----------------------------------------------------------
     // t: the sweep-buffer read (address); ftag(i) holds the tag of the slot read at
@@ -561,17 +565,17 @@ module p2_top #(
     reg [FTAGW*NFT-1:0] ftags;
     always @(posedge clk)
         ftags <= rst ? {(FTAGW*NFT){1'b0}} : {ftags[FTAGW*(NFT-1)-1:0], ftag_t};
-    // t+1: the block RAM's read; t+2 = F: its output register (column WIDTH-1: zeros) and
-    // the e operand e_k (tap e: 0 for k = 0, else the lane's state)
-    wire [FTAGW-1:0] ft1 = `P2_FTAG(1);
-    reg [SB_W-1:0] fr1, fr2;
+    // t+1: the address registered, t+2: the block RAMs' read, t+3: their outputs
+    // registered; t+4, t+5 = F: combined (p2_ram; column WIDTH-1: zeros) and the e
+    // operand e_k (tap e: 0 for k = 0, else the lane's state)
+    wire [FTAGW-1:0] ft1 = `P2_FTAG(FWD_READ - 1);
+    assign sb_ra = (fb * LANES + fph[LW-1:0]) * WIDTH + fk;
+    assign sb_zero = ft1[FTAGW-2];
+    wire [SB_W-1:0] fr2 = sb_q;
     reg [E_W-1:0] e_state [0:LANES-1];
     reg [E_W-1:0] e_op;
-    always @(posedge clk) begin
-        fr1 <= sb[(fb * LANES + fph[LW-1:0]) * WIDTH + fk];
-        fr2 <= ft1[FTAGW-2] ? {SB_W{1'b0}} : fr1;
+    always @(posedge clk)
         e_op <= (ft1[1 +: XW] == 0) ? {E_W{1'b0}} : e_state[ft1[XW+1 +: LW]];
-    end
     wire [A_W-1:0] f_a = fr2[SB_W-1 -: A_W];
     wire [R_W-1:0] f_r = fr2[SB_W-A_W-1 -: R_W];
     wire [ST_W-1:0] f_s = fr2[SB_W-A_W-R_W-1 -: ST_W];
@@ -706,4 +710,86 @@ module p2_top #(
     end
 `undef P2_BTAG
 `undef P2_FTAG
+endmodule
+
+// p2_ram: P2's line and sweep buffers, DEPTH words of W bits (one write port, one read
+// port), built of blocks of BLK words, one block RAM deep each (a DP16KD holds 1024 x 18).
+// A read's address at cycle r is registered with its one-hot block select (r + 1, the
+// block RAMs' address); at r + 2 each block's read port holds its word if the block holds
+// the address, else zero (the block RAM's synchronous read reset); at r + 3 each block's
+// word in a register beside it; at r + 4 the blocks' words ORed in fours; at r + 5
+// (RD = 5) those ORed, or zero if `zero` (sampled at r + 4). A write (at cycle w) is
+// registered likewise and written at the end of w + 1, so reads and writes keep their
+// order. No path holds more than a block RAM's clock-to-out, a register's fan-out to the
+// blocks, or a route across the die and one or two LUTs: one inferred RAM of the whole
+// depth would select among its blocks' outputs in the cycle of the read (25 blocks deep
+// at 512 wide), after the address arithmetic; the ORs straight after the block RAMs'
+// outputs (their clock-to-out 4.3 ns at speed 8) ran at 103.9 MHz at 512 wide.
+module p2_ram #(
+    parameter integer W = 18,
+    parameter integer DEPTH = 1024,
+    parameter integer AW = 10,          // address bits, $clog2(DEPTH)
+    parameter integer BLK = 1024
+) (
+    input  wire          clk,
+    input  wire          we,
+    input  wire [AW-1:0] wa,
+    input  wire [W-1:0]  wd,
+    input  wire [AW-1:0] ra,
+    input  wire          zero,
+    output reg  [W-1:0]  rd
+);
+    localparam integer BK = (DEPTH < BLK) ? DEPTH : BLK;    // words per block
+    localparam integer BW = (BK > 1) ? $clog2(BK) : 1;
+    localparam integer NB = (DEPTH + BK - 1) / BK;
+    localparam integer NG = (NB + 3) / 4;
+    localparam integer XW = AW + BW + 1;
+    wire [XW-1:0] wax = wa;
+    wire [XW-1:0] rax = ra;
+    // r + 1 (w + 1): the addresses, the write data, per block its write enable and
+    // whether it is not the one read
+    reg [BW-1:0] ra1, wa1;
+    reg [W-1:0] wd1;
+    reg [NB-1:0] we1, nsel1;
+    integer b;
+    always @(posedge clk) begin
+        {ra1, wa1, wd1} <= {rax[BW-1:0], wax[BW-1:0], wd};
+        for (b = 0; b < NB; b = b + 1) begin
+            we1[b] <= we && (wax >> BW) == b;
+            nsel1[b] <= (rax >> BW) != b;
+        end
+    end
+    wire [W*4*NG-1:0] q;                // every block's word, zero beyond the last block
+    wire [W*NG-1:0] og;
+    genvar i, g;
+    generate
+        for (i = 0; i < 4 * NG; i = i + 1) begin : g_blk
+            if (i < NB) begin : g_ram
+                reg [W-1:0] mem [0:BK-1];
+                reg [W-1:0] qr, qb;
+                always @(posedge clk) begin
+                    if (we1[i]) mem[wa1] <= wd1;
+                    if (nsel1[i]) qr <= {W{1'b0}};
+                    else qr <= mem[ra1];
+                    qb <= qr;
+                end
+                assign q[W*i +: W] = qb;
+            end else begin : g_none
+                assign q[W*i +: W] = {W{1'b0}};
+            end
+        end
+        for (g = 0; g < NG; g = g + 1) begin : g_or
+            reg [W-1:0] o;
+            always @(posedge clk)
+                o <= q[W*(4*g) +: W] | q[W*(4*g+1) +: W] | q[W*(4*g+2) +: W] | q[W*(4*g+3) +: W];
+            assign og[W*g +: W] = o;
+        end
+    endgenerate
+    reg [W-1:0] acc;
+    integer k;
+    always @* begin
+        acc = {W{1'b0}};
+        for (k = 0; k < NG; k = k + 1) acc = acc | og[W*k +: W];
+    end
+    always @(posedge clk) rd <= zero ? {W{1'b0}} : acc;
 endmodule

@@ -30,7 +30,7 @@ if shutil.which("iverilog") is None or shutil.which("vvp") is None:
     pytest.skip("Icarus Verilog (iverilog) is not installed", allow_module_level=True)
 
 CROP = (200, 208, 100, 124)  # 8 x 24 pixels of the lab scene: one short lane group
-TALL = (190, 232, 100, 124)  # 42 x 24: three groups of 20 (the last short) or two of 21
+TALL = (190, 244, 100, 124)  # 54 x 24: three groups of 25 or of 26 (the last short)
 GAPS = TimingConfig(hblank=3, vblank=5, gap_prob=0.2, seed=4)
 PLAIN = TimingConfig()
 
@@ -93,9 +93,9 @@ def _check_exact(report: replay.ReplayReport, m: int, n: int, groups: int) -> No
 
 
 CASES = [  # (id, divider, lanes, crop, timing, groups)
-    ("recip-L20-short", "reciprocal", 0, CROP, PLAIN, 1),
-    ("recip-L21-gaps", "reciprocal", 21, TALL, GAPS, 2),
-    ("recip-L20-gaps-3groups", "reciprocal", 0, TALL, GAPS, 3),
+    ("recip-L25-short", "reciprocal", 0, CROP, PLAIN, 1),
+    ("recip-L26-gaps", "reciprocal", 26, TALL, GAPS, 3),
+    ("recip-L25-gaps-3groups", "reciprocal", 0, TALL, GAPS, 3),
     ("restoring-L41", "restoring", 0, CROP, TimingConfig(hblank=2), 1),
 ]
 
@@ -122,10 +122,10 @@ def test_overflow_counts_equal_the_models(tmp_path):
 
 @pytest.mark.skipif(shutil.which("verilator") is None, reason="Verilator is not installed")
 def test_verilator_replays_value_and_cycle_exact(tmp_path):
-    config = P2Config.default().with_(lanes=21)
+    config = P2Config.default().with_(lanes=26)
     vec, _vs = _vectors(tmp_path, config, TALL, GAPS)
     report = _replay(vec, tmp_path, "verilator")
-    _check_exact(report, TALL[1] - TALL[0], TALL[3] - TALL[2], 2)
+    _check_exact(report, TALL[1] - TALL[0], TALL[3] - TALL[2], 3)
 
 
 def test_cli_replays_a_p2_directory(tmp_path, capsys):
@@ -141,12 +141,12 @@ def test_cli_replays_a_p2_directory(tmp_path, capsys):
 
 
 def test_overrun_flag_when_the_lanes_cannot_sustain_the_rate(tmp_path):
-    """Vectors at one pixel per clock with 20 lanes, the RTL compiled with a divider 11
-    cycles slower (loop latency 31 > 20 lanes): the sweep cannot keep up, and the
+    """Vectors at one pixel per clock with 25 lanes, the RTL compiled with a divider 11
+    cycles slower (loop latency 36 > 25 lanes): the sweep cannot keep up, and the
     hardware raises ``overrun`` (the model's assertion) instead of sweeping overwritten
     lines silently."""
     vec, _vs = _vectors(tmp_path, P2Config.default(), TALL)
-    report = _replay(vec, tmp_path, T_DIV=20)
+    report = _replay(vec, tmp_path, T_DIV=25)
     assert report.flags["overrun"] == 1 and not report.ok
     assert report.flags["align_error"] == 0 and report.flags["line_too_long"] == 0
 

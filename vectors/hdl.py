@@ -587,11 +587,10 @@ P2_FLAGS = ("line_too_long", "align_error", "overrun")
 
 def p2_parameters(manifest: Mapping, rom_file: str | Path | None = None) -> dict[str, int | str]:
     """Verilog parameters of ``p2_top`` for a P2 vector directory's ``manifest``: the
-    frame size, the lanes, the divider and its latency (``rtl_model/runtime.py
-    divider_latency``, the one place the model reads it from) and every signal's format
+    frame size, the lanes, the divider and its latency (``rtl_model/p2/config.py
+    divider_latency_p2``, the one place the model reads it from) and every signal's format
     and modes."""
-    from rangefx.rtl_model.p2.config import default_lanes
-    from rangefx.rtl_model.runtime import divider_latency
+    from rangefx.rtl_model.p2.config import default_lanes, divider_latency_p2
 
     if manifest.get("pipeline") != "p2":
         raise ValueError(f"p2_top implements P2, not {manifest.get('pipeline')!r}")
@@ -599,7 +598,7 @@ def p2_parameters(manifest: Mapping, rom_file: str | Path | None = None) -> dict
     design, signals = parsed["design"], parsed["signals"]
     m, n = manifest["shape"]
     r_word = _format(signals["p2_r"]["format"])[0]
-    t_div = divider_latency(design["divider"], r_word)
+    t_div = divider_latency_p2(design["divider"], r_word)
     lanes = int(design.get("lanes", 0)) or default_lanes(design["divider"], r_word)
     params: dict[str, int | str] = {
         "WIDTH": int(n), "HEIGHT": int(m), "LANES": lanes, "T_DIV": t_div,

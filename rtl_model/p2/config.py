@@ -22,6 +22,7 @@ __all__ = [
     "BRAM_READ",
     "CAST_LATENCY",
     "DEN_LATENCY",
+    "DIVIDER_PIPELINING",
     "FWD_LOOP",
     "MUL_LATENCY",
     "OPERAND_LATENCY",
@@ -31,6 +32,7 @@ __all__ = [
     "P2Config",
     "backward_loop_latency",
     "default_lanes",
+    "divider_latency_p2",
     "loop_latency",
 ]
 
@@ -152,7 +154,10 @@ P2_SIGNALS: tuple[str, ...] = P2Config.signals()
 MUL_LATENCY = 3  # hdl/fx_pipe.v fx_mul_pipe: 18x18 partial products, pair sums, final sum
 ADD_LATENCY = 1  # one carry chain (an add, a subtract or a compare), registered
 CAST_LATENCY = 1  # fx_cast_sized: the rounding carry and the overflow mode, registered
-BRAM_READ = 2  # a block RAM read: the address registered, then DP16KD's output register
+#: A block RAM read (hdl/p2_top.v p2_ram): the address registered, the blocks' read
+#: ports (zero but the one holding the address), their words registered, ORed in fours,
+#: then all.
+BRAM_READ = 5
 OPERAND_LATENCY = 1  # a lane's loop state (LUT RAM) read into the loop's operand register
 #: Cycles from a sweep slot's line-buffer read to its loop entry (c at the loop's
 #: multiplier): read, D = d_k + d_k+1, KA D, cast a, a^2, cast, max(., C_MIN).
@@ -176,10 +181,23 @@ FWD_LOOP = (
 )
 
 
+#: Cycles P2's divider ``r = 1 / den`` adds to :func:`~rangefx.rtl_model.runtime.divider_latency`
+#: (``hdl/fx_divide.v``): the reciprocal one runs with ``PIPE = 1`` (the leading one, the
+#: normalising shift, the products and the cast's shift each in their own stages: + 10)
+#: and ``UNIT = 1`` (numerator 1, ``den >= 0``: no magnitude stage, no ``|N| y1`` product
+#: nor its ``y1`` register: - 5); the restoring one as declared (``W + 4``).
+DIVIDER_PIPELINING = {"reciprocal": 10 - 5, "restoring": 0}
+
+
+def divider_latency_p2(divider: str, quotient_word: int) -> int:
+    """Cycles of P2's divider ``r = 1 / den`` (reciprocal 14, restoring ``W + 4``)."""
+    return divider_latency(divider, quotient_word) + DIVIDER_PIPELINING[divider]
+
+
 def backward_loop_latency(divider: str, quotient_word: int) -> int:
     """Cycles of the backward recurrence ``S~_k+1 -> S~_k`` with a divider and its
     quotient word: ``DEN_LATENCY`` + the divider + ``STATE_LATENCY``."""
-    return DEN_LATENCY + divider_latency(divider, quotient_word) + STATE_LATENCY
+    return DEN_LATENCY + divider_latency_p2(divider, quotient_word) + STATE_LATENCY
 
 
 def default_lanes(divider: str, quotient_word: int) -> int:

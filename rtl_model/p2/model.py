@@ -59,6 +59,7 @@ from .config import (
     P2_SIGNALS,
     SWEEP_READ,
     P2Config,
+    divider_latency_p2,
     loop_latency,
 )
 
@@ -540,7 +541,7 @@ def stage_latencies(config: P2Config) -> dict[str, int]:
     return {
         "input": IN_LATENCY,
         "sweep_read": SWEEP_READ,
-        "divider": runtime.divider_latency(config.divider, config.formats["p2_r"].word),
+        "divider": divider_latency_p2(config.divider, config.formats["p2_r"].word),
         "backward_loop": loop_latency(config),
         "forward_loop": FWD_LOOP,
         "forward_read": FWD_READ,
