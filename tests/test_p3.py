@@ -338,3 +338,15 @@ def test_two_bands_of_lines_give_the_one_thread_result(design):
             for name, tap in two.taps.items():
                 assert np.array_equal(tap, one.taps[name]), name
     assert one.overflows["p3_g"] > 0 and one.overflows["p3_du"] > 0
+
+
+@pytest.mark.parametrize("vertical", [False, True])
+def test_windows_wider_than_the_unrolled_radius_are_bit_exact(vertical):
+    """Up to ``UNROLLED_RADIUS`` the window's passes run one unrolled sum per pixel; a
+    wider window takes the tap-at-a-time loops: every tap, count and min/max as the
+    oracle's."""
+    radius = p3_model.UNROLLED_RADIUS + 2
+    config = P3.default_config(radius=radius, sigma=2.5, levels=2, vertical=vertical)
+    for seed, kind in ((3, "lab"), (4, "random")):
+        case = p3_case(seed, kind)
+        assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))

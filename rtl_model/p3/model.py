@@ -48,6 +48,7 @@ _I, _R, _P = KERNEL_INT, KERNEL_ROW, KERNEL_PLANE
 __all__ = [
     "BAND_PIXELS",
     "N_SITES",
+    "UNROLLED_RADIUS",
     "VERTICAL_TAPS",
     "WARP_TAPS",
     "P3Registers",
@@ -232,31 +233,56 @@ def _expand_kernel(uc, m, n, fm, st, ov):
     return out
 
 
+#: Window radius up to which the row and column passes run every tap in one unrolled
+#: expression per pixel (the taps beyond the radius weighted 0: the same integer sum).
+UNROLLED_RADIUS = 4
+
+
+@njit((_R,), cache=True, nogil=True)
+def _window_taps(win):
+    """The window's weights ``w_1 .. w_4`` (of ``w_0 .. w_r``, ``r <= 4``), 0 beyond ``r``."""
+    r = win.shape[0] - 1
+    zero = np.int64(0)
+    return (win[1] if r >= 1 else zero, win[2] if r >= 2 else zero,
+            win[3] if r >= 3 else zero, win[4] if r >= 4 else zero)  # fmt: skip
+
+
 @njit((_R, _R, _I, _R, _I, _I, _P, _P, _R, _R, _R, _R), cache=True, nogil=True)
 def _window_row(p, q, f_in, win, s, site, fm, st, ov, pad, acc, out):
     """Row pass of the window on one line of the product ``p q`` (``f_in`` fraction bits:
     the product's plus the window's): ``Σ_k w_|k| (p q)[x + k]``, replicated borders,
     cast into ``s``. The product is formed as the line is copied with its replicated
-    borders (``pad``), so no product plane is written, the taps need no clamp, and the
-    symmetric taps are paired (``w_k (pq[x-k] + pq[x+k])``). The taps accumulate one
-    at a time over the whole line, reading two slices of ``pad``: the same integer sum
-    (int64, wrapping), in a loop LLVM vectorises (6x faster than a pixel at a time with
-    an inner loop over the taps, measured on a 512-pixel line)."""
+    borders (``pad``, ``n + 2 max(r, UNROLLED_RADIUS)`` long), so no product plane is
+    written, the taps need no clamp, and the symmetric taps are paired. Up to
+    :data:`UNROLLED_RADIUS` every tap is one term of an unrolled sum per pixel (the taps
+    beyond the radius weighted 0); a wider window accumulates a tap at a time over the
+    whole line, reading two slices of ``pad``. Either is the same integer sum (int64,
+    wrapping), in a loop LLVM vectorises (the unrolled sum 2x faster than a tap at a
+    time, itself 6x faster than a pixel at a time with an inner loop over the taps,
+    measured on a 512-pixel line)."""
     n = p.shape[0]
     r = win.shape[0] - 1
+    rp = max(r, UNROLLED_RADIUS)
     for x in range(n):
-        pad[x + r] = p[x] * q[x]
-    for k in range(r):  # the replicated borders
-        pad[k] = pad[r]
-        pad[n + r + k] = pad[n + r - 1]
+        pad[x + rp] = p[x] * q[x]
+    for k in range(rp):  # the replicated borders
+        pad[k] = pad[rp]
+        pad[n + rp + k] = pad[n + rp - 1]
     w0 = win[0]
-    for x in range(n):
-        acc[x] = w0 * pad[x + r]
-    for k in range(1, r + 1):
-        wk = win[k]
-        before, after = pad[r - k : r - k + n], pad[r + k : r + k + n]
+    if r <= UNROLLED_RADIUS:
+        w1, w2, w3, w4 = _window_taps(win)
         for x in range(n):
-            acc[x] += wk * (before[x] + after[x])
+            acc[x] = (w0 * pad[x + 4] + w1 * (pad[x + 3] + pad[x + 5])
+                      + w2 * (pad[x + 2] + pad[x + 6]) + w3 * (pad[x + 1] + pad[x + 7])
+                      + w4 * (pad[x] + pad[x + 8]))  # fmt: skip
+    else:
+        for x in range(n):
+            acc[x] = w0 * pad[x + r]
+        for k in range(1, r + 1):
+            wk = win[k]
+            before, after = pad[r - k : r - k + n], pad[r + k : r + k + n]
+            for x in range(n):
+                acc[x] += wk * (before[x] + after[x])
     _cast_logged_row(acc, f_in, s, site, fm, st, ov, out)
 
 
@@ -276,19 +302,30 @@ def _row_difference(p, out):
 def _window_col_line(p, win, y, s_in, s, site, fm, st, ov, acc, out):
     """Column pass of the window at line ``y`` on the row sums ``p`` of signal ``s_in``
     (replicated borders), cast into ``s`` (``out``); accumulated a whole row at a time
-    (the clamped line index once per tap)."""
+    (the clamped line index once per tap), every line in one unrolled sum up to
+    :data:`UNROLLED_RADIUS`."""
     m, n = p.shape
     r = win.shape[0] - 1
     f_in = fm[WIN, 1] + fm[s_in, 1]
     mid = p[y]
     w0 = win[0]
-    for x in range(n):
-        acc[x] = w0 * mid[x]
-    for k in range(1, r + 1):
-        above, below = p[max(y - k, 0)], p[min(y + k, m - 1)]
-        w = win[k]
+    if r <= UNROLLED_RADIUS:  # as _window_row: the lines beyond the radius weighted 0
+        w1, w2, w3, w4 = _window_taps(win)
+        a1, b1 = p[max(y - 1, 0)], p[min(y + 1, m - 1)]
+        a2, b2 = p[max(y - 2, 0)], p[min(y + 2, m - 1)]
+        a3, b3 = p[max(y - 3, 0)], p[min(y + 3, m - 1)]
+        a4, b4 = p[max(y - 4, 0)], p[min(y + 4, m - 1)]
         for x in range(n):
-            acc[x] += w * (above[x] + below[x])
+            acc[x] = (w0 * mid[x] + w1 * (a1[x] + b1[x]) + w2 * (a2[x] + b2[x])
+                      + w3 * (a3[x] + b3[x]) + w4 * (a4[x] + b4[x]))  # fmt: skip
+    else:
+        for x in range(n):
+            acc[x] = w0 * mid[x]
+        for k in range(1, r + 1):
+            above, below = p[max(y - k, 0)], p[min(y + k, m - 1)]
+            w = win[k]
+            for x in range(n):
+                acc[x] += w * (above[x] + below[x])
     _cast_logged_row(acc, f_in, s, site, fm, st, ov, out)
 
 
@@ -314,7 +351,9 @@ def _stage_rows(
     difference ``ax``,) the warp ``W(x) = E2(x - u)`` from the row buffer (Keys weights
     from the ROM), ``Wx``, ``g`` and ``e``, and the window's row pass on the three
     products (formed as the row pass reads them: no product plane). Each line needs only
-    its own line of every input: two bands of lines run on two threads."""
+    its own line of every input: two bands of lines run on two threads. ``w``, ``wx``,
+    ``g``, ``e`` are planes to keep (taps, the vertical term) or, with no lines, not kept:
+    each line then lives in a line buffer (four planes fewer written per stage)."""
     n = a.shape[1]
     f_u, f_grad, f_warp, f_keys = fm[U, 1], fm[GRAD, 1], fm[WARP, 1], fm[KEYS, 1]
     f_g, f_e = fm[G, 1], fm[E, 1]
@@ -324,37 +363,45 @@ def _stage_rows(
     half = np.int64(1) << (f_u - keys_bits - 1) if f_u > keys_bits else np.int64(0)
     row = np.empty(n, dtype=np.int64)
     row2 = np.empty(n, dtype=np.int64)
+    lines = np.empty((4, n), dtype=np.int64)  # w, wx, g, e of a line when not kept
+    keep = w.shape[0] > 0
     r = win.shape[0] - 1
-    pad = np.empty(n + 2 * r, dtype=np.int64)
+    pad = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
     f_wgg, f_wge, f_wee = fm[WIN, 1] + 2 * f_g, fm[WIN, 1] + f_g + f_e, fm[WIN, 1] + 2 * f_e
-    weights = rom.reshape(-1)  # row i of the ROM at 4 i
+    # the ROM's four weight columns, and E2's line with three replicated pixels either
+    # side: the four taps at i0 - 1 .. i0 + 2 are then bp[i0 + 2 .. i0 + 5] once i0 is
+    # clamped to -2 .. n (beyond, every tap reads the border pixel anyway): one clamp a
+    # pixel instead of four, and a loop without a branch
+    k0, k1 = rom[:, 0].copy(), rom[:, 1].copy()
+    k2, k3 = rom[:, 2].copy(), rom[:, 3].copy()
+    bp = np.empty(n + 6, dtype=np.int64)
+    lo, hi = np.int64(-2), np.int64(n)
     for y in range(y0, y1):
         al, bl, ul = a[y], b[y], u[y]
         if first:
             _row_difference(al, row)
             _cast_logged_row(row, f_l + 1, GRAD, base + L_AX, fm, st, ov, ax[y])
+        for k in range(3):
+            bp[k] = bl[0]
+            bp[n + 3 + k] = bl[n - 1]
+        for x in range(n):
+            bp[x + 3] = bl[x]
         for x in range(n):
             src = (np.int64(x) << f_u) - ul[x] + half
-            i0 = src >> f_u
+            i0 = min(max(src >> f_u, lo), hi) + 2
             t = src & mask
-            idx = 4 * (t >> (f_u - keys_bits) if f_u >= keys_bits else t << (keys_bits - f_u))
-            if 1 <= i0 <= n - 3:  # all four taps inside the line: no clamp
-                acc = (weights[idx] * bl[i0 - 1] + weights[idx + 1] * bl[i0]
-                       + weights[idx + 2] * bl[i0 + 1] + weights[idx + 3] * bl[i0 + 2])  # fmt: skip
-            else:
-                acc = np.int64(0)
-                for j in range(4):
-                    acc += weights[idx + j] * bl[min(max(i0 - 1 + j, 0), n - 1)]
-            row[x] = acc
-        wl = w[y]
+            idx = t >> (f_u - keys_bits) if f_u >= keys_bits else t << (keys_bits - f_u)
+            row[x] = (k0[idx] * bp[i0] + k1[idx] * bp[i0 + 1] + k2[idx] * bp[i0 + 2]
+                      + k3[idx] * bp[i0 + 3])  # fmt: skip
+        wl, wxl = (w[y], wx[y]) if keep else (lines[0], lines[1])
+        gl, el = (g[y], e[y]) if keep else (lines[2], lines[3])
         _cast_logged_row(row, f_keys + f_l, WARP, base + L_WARP, fm, st, ov, wl)
         _row_difference(wl, row)
-        _cast_logged_row(row, f_warp + 1, GRAD, base + L_WX, fm, st, ov, wx[y])
-        axl, wxl = ax[y], wx[y]
+        _cast_logged_row(row, f_warp + 1, GRAD, base + L_WX, fm, st, ov, wxl)
+        axl = ax[y]
         for x in range(n):
             row[x] = axl[x] + wxl[x]
             row2[x] = _at(al[x], f_l, fe) - _at(wl[x], f_warp, fe)
-        gl, el = g[y], e[y]
         _cast_logged_row(row, f_grad + 1, G, base + L_G, fm, st, ov, gl)
         _cast_logged_row(row2, fe, E, base + L_E, fm, st, ov, el)
         _window_row(gl, gl, f_wgg, win, RGG, base + L_RGG, fm, st, ov, pad, row, rgg[y])
@@ -374,7 +421,7 @@ def _stage_rows_vertical(
     f_grad, f_warp, f_g, f_gy, f_e = fm[GRAD, 1], fm[WARP, 1], fm[G, 1], fm[GY, 1], fm[E, 1]
     row = np.empty(n, dtype=np.int64)
     r = win.shape[0] - 1
-    pad = np.empty(n + 2 * r, dtype=np.int64)
+    pad = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
     f_wyy, f_wgy = fm[WIN, 1] + 2 * f_gy, fm[WIN, 1] + f_g + f_gy
     f_wye = fm[WIN, 1] + f_gy + f_e
     for y in range(y0, y1):
@@ -401,7 +448,8 @@ def _stage_columns(
     ``sums``; with ``vertical`` also ``syy``, ``sgy``, ``sye`` and the 2x2 system's
     ``det`` and ``nu``), the divider ``du`` (``lanes``: the reciprocal divider in SIMD
     lanes, :func:`~rangefx.rtl_model.kernels.divide_row_lanes`, the same quotients and
-    counts; its float log only with ``log``) and the clipped update of ``u`` in place."""
+    counts; its float log only with ``log``) and the clipped update of ``u`` in place.
+    ``sums`` and ``du`` with no lines are not kept: each line lives in a line buffer."""
     n = u.shape[1]
     f_u, f_du = fm[U, 1], fm[DU, 1]
     f_sgg, f_sge = fm[SGG, 1], fm[SGE, 1]
@@ -411,29 +459,32 @@ def _stage_columns(
     # exact fraction bits of det = Σgg Σyy - Σgy², nu = Σyy Σge - Σgy Σye
     fd = max(f_sgg + f_syy, 2 * f_sgy)
     fn = max(f_syy + f_sge, f_sgy + f_sye)
-    sgg, sge, see = sums[0], sums[1], sums[2]
-    syy, sgy, sye, det, nu = sums[3], sums[4], sums[5], sums[6], sums[7]
     acc = np.empty(n, dtype=np.int64)
     row = np.empty(n, dtype=np.int64)
     row2 = np.empty(n, dtype=np.int64)
     num = np.empty(n, dtype=np.int64)
     den = np.empty(n, dtype=np.int64)
     flags = np.empty(n, dtype=np.bool_)
+    lines = np.empty((N_SUMS + 1, n), dtype=np.int64)  # the sums and du when not kept
+    keep_sums, keep_du = sums.shape[1] > 0, du.shape[0] > 0
     for y in range(y0, y1):
-        _window_col_line(rgg, win, y, RGG, SGG, base + L_SGG, fm, st, ov, acc, sgg[y])
-        _window_col_line(rge, win, y, RGE, SGE, base + L_SGE, fm, st, ov, acc, sge[y])
-        _window_col_line(ree, win, y, REE, SEE, base + L_SEE, fm, st, ov, acc, see[y])
+        ggl, gel, eel = (sums[0, y], sums[1, y], sums[2, y]) if keep_sums else (
+            lines[0], lines[1], lines[2])  # fmt: skip
+        _window_col_line(rgg, win, y, RGG, SGG, base + L_SGG, fm, st, ov, acc, ggl)
+        _window_col_line(rge, win, y, RGE, SGE, base + L_SGE, fm, st, ov, acc, gel)
+        _window_col_line(ree, win, y, REE, SEE, base + L_SEE, fm, st, ov, acc, eel)
         if vertical:  # the 2x2 normal equations in (u, v), v discarded
-            _window_col_line(ryy, win, y, RYY, SYY, base + L_SYY, fm, st, ov, acc, syy[y])
-            _window_col_line(rgy, win, y, RGY, SGY, base + L_SGY, fm, st, ov, acc, sgy[y])
-            _window_col_line(rye, win, y, RYE, SYE, base + L_SYE, fm, st, ov, acc, sye[y])
-            ggl, gel, yyl, gyl, yel = sgg[y], sge[y], syy[y], sgy[y], sye[y]
+            yyl, gyl, yel = (sums[3, y], sums[4, y], sums[5, y]) if keep_sums else (
+                lines[3], lines[4], lines[5])  # fmt: skip
+            _window_col_line(ryy, win, y, RYY, SYY, base + L_SYY, fm, st, ov, acc, yyl)
+            _window_col_line(rgy, win, y, RGY, SGY, base + L_SGY, fm, st, ov, acc, gyl)
+            _window_col_line(rye, win, y, RYE, SYE, base + L_SYE, fm, st, ov, acc, yel)
             for x in range(n):
                 row[x] = (_at(ggl[x] * yyl[x], f_sgg + f_syy, fd)
                           - _at(gyl[x] * gyl[x], 2 * f_sgy, fd))  # fmt: skip
                 row2[x] = (_at(yyl[x] * gel[x], f_syy + f_sge, fn)
                            - _at(gyl[x] * yel[x], f_sgy + f_sye, fn))  # fmt: skip
-            dl, nl = det[y], nu[y]
+            dl, nl = (sums[6, y], sums[7, y]) if keep_sums else (lines[6], lines[7])
             _cast_logged_row(row, fd, DET, base + L_DET, fm, st, ov, dl)
             _cast_logged_row(row2, fn, NU, base + L_NU, fm, st, ov, nl)
             for x in range(n):
@@ -443,7 +494,6 @@ def _stage_columns(
                 den[x] = dl[x] if solved else np.int64(1)
             fnum, fden = f_nu, f_det
         else:
-            ggl, gel = sgg[y], sge[y]
             for x in range(n):
                 # the normal equation of eq 10; no gradient in the window: the divider
                 # is fed 0 / 1 (operands selected)
@@ -451,12 +501,13 @@ def _stage_columns(
                 num[x] = -gel[x] if grad else np.int64(0)
                 den[x] = ggl[x] if grad else np.int64(1)
             fnum, fden = f_sge, f_sgg
+        dul = du[y] if keep_du else lines[N_SUMS]
         if lanes:
-            divide_row_lanes(num, fnum, den, fden, DU, lut, r_bits, fm, dst, ov, du[y], flags,
+            divide_row_lanes(num, fnum, den, fden, DU, lut, r_bits, fm, dst, ov, dul, flags,
                              log, modes)  # fmt: skip
         else:
-            _divide_row(num, fnum, den, fden, DU, kind, lut, r_bits, fm, dst, ov, du[y], flags)
-        ul, dul = u[y], du[y]
+            _divide_row(num, fnum, den, fden, DU, kind, lut, r_bits, fm, dst, ov, dul, flags)
+        ul = u[y]
         for x in range(n):
             row[x] = _at(ul[x], f_u, fu2) + _at(dul[x], f_du, fu2)
         _cast_logged_row(row, fu2, U, base + L_U, fm, st, ov, row2)
@@ -860,7 +911,7 @@ def _run_level(
     config: P3Config, a: np.ndarray, b: np.ndarray, u: np.ndarray, f_l: int, umax: int,
     rom: np.ndarray, win: np.ndarray, base: int, divider: tuple[int, np.ndarray, bool],
     log: bool, modes: bool | None, fm: np.ndarray, stats: list[runtime.SignalStats], key: str,
-    taps: np.ndarray | None,
+    taps: np.ndarray | None, final: bool,
 ) -> np.ndarray:  # fmt: skip
     """The ``warps`` stages of one level on E1 ``a``, E2 ``b`` (``f_l`` fraction bits)
     from the start estimate ``u`` (updated in place): per stage the line work
@@ -868,19 +919,25 @@ def _run_level(
     column work (:func:`_stage_columns`), each over every line (in two bands on two
     threads: :func:`_in_bands`) before the next starts, since the window's column pass
     reads ``radius`` lines either side. Returns the last stage's window sums (``sgg``,
-    ``sge``, ``see``, and with ``vertical`` ``syy``, ``sgy``, ``sye``, ``det``, ``nu``);
-    ``taps`` (level 0 of a run with taps): ``ax``, ``u_start`` (``ay``), then per stage
-    the :data:`WARP_TAPS` (and :data:`VERTICAL_TAPS`) copied into it. The planes are the
-    calling thread's :func:`~rangefx.rtl_model.runtime.scratch` buffers ``key.*``."""
+    ``sge``, ``see``, and with ``vertical`` ``syy``, ``sgy``, ``sye``, ``det``, ``nu``),
+    written only at level 0 (``final``) or with taps; ``taps`` (level 0 of a run with
+    taps): ``ax``, ``u_start`` (``ay``), then per stage the :data:`WARP_TAPS` (and
+    :data:`VERTICAL_TAPS`) copied into it. The planes are the calling thread's
+    :func:`~rangefx.rtl_model.runtime.scratch` buffers ``key.*``."""
     h, w = a.shape
     kind, lut, lanes = divider
     vertical = bool(config.vertical)
     mv = h if vertical else 0  # the vertical term's planes: empty when it is off
     plane = lambda name, lines=h: runtime.scratch(f"{key}.{name}", (lines, w))  # noqa: E731
-    ax, wp, wx, g, e, rgg, rge, ree, du = (plane(k) for k in ("ax", "w", "wx", "g", "e", "rgg",
-                                                             "rge", "ree", "du"))  # fmt: skip
-    ay, wy, gy, ryy, rgy, rye = (plane(k, mv) for k in ("ay", "wy", "gy", "ryy", "rgy", "rye"))
+    ax, rgg, rge, ree = (plane(k) for k in ("ax", "rgg", "rge", "ree"))
+    # W, Wx, g, e as planes only for the taps and the vertical term, du for the taps, the
+    # window sums for the taps and the last stage of level 0 (else line buffers)
+    mk = h if vertical or taps is not None else 0
+    wp, wx, g, e = (plane(k, mk) for k in ("w", "wx", "g", "e"))
+    du = plane("du", h if taps is not None else 0)
     sums = runtime.scratch(f"{key}.sums", (N_SUMS, h, w))
+    no_sums = np.empty((N_SUMS, 0, w), dtype=np.int64)
+    ay, wy, gy, ryy, rgy, rye = (plane(k, mv) for k in ("ay", "wy", "gy", "ryy", "rgy", "rye"))
     if taps is not None:
         taps[1] = u
 
@@ -894,9 +951,10 @@ def _run_level(
         _stage_rows_vertical(a, wp, g, e, ay, f_l, win, base, first, fm, st, ov, wy, gy, ryy,
                              rgy, rye, y0, y1)  # fmt: skip
 
-    def columns(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
+    def columns(out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
+                y1: int) -> None:  # fmt: skip
         _stage_columns(u, umax, win, vertical, base, kind, lanes, lut, config.recip_bits, log,
-                       modes, fm, st, dst, ov, rgg, rge, ree, ryy, rgy, rye, sums, du, y0,
+                       modes, fm, st, dst, ov, rgg, rge, ree, ryy, rgy, rye, out, du, y0,
                        y1)  # fmt: skip
 
     for k in range(config.warps):
@@ -904,7 +962,8 @@ def _run_level(
         _in_bands(functools.partial(rows, first), h, w, stats)
         if vertical:
             _in_bands(functools.partial(rows_vertical, first), h, w, stats)
-        _in_bands(columns, h, w, stats)
+        kept = taps is not None or (final and k == config.warps - 1)
+        _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
         if taps is None:
             continue
         if first:
@@ -1010,7 +1069,7 @@ def run_p3(
         sums = _run_level(
             config, p1[level], p2[level], u, f_level[level > 0], regs.umax[level], rom,
             regs.window, S_LEVEL + (N_LEVEL_SITES if level else 0), (kind, lut, lanes_du),
-            log, modes, fm, band_stats, f"p3.{level}", tp if want else None,
+            log, modes, fm, band_stats, f"p3.{level}", tp if want else None, level == 0,
         )  # fmt: skip
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
