@@ -12,13 +12,14 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from bitexact_cases import assert_bit_exact, p3_case
+from bitexact_cases import assert_bit_exact, lab_crop, p3_case
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from oracles import ORACLES
 
 from rangefx.golden.geometry import MotionIncrement
 from rangefx.golden.multiscale import streaming_schedule
+from rangefx.golden.ranging import RangingConfig
 from rangefx.golden.realdata import (
     Perturbation,
     disparity_from_range,
@@ -28,6 +29,7 @@ from rangefx.golden.realdata import (
     search_range,
 )
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p3 import model as p3_model
 from rangefx.rtl_model.p3.model import buffer_bits, keys_exact, keys_rom, keys_weights
 from rangefx.rtl_model.pipeline import Case
 from rangefx.rtl_model.registry import PIPELINES
@@ -305,3 +307,46 @@ def test_vertical_term_meets_the_misalignment_target():
         )  # fmt: skip
     assert figures[True]["density"] >= 0.75 and figures[True]["mae_px"] <= 0.6, figures
     assert figures[False]["mae_px"] > 0.6, figures
+
+
+@pytest.mark.parametrize(
+    "design",
+    [{}, {"vertical": True, "radius": 2, "sigma": 1.0}, {"divider": "restoring", "warps": 3}],
+)
+def test_two_bands_of_lines_give_the_one_thread_result(design):
+    """On two threads each level of ``BAND_PIXELS`` or more runs its line work in two
+    bands of lines, each with its own log: every tap, the outputs, every overflow count
+    and min/max equal the one-thread run's (the oracle checks that one,
+    tests/test_bitexact.py), also where narrowed signals overflow."""
+    rng = np.random.default_rng(7)
+    im1, im2, camera = lab_crop(rng, 64, 96)
+    assert 64 * 96 >= p3_model.BAND_PIXELS  # level 0 is split
+    case = Case(im1, im2, camera, MotionIncrement.stereo(0.1),
+                settings={"ranging": RangingConfig(range_max=100.0)})  # fmt: skip
+    config = P3.default_config(**design)
+    narrowed = {k: replace(config.formats[k], word=config.formats[k].word - 6)
+                for k in ("p3_g", "p3_rge", "p3_du")}  # fmt: skip
+    overflowing = config.with_(formats={**config.formats, **narrowed})
+    for cfg in (config, overflowing):
+        one = P3.run(case, cfg, taps=True, threads=1)
+        assert_same = (one.range_raw, one.valid, dict(one.overflows), dict(one.minmax))
+        for taps in (True, False):
+            two = P3.run(case, cfg, taps=taps, threads=2)
+            assert np.array_equal(two.range_raw, assert_same[0])
+            assert np.array_equal(two.valid, assert_same[1])
+            assert (dict(two.overflows), dict(two.minmax)) == assert_same[2:]
+            for name, tap in two.taps.items():
+                assert np.array_equal(tap, one.taps[name]), name
+    assert one.overflows["p3_g"] > 0 and one.overflows["p3_du"] > 0
+
+
+@pytest.mark.parametrize("vertical", [False, True])
+def test_windows_wider_than_the_unrolled_radius_are_bit_exact(vertical):
+    """Up to ``UNROLLED_RADIUS`` the window's passes run one unrolled sum per pixel; a
+    wider window takes the tap-at-a-time loops: every tap, count and min/max as the
+    oracle's."""
+    radius = p3_model.UNROLLED_RADIUS + 2
+    config = P3.default_config(radius=radius, sigma=2.5, levels=2, vertical=vertical)
+    for seed, kind in ((3, "lab"), (4, "random")):
+        case = p3_case(seed, kind)
+        assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))

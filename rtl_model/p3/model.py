@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from fractions import Fraction
 
 import numpy as np
@@ -31,11 +32,12 @@ from rangefx.golden.ranging import RangingConfig
 
 from .. import runtime
 from ..config import TimingConfig
-from ..fixedpoint import FixedFormat, cast_raw, cast_row
+from ..fixedpoint import FixedFormat, cast_modes, cast_raw, cast_row
 from ..kernels import at_frac as _at
+from ..kernels import divide_lanes_fit, divide_row_lanes
 from ..kernels import divide_row as _divide_row
 from ..pipeline import PipelineResult, build_result
-from ..runtime import KERNEL_INT, KERNEL_PLANE, KERNEL_ROW
+from ..runtime import DIV_RECIPROCAL, KERNEL_INT, KERNEL_PLANE, KERNEL_ROW
 from ..stream import input_cycles
 from .config import P3_SIGNALS, P3Config
 
@@ -44,7 +46,9 @@ from .config import P3_SIGNALS, P3Config
 _I, _R, _P = KERNEL_INT, KERNEL_ROW, KERNEL_PLANE
 
 __all__ = [
+    "BAND_PIXELS",
     "N_SITES",
+    "UNROLLED_RADIUS",
     "VERTICAL_TAPS",
     "WARP_TAPS",
     "P3Registers",
@@ -229,228 +233,298 @@ def _expand_kernel(uc, m, n, fm, st, ov):
     return out
 
 
+#: Window radius up to which the row and column passes run every tap in one unrolled
+#: expression per pixel (the taps beyond the radius weighted 0: the same integer sum).
+UNROLLED_RADIUS = 4
+
+
+@njit((_R,), cache=True, nogil=True)
+def _window_taps(win):
+    """The window's weights ``w_1 .. w_4`` (of ``w_0 .. w_r``, ``r <= 4``), 0 beyond ``r``."""
+    r = win.shape[0] - 1
+    zero = np.int64(0)
+    return (win[1] if r >= 1 else zero, win[2] if r >= 2 else zero,
+            win[3] if r >= 3 else zero, win[4] if r >= 4 else zero)  # fmt: skip
+
+
 @njit((_R, _R, _I, _R, _I, _I, _P, _P, _R, _R, _R, _R), cache=True, nogil=True)
 def _window_row(p, q, f_in, win, s, site, fm, st, ov, pad, acc, out):
     """Row pass of the window on one line of the product ``p q`` (``f_in`` fraction bits:
     the product's plus the window's): ``Σ_k w_|k| (p q)[x + k]``, replicated borders,
     cast into ``s``. The product is formed as the line is copied with its replicated
-    borders (``pad``), so no product plane is written, the taps need no clamp, and the
-    symmetric taps are paired (``w_k (pq[x-k] + pq[x+k])``). The taps accumulate one
-    at a time over the whole line, reading two slices of ``pad``: the same integer sum
-    (int64, wrapping), in a loop LLVM vectorises (6x faster than a pixel at a time with
-    an inner loop over the taps, measured on a 512-pixel line)."""
+    borders (``pad``, ``n + 2 max(r, UNROLLED_RADIUS)`` long), so no product plane is
+    written, the taps need no clamp, and the symmetric taps are paired. Up to
+    :data:`UNROLLED_RADIUS` every tap is one term of an unrolled sum per pixel (the taps
+    beyond the radius weighted 0); a wider window accumulates a tap at a time over the
+    whole line, reading two slices of ``pad``. Either is the same integer sum (int64,
+    wrapping), in a loop LLVM vectorises (the unrolled sum 2x faster than a tap at a
+    time, itself 6x faster than a pixel at a time with an inner loop over the taps,
+    measured on a 512-pixel line)."""
     n = p.shape[0]
     r = win.shape[0] - 1
-    for k in range(n + 2 * r):
-        c = min(max(k - r, 0), n - 1)
-        pad[k] = p[c] * q[c]
-    w0 = win[0]
+    rp = max(r, UNROLLED_RADIUS)
     for x in range(n):
-        acc[x] = w0 * pad[x + r]
-    for k in range(1, r + 1):
-        wk = win[k]
-        before, after = pad[r - k : r - k + n], pad[r + k : r + k + n]
+        pad[x + rp] = p[x] * q[x]
+    for k in range(rp):  # the replicated borders
+        pad[k] = pad[rp]
+        pad[n + rp + k] = pad[n + rp - 1]
+    w0 = win[0]
+    if r <= UNROLLED_RADIUS:
+        w1, w2, w3, w4 = _window_taps(win)
         for x in range(n):
-            acc[x] += wk * (before[x] + after[x])
+            acc[x] = (w0 * pad[x + 4] + w1 * (pad[x + 3] + pad[x + 5])
+                      + w2 * (pad[x + 2] + pad[x + 6]) + w3 * (pad[x + 1] + pad[x + 7])
+                      + w4 * (pad[x] + pad[x + 8]))  # fmt: skip
+    else:
+        for x in range(n):
+            acc[x] = w0 * pad[x + r]
+        for k in range(1, r + 1):
+            wk = win[k]
+            before, after = pad[r - k : r - k + n], pad[r + k : r + k + n]
+            for x in range(n):
+                acc[x] += wk * (before[x] + after[x])
     _cast_logged_row(acc, f_in, s, site, fm, st, ov, out)
 
 
-@njit((_P, _R, _I, _I, _I, _P, _P, _R, _P), cache=True, nogil=True)
-def _window_cols(p, win, s_in, s, site, fm, st, ov, out):
-    """Column pass of the window on the row sums of signal ``s_in``, cast into ``s``
-    (written into ``out``); accumulated a whole row at a time (the clamped line index
-    once per tap and row)."""
+@njit((_R, _R), cache=True, nogil=True)
+def _row_difference(p, out):
+    """Central difference along a line (replicated borders), exact: ``p[x + 1] - p[x -
+    1]``; the two border pixels apart, so that the loop over the others has no clamp
+    and vectorises."""
+    n = p.shape[0]
+    for x in range(1, n - 1):
+        out[x] = p[x + 1] - p[x - 1]
+    out[0] = p[min(1, n - 1)] - p[0]
+    out[n - 1] = p[n - 1] - p[max(n - 2, 0)]
+
+
+@njit((_P, _R, _I, _I, _I, _I, _P, _P, _R, _R, _R), cache=True, nogil=True)
+def _window_col_line(p, win, y, s_in, s, site, fm, st, ov, acc, out):
+    """Column pass of the window at line ``y`` on the row sums ``p`` of signal ``s_in``
+    (replicated borders), cast into ``s`` (``out``); accumulated a whole row at a time
+    (the clamped line index once per tap), every line in one unrolled sum up to
+    :data:`UNROLLED_RADIUS`."""
     m, n = p.shape
     r = win.shape[0] - 1
     f_in = fm[WIN, 1] + fm[s_in, 1]
-    acc = np.empty(n, dtype=np.int64)
-    for y in range(m):
-        mid = p[y]
+    mid = p[y]
+    w0 = win[0]
+    if r <= UNROLLED_RADIUS:  # as _window_row: the lines beyond the radius weighted 0
+        w1, w2, w3, w4 = _window_taps(win)
+        a1, b1 = p[max(y - 1, 0)], p[min(y + 1, m - 1)]
+        a2, b2 = p[max(y - 2, 0)], p[min(y + 2, m - 1)]
+        a3, b3 = p[max(y - 3, 0)], p[min(y + 3, m - 1)]
+        a4, b4 = p[max(y - 4, 0)], p[min(y + 4, m - 1)]
         for x in range(n):
-            acc[x] = win[0] * mid[x]
+            acc[x] = (w0 * mid[x] + w1 * (a1[x] + b1[x]) + w2 * (a2[x] + b2[x])
+                      + w3 * (a3[x] + b3[x]) + w4 * (a4[x] + b4[x]))  # fmt: skip
+    else:
+        for x in range(n):
+            acc[x] = w0 * mid[x]
         for k in range(1, r + 1):
             above, below = p[max(y - k, 0)], p[min(y + k, m - 1)]
             w = win[k]
             for x in range(n):
                 acc[x] += w * (above[x] + below[x])
-        _cast_logged_row(acc, f_in, s, site, fm, st, ov, out[y])
+    _cast_logged_row(acc, f_in, s, site, fm, st, ov, out)
 
 
-@njit((_P, _I, _I, _I, _P, _P, _R), cache=True, nogil=True)
-def _column_difference(p, f_p, s, site, fm, st, ov):
-    """Central difference down the columns (replicated borders), cast into ``s``: the
-    line below minus the line above, exact at ``f_p + 1`` fraction bits (the ½)."""
+@njit((_P, _I, _I, _I, _I, _P, _P, _R, _R, _R), cache=True, nogil=True)
+def _column_difference_line(p, y, f_p, s, site, fm, st, ov, row, out):
+    """Central difference down the columns at line ``y`` (replicated borders), cast into
+    ``s`` (``out``): the line below minus the line above, exact at ``f_p + 1`` fraction
+    bits (the ½)."""
     m, n = p.shape
-    out = np.empty((m, n), dtype=np.int64)
-    row = np.empty(n, dtype=np.int64)
-    for y in range(m):
-        below, above = p[min(y + 1, m - 1)], p[max(y - 1, 0)]
-        for x in range(n):
-            row[x] = below[x] - above[x]
-        _cast_logged_row(row, f_p + 1, s, site, fm, st, ov, out[y])
-    return out
+    below, above = p[min(y + 1, m - 1)], p[max(y - 1, 0)]
+    for x in range(n):
+        row[x] = below[x] - above[x]
+    _cast_logged_row(row, f_p + 1, s, site, fm, st, ov, out)
 
 
 @njit(cache=True, nogil=True)
-def _level_kernel(
-    a, b, u, f_l, umax, rom, keys_bits, win, kind, lut, r_bits, warps, base, vertical, fm, st,
-    dst, ov, sums, taps, want_taps,
+def _stage_rows(
+    a, b, u, ax, f_l, rom, keys_bits, win, base, first, fm, st, ov, w, wx, g, e, rgg, rge,
+    ree, y0, y1,
 ):  # fmt: skip
-    """The ``warps`` stages of one level on E1 ``a``, E2 ``b`` (``f_l`` fraction bits)
-    from the start estimate ``u`` (updated in place); leaves the last stage's window
-    sums in ``sums`` (``sgg``, ``sge``, ``see``, and with ``vertical`` ``syy``, ``sgy``,
-    ``sye``, ``det``, ``nu``). Taps (level 0): ``ax``, ``u_start`` (``ay``), then per
-    warp the :data:`WARP_TAPS` (and :data:`VERTICAL_TAPS`)."""
-    m, n = a.shape
+    """Lines ``y0 <= y < y1`` of one warp stage's line work on E1 ``a``, E2 ``b`` (``f_l``
+    fraction bits) at the estimate ``u``: (the level's ``first`` stage: E1's central
+    difference ``ax``,) the warp ``W(x) = E2(x - u)`` from the row buffer (Keys weights
+    from the ROM), ``Wx``, ``g`` and ``e``, and the window's row pass on the three
+    products (formed as the row pass reads them: no product plane). Each line needs only
+    its own line of every input: two bands of lines run on two threads. ``w``, ``wx``,
+    ``g``, ``e`` are planes to keep (taps, the vertical term) or, with no lines, not kept:
+    each line then lives in a line buffer (four planes fewer written per stage)."""
+    n = a.shape[1]
     f_u, f_grad, f_warp, f_keys = fm[U, 1], fm[GRAD, 1], fm[WARP, 1], fm[KEYS, 1]
-    f_g, f_e, f_du = fm[G, 1], fm[E, 1], fm[DU, 1]
-    f_sgg, f_sge = fm[SGG, 1], fm[SGE, 1]
+    f_g, f_e = fm[G, 1], fm[E, 1]
     fe = max(f_l, f_warp)
-    fu2 = max(f_u, f_du)
     mask = (np.int64(1) << f_u) - 1
     # the position x - u rounded to keys_bits fraction bits (half an index step added)
     half = np.int64(1) << (f_u - keys_bits - 1) if f_u > keys_bits else np.int64(0)
-    # every cast below runs a row at a time (_cast_logged_row): the same values, logs
-    # and counts as one cast_site per pixel, without a log store in each pixel's loop
+    row = np.empty(n, dtype=np.int64)
+    row2 = np.empty(n, dtype=np.int64)
+    lines = np.empty((4, n), dtype=np.int64)  # w, wx, g, e of a line when not kept
+    keep = w.shape[0] > 0
+    r = win.shape[0] - 1
+    pad = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
+    f_wgg, f_wge, f_wee = fm[WIN, 1] + 2 * f_g, fm[WIN, 1] + f_g + f_e, fm[WIN, 1] + 2 * f_e
+    # the ROM's four weight columns, and E2's line with three replicated pixels either
+    # side: the four taps at i0 - 1 .. i0 + 2 are then bp[i0 + 2 .. i0 + 5] once i0 is
+    # clamped to -2 .. n (beyond, every tap reads the border pixel anyway): one clamp a
+    # pixel instead of four, and a loop without a branch
+    k0, k1 = rom[:, 0].copy(), rom[:, 1].copy()
+    k2, k3 = rom[:, 2].copy(), rom[:, 3].copy()
+    bp = np.empty(n + 6, dtype=np.int64)
+    lo, hi = np.int64(-2), np.int64(n)
+    for y in range(y0, y1):
+        al, bl, ul = a[y], b[y], u[y]
+        if first:
+            _row_difference(al, row)
+            _cast_logged_row(row, f_l + 1, GRAD, base + L_AX, fm, st, ov, ax[y])
+        for k in range(3):
+            bp[k] = bl[0]
+            bp[n + 3 + k] = bl[n - 1]
+        for x in range(n):
+            bp[x + 3] = bl[x]
+        for x in range(n):
+            src = (np.int64(x) << f_u) - ul[x] + half
+            i0 = min(max(src >> f_u, lo), hi) + 2
+            t = src & mask
+            idx = t >> (f_u - keys_bits) if f_u >= keys_bits else t << (keys_bits - f_u)
+            row[x] = (k0[idx] * bp[i0] + k1[idx] * bp[i0 + 1] + k2[idx] * bp[i0 + 2]
+                      + k3[idx] * bp[i0 + 3])  # fmt: skip
+        wl, wxl = (w[y], wx[y]) if keep else (lines[0], lines[1])
+        gl, el = (g[y], e[y]) if keep else (lines[2], lines[3])
+        _cast_logged_row(row, f_keys + f_l, WARP, base + L_WARP, fm, st, ov, wl)
+        _row_difference(wl, row)
+        _cast_logged_row(row, f_warp + 1, GRAD, base + L_WX, fm, st, ov, wxl)
+        axl = ax[y]
+        for x in range(n):
+            row[x] = axl[x] + wxl[x]
+            row2[x] = _at(al[x], f_l, fe) - _at(wl[x], f_warp, fe)
+        _cast_logged_row(row, f_grad + 1, G, base + L_G, fm, st, ov, gl)
+        _cast_logged_row(row2, fe, E, base + L_E, fm, st, ov, el)
+        _window_row(gl, gl, f_wgg, win, RGG, base + L_RGG, fm, st, ov, pad, row, rgg[y])
+        _window_row(gl, el, f_wge, win, RGE, base + L_RGE, fm, st, ov, pad, row, rge[y])
+        _window_row(el, el, f_wee, win, REE, base + L_REE, fm, st, ov, pad, row, ree[y])
+
+
+@njit(cache=True, nogil=True)
+def _stage_rows_vertical(
+    a, w, g, e, ay, f_l, win, base, first, fm, st, ov, wy, gy, ryy, rgy, rye, y0, y1,
+):  # fmt: skip
+    """Lines ``y0 <= y < y1`` of the vertical term's line work, once :func:`_stage_rows`
+    has written every line of ``w`` (the column differences read lines ``y ± 1``): (the
+    level's ``first`` stage: E1's column difference ``ay``,) ``Wy``, ``gy`` and the
+    window's row pass on ``gy²``, ``g gy``, ``gy e``."""
+    n = a.shape[1]
+    f_grad, f_warp, f_g, f_gy, f_e = fm[GRAD, 1], fm[WARP, 1], fm[G, 1], fm[GY, 1], fm[E, 1]
+    row = np.empty(n, dtype=np.int64)
+    r = win.shape[0] - 1
+    pad = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
+    f_wyy, f_wgy = fm[WIN, 1] + 2 * f_gy, fm[WIN, 1] + f_g + f_gy
+    f_wye = fm[WIN, 1] + f_gy + f_e
+    for y in range(y0, y1):
+        if first:
+            _column_difference_line(a, y, f_l, GRAD, base + L_AY, fm, st, ov, row, ay[y])
+        _column_difference_line(w, y, f_warp, GRAD, base + L_WY, fm, st, ov, row, wy[y])
+        ayl, wyl = ay[y], wy[y]
+        for x in range(n):
+            row[x] = ayl[x] + wyl[x]
+        gl, el, yl = g[y], e[y], gy[y]
+        _cast_logged_row(row, f_grad + 1, GY, base + L_GY, fm, st, ov, yl)
+        _window_row(yl, yl, f_wyy, win, RYY, base + L_RYY, fm, st, ov, pad, row, ryy[y])
+        _window_row(gl, yl, f_wgy, win, RGY, base + L_RGY, fm, st, ov, pad, row, rgy[y])
+        _window_row(yl, el, f_wye, win, RYE, base + L_RYE, fm, st, ov, pad, row, rye[y])
+
+
+@njit(cache=True, nogil=True)
+def _stage_columns(
+    u, umax, win, vertical, base, kind, lanes, lut, r_bits, log, modes, fm, st, dst, ov,
+    rgg, rge, ree, ryy, rgy, rye, sums, du, y0, y1,
+):  # fmt: skip
+    """Lines ``y0 <= y < y1`` of one warp stage's column work, once the row sums of
+    every line are there: the window's column pass (``sgg``, ``sge``, ``see`` into
+    ``sums``; with ``vertical`` also ``syy``, ``sgy``, ``sye`` and the 2x2 system's
+    ``det`` and ``nu``), the divider ``du`` (``lanes``: the reciprocal divider in SIMD
+    lanes, :func:`~rangefx.rtl_model.kernels.divide_row_lanes`, the same quotients and
+    counts; its float log only with ``log``) and the clipped update of ``u`` in place.
+    ``sums`` and ``du`` with no lines are not kept: each line lives in a line buffer."""
+    n = u.shape[1]
+    f_u, f_du = fm[U, 1], fm[DU, 1]
+    f_sgg, f_sge = fm[SGG, 1], fm[SGE, 1]
+    f_syy, f_sgy, f_sye = fm[SYY, 1], fm[SGY, 1], fm[SYE, 1]
+    f_det, f_nu = fm[DET, 1], fm[NU, 1]
+    fu2 = max(f_u, f_du)
+    # exact fraction bits of det = Σgg Σyy - Σgy², nu = Σyy Σge - Σgy Σye
+    fd = max(f_sgg + f_syy, 2 * f_sgy)
+    fn = max(f_syy + f_sge, f_sgy + f_sye)
+    acc = np.empty(n, dtype=np.int64)
     row = np.empty(n, dtype=np.int64)
     row2 = np.empty(n, dtype=np.int64)
     num = np.empty(n, dtype=np.int64)
     den = np.empty(n, dtype=np.int64)
     flags = np.empty(n, dtype=np.bool_)
-    ax = np.empty((m, n), dtype=np.int64)
-    for y in range(m):
-        for x in range(n):
-            row[x] = a[y, min(x + 1, n - 1)] - a[y, max(x - 1, 0)]
-        _cast_logged_row(row, f_l + 1, GRAD, base + L_AX, fm, st, ov, ax[y])
-    sgg, sge, see = sums[0], sums[1], sums[2]
-    f_gy = fm[GY, 1]
-    f_syy, f_sgy, f_sye = fm[SYY, 1], fm[SGY, 1], fm[SYE, 1]
-    f_det, f_nu = fm[DET, 1], fm[NU, 1]
-    # exact fraction bits of det = Σgg Σyy - Σgy², nu = Σyy Σge - Σgy Σye
-    fd = max(f_sgg + f_syy, 2 * f_sgy)
-    fn = max(f_syy + f_sge, f_sgy + f_sye)
-    ay = _column_difference(a, f_l, GRAD, base + L_AY, fm, st, ov) if vertical else ax
-    if want_taps:
-        taps[0] = ax
-        taps[1] = u
-        if vertical:
-            taps[2] = ay
-    # the planes a stage writes, allocated once per level (taps copy them out)
-    w = np.empty((m, n), dtype=np.int64)
-    wx = np.empty((m, n), dtype=np.int64)
-    g = np.empty((m, n), dtype=np.int64)
-    e = np.empty((m, n), dtype=np.int64)
-    rgg = np.empty((m, n), dtype=np.int64)
-    rge = np.empty((m, n), dtype=np.int64)
-    ree = np.empty((m, n), dtype=np.int64)
-    du = np.empty((m, n), dtype=np.int64)
-    r = win.shape[0] - 1
-    pad = np.empty(n + 2 * r, dtype=np.int64)
-    f_wgg, f_wge, f_wee = fm[WIN, 1] + 2 * f_g, fm[WIN, 1] + f_g + f_e, fm[WIN, 1] + 2 * f_e
-    mv = m if vertical else 0  # the vertical term's planes: empty when it is off
-    gy = np.empty((mv, n), dtype=np.int64)
-    ryy = np.empty((mv, n), dtype=np.int64)
-    rgy = np.empty((mv, n), dtype=np.int64)
-    rye = np.empty((mv, n), dtype=np.int64)
-    f_wyy, f_wgy = fm[WIN, 1] + 2 * f_gy, fm[WIN, 1] + f_g + f_gy
-    f_wye = fm[WIN, 1] + f_gy + f_e
-    for k in range(warps):
-        # per line: the warp W(x) = E2(x - u) from the row buffer (Keys weights from the
-        # ROM), Wx, g and e, and the window's row pass on the three products (formed as
-        # the row pass reads them: no product plane)
-        for y in range(m):
-            for x in range(n):
-                src = (np.int64(x) << f_u) - u[y, x] + half
-                i0 = src >> f_u
-                t = src & mask
-                idx = t >> (f_u - keys_bits) if f_u >= keys_bits else t << (keys_bits - f_u)
-                acc = np.int64(0)
-                for j in range(4):
-                    acc += rom[idx, j] * b[y, min(max(i0 - 1 + j, 0), n - 1)]
-                row[x] = acc
-            _cast_logged_row(row, f_keys + f_l, WARP, base + L_WARP, fm, st, ov, w[y])
-            wy = w[y]
-            for x in range(n):
-                row[x] = wy[min(x + 1, n - 1)] - wy[max(x - 1, 0)]
-            _cast_logged_row(row, f_warp + 1, GRAD, base + L_WX, fm, st, ov, wx[y])
-            for x in range(n):
-                row[x] = ax[y, x] + wx[y, x]
-                row2[x] = _at(a[y, x], f_l, fe) - _at(wy[x], f_warp, fe)
-            _cast_logged_row(row, f_grad + 1, G, base + L_G, fm, st, ov, g[y])
-            _cast_logged_row(row2, fe, E, base + L_E, fm, st, ov, e[y])
-            gl, el = g[y], e[y]
-            _window_row(gl, gl, f_wgg, win, RGG, base + L_RGG, fm, st, ov, pad, row, rgg[y])
-            _window_row(gl, el, f_wge, win, RGE, base + L_RGE, fm, st, ov, pad, row, rge[y])
-            _window_row(el, el, f_wee, win, REE, base + L_REE, fm, st, ov, pad, row, ree[y])
-        _window_cols(rgg, win, RGG, SGG, base + L_SGG, fm, st, ov, sgg)
-        _window_cols(rge, win, RGE, SGE, base + L_SGE, fm, st, ov, sge)
-        _window_cols(ree, win, REE, SEE, base + L_SEE, fm, st, ov, see)
+    lines = np.empty((N_SUMS + 1, n), dtype=np.int64)  # the sums and du when not kept
+    keep_sums, keep_du = sums.shape[1] > 0, du.shape[0] > 0
+    for y in range(y0, y1):
+        ggl, gel, eel = (sums[0, y], sums[1, y], sums[2, y]) if keep_sums else (
+            lines[0], lines[1], lines[2])  # fmt: skip
+        _window_col_line(rgg, win, y, RGG, SGG, base + L_SGG, fm, st, ov, acc, ggl)
+        _window_col_line(rge, win, y, RGE, SGE, base + L_SGE, fm, st, ov, acc, gel)
+        _window_col_line(ree, win, y, REE, SEE, base + L_SEE, fm, st, ov, acc, eel)
         if vertical:  # the 2x2 normal equations in (u, v), v discarded
-            wy = _column_difference(w, f_warp, GRAD, base + L_WY, fm, st, ov)
-            for y in range(m):
-                for x in range(n):
-                    row[x] = ay[y, x] + wy[y, x]
-                gl, el, yl = g[y], e[y], gy[y]
-                _cast_logged_row(row, f_grad + 1, GY, base + L_GY, fm, st, ov, yl)
-                _window_row(yl, yl, f_wyy, win, RYY, base + L_RYY, fm, st, ov, pad, row, ryy[y])
-                _window_row(gl, yl, f_wgy, win, RGY, base + L_RGY, fm, st, ov, pad, row, rgy[y])
-                _window_row(yl, el, f_wye, win, RYE, base + L_RYE, fm, st, ov, pad, row, rye[y])
-            syy, sgy, sye, det, nu = sums[3], sums[4], sums[5], sums[6], sums[7]
-            _window_cols(ryy, win, RYY, SYY, base + L_SYY, fm, st, ov, syy)
-            _window_cols(rgy, win, RGY, SGY, base + L_SGY, fm, st, ov, sgy)
-            _window_cols(rye, win, RYE, SYE, base + L_SYE, fm, st, ov, sye)
-            for y in range(m):
-                for x in range(n):
-                    row[x] = (_at(sgg[y, x] * syy[y, x], f_sgg + f_syy, fd)
-                              - _at(sgy[y, x] * sgy[y, x], 2 * f_sgy, fd))  # fmt: skip
-                    row2[x] = (_at(syy[y, x] * sge[y, x], f_syy + f_sge, fn)
-                               - _at(sgy[y, x] * sye[y, x], f_sgy + f_sye, fn))  # fmt: skip
-                _cast_logged_row(row, fd, DET, base + L_DET, fm, st, ov, det[y])
-                _cast_logged_row(row2, fn, NU, base + L_NU, fm, st, ov, nu[y])
-                for x in range(n):
-                    # the determinant test: a singular window feeds the divider 0 / 1
-                    solved = det[y, x] > 0
-                    num[x] = -nu[y, x] if solved else np.int64(0)
-                    den[x] = det[y, x] if solved else np.int64(1)
-                _divide_row(num, f_nu, den, f_det, DU, kind, lut, r_bits, fm, dst, ov, du[y],
-                            flags)  # fmt: skip
-            if want_taps:
-                t0 = 3 + (N_STAGE_TAPS_V) * k + N_STAGE_TAPS
-                for j, arr in enumerate((wy, gy, ryy, rgy, rye, syy, sgy, sye, det, nu)):
-                    taps[t0 + j] = arr
+            yyl, gyl, yel = (sums[3, y], sums[4, y], sums[5, y]) if keep_sums else (
+                lines[3], lines[4], lines[5])  # fmt: skip
+            _window_col_line(ryy, win, y, RYY, SYY, base + L_SYY, fm, st, ov, acc, yyl)
+            _window_col_line(rgy, win, y, RGY, SGY, base + L_SGY, fm, st, ov, acc, gyl)
+            _window_col_line(rye, win, y, RYE, SYE, base + L_SYE, fm, st, ov, acc, yel)
+            for x in range(n):
+                row[x] = (_at(ggl[x] * yyl[x], f_sgg + f_syy, fd)
+                          - _at(gyl[x] * gyl[x], 2 * f_sgy, fd))  # fmt: skip
+                row2[x] = (_at(yyl[x] * gel[x], f_syy + f_sge, fn)
+                           - _at(gyl[x] * yel[x], f_sgy + f_sye, fn))  # fmt: skip
+            dl, nl = (sums[6, y], sums[7, y]) if keep_sums else (lines[6], lines[7])
+            _cast_logged_row(row, fd, DET, base + L_DET, fm, st, ov, dl)
+            _cast_logged_row(row2, fn, NU, base + L_NU, fm, st, ov, nl)
+            for x in range(n):
+                # the determinant test: a singular window feeds the divider 0 / 1
+                solved = dl[x] > 0
+                num[x] = -nl[x] if solved else np.int64(0)
+                den[x] = dl[x] if solved else np.int64(1)
+            fnum, fden = f_nu, f_det
         else:
-            for y in range(m):
-                for x in range(n):
-                    # the normal equation of eq 10; no gradient in the window: the divider
-                    # is fed 0 / 1 (operands selected)
-                    grad = sgg[y, x] > 0
-                    num[x] = -sge[y, x] if grad else np.int64(0)
-                    den[x] = sgg[y, x] if grad else np.int64(1)
-                _divide_row(num, f_sge, den, f_sgg, DU, kind, lut, r_bits, fm, dst, ov, du[y],
-                            flags)  # fmt: skip
-        for y in range(m):
             for x in range(n):
-                row[x] = _at(u[y, x], f_u, fu2) + _at(du[y, x], f_du, fu2)
-            _cast_logged_row(row, fu2, U, base + L_U, fm, st, ov, row2)
-            for x in range(n):
-                u[y, x] = min(max(row2[x], np.int64(0)), umax)
-        if want_taps:
-            t0 = 2 + k * N_STAGE_TAPS
-            if vertical:
-                t0 = 3 + k * (N_STAGE_TAPS_V)
-            for j, arr in enumerate((w, wx, g, e, rgg, rge, ree, sgg, sge, see, du, u)):
-                taps[t0 + j] = arr
+                # the normal equation of eq 10; no gradient in the window: the divider
+                # is fed 0 / 1 (operands selected)
+                grad = ggl[x] > 0
+                num[x] = -gel[x] if grad else np.int64(0)
+                den[x] = ggl[x] if grad else np.int64(1)
+            fnum, fden = f_sge, f_sgg
+        dul = du[y] if keep_du else lines[N_SUMS]
+        if lanes:
+            divide_row_lanes(num, fnum, den, fden, DU, lut, r_bits, fm, dst, ov, dul, flags,
+                             log, modes)  # fmt: skip
+        else:
+            _divide_row(num, fnum, den, fden, DU, kind, lut, r_bits, fm, dst, ov, dul, flags)
+        ul = u[y]
+        for x in range(n):
+            row[x] = _at(ul[x], f_u, fu2) + _at(dul[x], f_du, fu2)
+        _cast_logged_row(row, fu2, U, base + L_U, fm, st, ov, row2)
+        for x in range(n):
+            ul[x] = min(max(row2[x], np.int64(0)), umax)
 
 
 @njit(cache=True, nogil=True)
 def _final_kernel(
-    u, sums, vertical, regs, kind, lut, r_bits, fm, st, dst, ov, out_range, out_valid,
-    taps, t0, want_taps,
+    u, sums, vertical, regs, kind, lanes, lut, r_bits, log, modes, fm, st, dst, ov,
+    out_range, out_valid, taps, t0, want_taps, y0, y1,
 ):  # fmt: skip
-    """Level 0: the residual and gradient tests (with ``vertical`` the 2x2 fit's residual,
-    ``nv`` cast here, and the determinant test), the match inside E2, the range divider
-    ``z = f B / u`` gated by ``u >= u_min`` (``z <= range_max``), range + valid."""
-    m, n = u.shape
+    """Level 0, lines ``y0 <= y < y1``: the residual and gradient tests (with
+    ``vertical`` the 2x2 fit's residual, ``nv`` cast here, and the determinant test), the
+    match inside E2, the range divider ``z = f B / u`` gated by ``u >= u_min``
+    (``z <= range_max``; ``lanes`` as in :func:`_stage_columns`), range + valid."""
+    n = u.shape[1]
     sgg, sge, see = sums[0], sums[1], sums[2]
     sgy, sye, det, nu = sums[4], sums[5], sums[6], sums[7]
     tg2, tr2, umax, umin, fb, rmax = regs[0], regs[1], regs[2], regs[3], regs[4], regs[5]
@@ -462,19 +536,13 @@ def _final_kernel(
     f_vres = max(f_see + f_det, f_sge + f_nu, f_sye + f_nv)
     nv = np.empty(n, dtype=np.int64)
     right = np.int64(n - 1) << f_u
-    # a row at a time (casts and divider logged once per row, as in _level_kernel)
+    # a row at a time (casts and divider logged once per row, as in _stage_rows)
     work = np.empty((7, n), dtype=np.int64)
     pre, res, thr, rthr, num, den, rq = (
-        work[0],
-        work[1],
-        work[2],
-        work[3],
-        work[4],
-        work[5],
-        work[6],
-    )
+        work[0], work[1], work[2], work[3], work[4], work[5], work[6],
+    )  # fmt: skip
     flags = np.empty(n, dtype=np.bool_)
-    for y in range(m):
+    for y in range(y0, y1):
         if vertical:  # Σe² det - Σge nu - Σye nv <= T_r² det
             for x in range(n):
                 pre[x] = (_at(sgg[y, x] * sye[y, x], f_sgg + f_sye, f_nv_in)
@@ -500,7 +568,11 @@ def _final_kernel(
             gate = uu > 0 and uu >= umin
             num[x] = fb if gate else np.int64(0)
             den[x] = uu if gate else np.int64(1)
-        _divide_row(num, f_fb, den, f_u, RANGE, kind, lut, r_bits, fm, dst, ov, rq, flags)
+        if lanes:
+            divide_row_lanes(num, f_fb, den, f_u, RANGE, lut, r_bits, fm, dst, ov, rq, flags,
+                             log, modes)  # fmt: skip
+        else:
+            _divide_row(num, f_fb, den, f_u, RANGE, kind, lut, r_bits, fm, dst, ov, rq, flags)
         for x in range(n):
             gg, uu = sgg[y, x], u[y, x]
             src = (np.int64(x) << f_u) - uu
@@ -762,11 +834,13 @@ def tap_cycles(tap: str, config: P3Config, in_cycles: np.ndarray, hblank: int) -
     if tap not in offsets:
         raise ValueError(f"unknown P3 tap {tap!r}; taps: {', '.join(offsets)}")
     lines, cycles = offsets[tap]
-    src = np.arange(m)[:, None] + lines
-    inside = np.minimum(src, m - 1)
-    cols = np.arange(n)[None, :]
-    flush = int(in_cycles[m - 1, n - 1]) + hblank + 1 + (src - m) * (n + hblank) + cols
-    return np.where(src < m, in_cycles[inside, cols], flush).astype(np.int64) + cycles
+    out = np.empty((m, n), dtype=np.int64)
+    k = max(m - lines, 0)  # lines whose source line is inside the frame
+    np.add(in_cycles[m - k :], cycles, out=out[:k])
+    src = np.arange(k, m)[:, None] + lines - m  # flush lines: 0 is the first after the frame
+    out[k:] = (int(in_cycles[m - 1, n - 1]) + hblank + 1 + cycles + src * (n + hblank)
+               + np.arange(n)[None, :])  # fmt: skip
+    return out
 
 
 def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
@@ -813,6 +887,98 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     return out
 
 
+#: Fewest pixels of a level that its line work splits into two bands for (two threads):
+#: below, the hand-off to the worker thread costs more than the band's work.
+BAND_PIXELS = 4096
+
+
+def _in_bands(
+    work: Callable[[np.ndarray, np.ndarray, np.ndarray, int, int], None], h: int, w: int,
+    stats: list[runtime.SignalStats],
+) -> None:  # fmt: skip
+    """``work(st, dst, ov, y0, y1)`` over the lines ``0 <= y < h`` of a ``h`` x ``w``
+    level: two bands at once on the two threads (each band its own log, one per entry of
+    ``stats``) when there are two and the level has :data:`BAND_PIXELS` or more, else
+    one band on the calling thread."""
+    if len(stats) == 2 and h >= 2 and h * w >= BAND_PIXELS:
+        mid = h // 2
+        runtime.run_two(work, (*stats[1].arrays, mid, h), (*stats[0].arrays, 0, mid))
+    else:
+        work(*stats[0].arrays, 0, h)
+
+
+def _run_level(
+    config: P3Config, a: np.ndarray, b: np.ndarray, u: np.ndarray, f_l: int, umax: int,
+    rom: np.ndarray, win: np.ndarray, base: int, divider: tuple[int, np.ndarray, bool],
+    log: bool, modes: bool | None, fm: np.ndarray, stats: list[runtime.SignalStats], key: str,
+    taps: np.ndarray | None, final: bool,
+) -> np.ndarray:  # fmt: skip
+    """The ``warps`` stages of one level on E1 ``a``, E2 ``b`` (``f_l`` fraction bits)
+    from the start estimate ``u`` (updated in place): per stage the line work
+    (:func:`_stage_rows`, with ``vertical`` then :func:`_stage_rows_vertical`) and the
+    column work (:func:`_stage_columns`), each over every line (in two bands on two
+    threads: :func:`_in_bands`) before the next starts, since the window's column pass
+    reads ``radius`` lines either side. Returns the last stage's window sums (``sgg``,
+    ``sge``, ``see``, and with ``vertical`` ``syy``, ``sgy``, ``sye``, ``det``, ``nu``),
+    written only at level 0 (``final``) or with taps; ``taps`` (level 0 of a run with
+    taps): ``ax``, ``u_start`` (``ay``), then per stage the :data:`WARP_TAPS` (and
+    :data:`VERTICAL_TAPS`) copied into it. The planes are the calling thread's
+    :func:`~rangefx.rtl_model.runtime.scratch` buffers ``key.*``."""
+    h, w = a.shape
+    kind, lut, lanes = divider
+    vertical = bool(config.vertical)
+    mv = h if vertical else 0  # the vertical term's planes: empty when it is off
+    plane = lambda name, lines=h: runtime.scratch(f"{key}.{name}", (lines, w))  # noqa: E731
+    ax, rgg, rge, ree = (plane(k) for k in ("ax", "rgg", "rge", "ree"))
+    # W, Wx, g, e as planes only for the taps and the vertical term, du for the taps, the
+    # window sums for the taps and the last stage of level 0 (else line buffers)
+    mk = h if vertical or taps is not None else 0
+    wp, wx, g, e = (plane(k, mk) for k in ("w", "wx", "g", "e"))
+    du = plane("du", h if taps is not None else 0)
+    sums = runtime.scratch(f"{key}.sums", (N_SUMS, h, w))
+    no_sums = np.empty((N_SUMS, 0, w), dtype=np.int64)
+    ay, wy, gy, ryy, rgy, rye = (plane(k, mv) for k in ("ay", "wy", "gy", "ryy", "rgy", "rye"))
+    if taps is not None:
+        taps[1] = u
+
+    def rows(first: bool, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int
+             ) -> None:  # fmt: skip
+        _stage_rows(a, b, u, ax, f_l, rom, config.keys_bits, win, base, first, fm, st, ov, wp,
+                    wx, g, e, rgg, rge, ree, y0, y1)  # fmt: skip
+
+    def rows_vertical(first: bool, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
+                      y1: int) -> None:  # fmt: skip
+        _stage_rows_vertical(a, wp, g, e, ay, f_l, win, base, first, fm, st, ov, wy, gy, ryy,
+                             rgy, rye, y0, y1)  # fmt: skip
+
+    def columns(out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
+                y1: int) -> None:  # fmt: skip
+        _stage_columns(u, umax, win, vertical, base, kind, lanes, lut, config.recip_bits, log,
+                       modes, fm, st, dst, ov, rgg, rge, ree, ryy, rgy, rye, out, du, y0,
+                       y1)  # fmt: skip
+
+    for k in range(config.warps):
+        first = k == 0
+        _in_bands(functools.partial(rows, first), h, w, stats)
+        if vertical:
+            _in_bands(functools.partial(rows_vertical, first), h, w, stats)
+        kept = taps is not None or (final and k == config.warps - 1)
+        _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
+        if taps is None:
+            continue
+        if first:
+            taps[0] = ax
+            if vertical:
+                taps[2] = ay
+        t0 = 3 + k * N_STAGE_TAPS_V if vertical else 2 + k * N_STAGE_TAPS
+        for j, arr in enumerate((wp, wx, g, e, rgg, rge, ree, *sums[:3], du, u)):
+            taps[t0 + j] = arr
+        if vertical:
+            for j, arr in enumerate((wy, gy, ryy, rgy, rye, *sums[3:])):
+                taps[t0 + N_STAGE_TAPS + j] = arr
+    return sums
+
+
 def run_p3(
     image1: np.ndarray,
     image2: np.ndarray,
@@ -828,9 +994,11 @@ def run_p3(
 ) -> PipelineResult:
     """Run P3 on a registered stereo pair (E1 = ``image1`` left, E2 = ``image2``, camera 2
     ``B > 0`` to the right), integer grey levels; only ``ranging.range_max`` is read (G6's
-    thresholds are design fields). ``threads`` = 2 builds the two pyramids at once.
-    ``log`` off: ``minmax`` is empty (the kernels still keep it: not yet switchable in
-    P3's kernels); overflow counts are always kept."""
+    thresholds are design fields). ``threads`` = 2 builds the two pyramids at once, then
+    runs each level of :data:`BAND_PIXELS` or more and the output stage in two bands of
+    lines (:func:`_in_bands`). ``log`` off: ``minmax`` is empty (the casts still keep
+    their min/max, the dividers skip their float log); overflow counts are always
+    kept."""
     runtime.check_threads(threads)
     config = config or P3Config.default()
     if not isinstance(config, P3Config):
@@ -873,13 +1041,21 @@ def run_p3(
         (p1, s1), (p2, s2) = runtime.run_two(pyramid, *streams)
     else:
         (p1, s1), (p2, s2) = (pyramid(*a) for a in streams)
-    stats = runtime.SignalStats(N_SITES, len(P3_SIGNALS))
-    st, dst, ov = stats.arrays
+    # one log per band: the second band's on the worker thread
+    band_stats = [runtime.SignalStats(N_SITES, len(P3_SIGNALS)) for _ in range(threads)]
+    st, _, ov = band_stats[0].arrays  # the expansions' log
     names = tap_names(config)
     tp = np.zeros((len(names), m, n) if taps else (len(names), 1, 1), dtype=np.int64)
     u = np.zeros(shapes[-1], dtype=np.int64)
     vertical = bool(config.vertical)
-    sums = np.empty((N_SUMS, m, n), dtype=np.int64)
+    modes = cast_modes(fm)
+    # the reciprocal divider in SIMD lanes where its operands fit (divide_lanes_fit)
+    reciprocal = kind == DIV_RECIPROCAL
+    f_num, f_den, d_word = (NU, DET, fm[DET, 0]) if vertical else (SGE, SGG, fm[SGG, 0])
+    lanes_du = reciprocal and divide_lanes_fit(fm[f_num, 1], fm[f_den, 1], d_word, DU,
+                                               config.recip_bits, fm)  # fmt: skip
+    lanes_z = reciprocal and divide_lanes_fit(fm[FB, 1], fm[U, 1], fm[U, 0], RANGE,
+                                              config.recip_bits, fm)  # fmt: skip
     # fraction bits of the pixels the warps read at level 0 and at the coarser levels
     f_level = (fm[NORM, 1],) * 2 if normalise else (f_pix, f_pyr)
     for level in range(len(shapes) - 1, -1, -1):
@@ -889,20 +1065,23 @@ def run_p3(
             lag = min(config.coarse_lag, h)
             if lag:  # the coarse estimate arrives late: line y gets that of y - lag
                 u = np.ascontiguousarray(u[np.maximum(np.arange(h) - lag, 0)])
-        level_sums = sums if level == 0 else np.empty((N_SUMS, h, w), dtype=np.int64)
-        _level_kernel(
-            p1[level], p2[level], u, f_level[level > 0], regs.umax[level], rom,
-            config.keys_bits, regs.window, kind, lut, config.recip_bits, config.warps,
-            S_LEVEL + (N_LEVEL_SITES if level else 0), vertical, fm, st, dst, ov, level_sums,
-            tp, taps and level == 0,
+        want = taps and level == 0
+        sums = _run_level(
+            config, p1[level], p2[level], u, f_level[level > 0], regs.umax[level], rom,
+            regs.window, S_LEVEL + (N_LEVEL_SITES if level else 0), (kind, lut, lanes_du),
+            log, modes, fm, band_stats, f"p3.{level}", tp if want else None, level == 0,
         )  # fmt: skip
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
-    _final_kernel(
-        u, sums, vertical, regs.final, kind, lut, config.recip_bits, fm, st, dst, ov,
-        out_range, out_valid, tp, len(names) - 4, taps,
-    )  # fmt: skip
-    overflows, minmax = runtime.SignalStats.merge([s1, s2, stats], P3_SIGNALS)
+
+    def final(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
+        _final_kernel(
+            u, sums, vertical, regs.final, kind, lanes_z, lut, config.recip_bits, log, modes,
+            fm, st, dst, ov, out_range, out_valid, tp, len(names) - 4, taps, y0, y1,
+        )  # fmt: skip
+
+    _in_bands(final, m, n, band_stats)
+    overflows, minmax = runtime.SignalStats.merge([s1, s2, *band_stats], P3_SIGNALS)
     overflows["p3_keys"] += rom_overflows  # the ROM is datapath (keys_rom_casts)
     minmax["p3_keys"] = rom_range
     tap_dict = {name: tp[k] for k, name in enumerate(names)} if taps else {}
