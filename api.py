@@ -910,6 +910,7 @@ def guide(
     pipeline: str = "p1",
     seed: int = 0,
     jobs: int = 1,
+    out: str | Path | None = None,
 ) -> GuideResult:
     """Fly the report's chapter-6 guidance through obstacles, keeping a clearance.
 
@@ -935,6 +936,11 @@ def guide(
         ``pipeline``, a true vehicle on or near the nominal path, instead.
     jobs
         Worker processes of the stress programme (the same rows for any count).
+    out
+        The stress programme's output directory (created if absent): each finished
+        layout is appended to its ``stress_layouts.jsonl`` as one JSON line, and the
+        layouts already there with the same settings are not flown again (an
+        interrupted programme resumes). ``None``: no journal.
 
     Returns
     -------
@@ -949,6 +955,7 @@ def guide(
         obstacles, law=law, clearance_ft=clearance_ft, shift=shift,
         guidance_interval=guidance_interval, replan_interval=replan_interval,
         layout_sweep=layout_sweep, stress=stress, pipeline=pipeline, seed=seed, jobs=jobs,
+        out=out,
     )  # fmt: skip
 
 

@@ -63,7 +63,8 @@ When no plan to the touch-down meets the clearance within the limits, the law sa
 (:func:`plan_safe_manoeuvre`: hover ahead, climb over, turn away) to a hold point that
 keeps the clearance; it never lands on a plan that passes closer than the clearance
 to an extent. A start within an extent's clearance blocks the landing too: the
-manoeuvre then keeps what the start leaves and moves away (the floor rises to the full
+manoeuvre then keeps what the start leaves and moves away sideways (the extents whose
+clearance holds the start are walls, :func:`escape_walls`; the floor rises to the full
 clearance over ``ESCAPE_TIME_S``, points away from the extent are tried first), and
 at its hold point the law decides again: it lands only on a plan that keeps the
 clearance, else it holds. ``when_blocked="best-effort"`` keeps the old behaviour (land
@@ -118,6 +119,7 @@ __all__ = [
     "InfeasibleClearanceWarning",
     "SafeManoeuvre",
     "escape_direction",
+    "escape_walls",
     "limit_margins",
     "limited_command",
     "manoeuvre_candidates",
@@ -769,7 +771,7 @@ def plan_trajectory(
     t_rep, c_rep = _report_seed(prob)
     if ends_inside:
         dist = _clearances(ends, boxes)  # (2, boxes): start, touch-down
-        lo = dist - np.maximum(0.1 * np.abs(dist), 0.5)
+        lo = _escape_floor(dist)
         s_ramp = min(max(ESCAPE_TIME_S / t_rep, 0.02), 0.5)
         ramps = np.clip(np.stack([basis.s, 1.0 - basis.s]) / s_ramp, 0.0, 1.0) ** 2
         for end in range(2):
@@ -825,6 +827,38 @@ def plan_trajectory(
         time.perf_counter() - start, iters, str(getattr(best_res, "message", "")), meets_floor,
         floor_margin,
     )  # fmt: skip
+
+
+#: Top (ft) given to an extent whose clearance holds the start of an escape
+#: (:func:`escape_walls`): far above any flight, so that only its sides count.
+WALL_TOP_FT: float = 1.0e4
+
+
+def escape_walls(
+    boxes: tuple[ObstacleBox, ...], r: np.ndarray, clearance_ft: float
+) -> tuple[ObstacleBox, ...]:
+    """``boxes`` with the extents whose clearance holds ``r`` made walls (top
+    :data:`WALL_TOP_FT`): an escape from within an extent's clearance must leave it
+    sideways. With the extent's top counted, the nearest way out of a long P1 extent
+    whose footprint holds the start is up through its top (a few feet away), and the
+    escape plans climbed there -- at most 0.09 g up (the load-factor limit) -- while
+    passing a true vehicle inside the extent at 18.7 ft, 3 ft above its roof (runway/P1
+    stress0-10, issue 39; 26.8 ft leaving sideways). The other boxes are returned as
+    they are."""
+    if not boxes:
+        return boxes
+    d = _clearances(np.asarray(r, dtype=np.float64)[None], boxes)[0]
+    return tuple(
+        replace(b, top=WALL_TOP_FT) if dk < clearance_ft else b
+        for b, dk in zip(boxes, d, strict=True)
+    )
+
+
+def _escape_floor(dist: np.ndarray) -> np.ndarray:
+    """The floor a plan from an end point ``dist`` ft from each extent keeps near that
+    end (its own distance less 10 %, at least 0.5 ft less: a path can leave it)."""
+    dist = np.asarray(dist, dtype=np.float64)
+    return dist - np.maximum(0.1 * np.abs(dist), 0.5)
 
 
 # --------------------------------------------------------------------------- safe manoeuvres
@@ -952,7 +986,7 @@ def _chord_clearance(
     s = np.linspace(0.0, 1.0, 33)[:, None]
     chord = r[None] + s * (point - r)[None]
     start = _clearances(r[None], boxes)[0]
-    lo = np.minimum(start - np.maximum(0.1 * np.abs(start), 0.5), clearance_ft)
+    lo = np.minimum(_escape_floor(start), clearance_ft)
     t_chord = float(np.linalg.norm(point - r)) / max(speed, 1.0)
     s_ramp = min(max(ESCAPE_TIME_S / max(t_chord, 1e-9), 0.02), 0.5)
     floor = lo + (clearance_ft - lo) * np.clip(s / s_ramp, 0.0, 1.0) ** 2
@@ -1008,9 +1042,13 @@ def plan_safe_manoeuvre(
     v = np.asarray(v, dtype=np.float64)
     hold = _hold_field(field)
     cands = manoeuvre_candidates(r, v, boxes, cfg)
+    walls = escape_walls(boxes, r, cfg.clearance_ft)
+    if walls != boxes:  # a hold point must keep the clearance from the walls too
+        need = cfg.clearance_ft + cfg.margin_ft + 2.0
+        cands = [(k, p) for k, p in cands if _clearances(p[None], walls).min() >= need]
     if cands and escape_direction(r, boxes, cfg.clearance_ft) is not None:
         speed = float(np.linalg.norm(v))
-        ok = [_chord_clearance(r, p, boxes, cfg.clearance_ft, speed) >= 0.0 for _, p in cands]
+        ok = [_chord_clearance(r, p, walls, cfg.clearance_ft, speed) >= 0.0 for _, p in cands]
         cands = [c for c, k in zip(cands, ok, strict=True) if k] + [
             c for c, k in zip(cands, ok, strict=True) if not k
         ]
@@ -1024,7 +1062,7 @@ def plan_safe_manoeuvre(
         goal = BoundaryConditions(r0=r, v0=v, rf=point, vf=vf)
         tried += 1
         plan = plan_trajectory(
-            r, v, goal, hold, boxes, params=params, config=solve_cfg, t0=t0, relax=False,
+            r, v, goal, hold, walls, params=params, config=solve_cfg, t0=t0, relax=False,
             side_seeds=False, t_go_max=MANOEUVRE_MAX_TIME,
         )  # fmt: skip
         if plan.meets_floor:
@@ -1142,6 +1180,9 @@ def simulate_avoid(
     # the path, was blocked) is followed by a second decision at its hold point.
     td_clear = float(_clearances(bc.rf[None], boxes).min()) if boxes else math.inf
     redecide = manoeuvre is not None and td_clear >= av.clearance_ft
+    # A manoeuvre's re-plans keep its walls (an escape from within an extent's
+    # clearance leaves it sideways, :func:`escape_walls`).
+    walls = boxes if manoeuvre is None else escape_walls(boxes, bc.r0, av.clearance_ft)
     landing_after: dict | None = None
     phase_start = plan  # the first plan of the flight's current phase (its arrival cap)
     # A manoeuvre's re-plans get its candidates' iteration budget (a short, open target).
@@ -1165,7 +1206,7 @@ def simulate_avoid(
         remaining = plan.t_go - (t - plan.t0)
         if t - last_plan_t >= av.replan_interval - 1e-9 and remaining > av.terminal_time:
             new = plan_trajectory(
-                r, v, goal, plan_field, boxes, params=params,
+                r, v, goal, plan_field, boxes if goal is bc else walls, params=params,
                 config=replan_cfg if plan.meets_floor else av, warm=plan, t0=t,
                 # A re-plan may delay the arrival by at most one re-plan interval (and
                 # never past 1.25 x the first plan's), a relaxed plan (whose cost is the

@@ -71,6 +71,7 @@ from rangefx.golden.geometry import (
 from .obstacles import FrameMap, ParkedVehicle, guidance_from_ned, usable_range
 
 __all__ = [
+    "ERROR_MODELS",
     "BoxSet",
     "ExtractionConfig",
     "ExtractionResult",
@@ -295,6 +296,10 @@ def scene_truth_boxes(
 # --------------------------------------------------------------------------- range error
 
 
+#: Range-error models of :func:`predicted_range_error`.
+ERROR_MODELS: tuple[str, ...] = ("motion", "stereo")
+
+
 def predicted_range_error(
     image1: np.ndarray,
     image2: np.ndarray,
@@ -305,10 +310,12 @@ def predicted_range_error(
     noise_sigma: float = 0.5,
     disparity_sigma_px: float = 0.25,
     estimator: EstimatorConfig | None = None,
+    model: str = "motion",
 ) -> np.ndarray:
     """Predicted relative range error ``ε`` per pixel (module docstring, step 2).
 
-    Three parts added in quadrature:
+    ``model="motion"`` (the first-order motion ranging of ch. 3-4: P1, the golden
+    methods) adds three parts in quadrature:
 
     * **truncation**, from the ranging error equation (ch. 3 eq 14; SPIE eq 11 at
       degree 1): its residual over the ranging equation (eq 13),
@@ -321,9 +328,22 @@ def predicted_range_error(
       parallax ``|d| / range`` (eq 9; ``d = [f k4 - xp k3, f k5 - yp k3]``, ch. 4 eqs
       25-26): unbounded at the focus of expansion, where no range is supported.
 
+    ``model="stereo"`` (a registered stereo pair ranged by a warped, coarse-to-fine
+    disparity estimate: P3) is the disparity error over the disparity
+    ``δ = |d| / range`` (``f B / Z`` for a baseline ``B``): ``ε = σ_δ / δ`` with
+    ``σ_δ² = disparity_sigma_px² + 2 σ_n² / E_b²``, ``E_b`` the irradiance gradient
+    along the baseline (the mean of both images'), i.e. ``Z² / (f B)`` times the
+    disparity error. There is no truncation term: the estimate is re-linearised at the
+    warped disparity at every scale, so the first-order residual of eq 14 (which grows
+    with the disparity) is not its error.
+
     Derivatives come from the golden estimator (``consistent`` unless ``estimator``
     says otherwise), the same the ranging methods use. ``+inf`` where undefined.
     """
+    if model not in ERROR_MODELS:
+        raise ValueError(
+            f"range error model must be one of {', '.join(ERROR_MODELS)}, not {model!r}"
+        )
     est = estimator or EstimatorConfig().with_(variant="consistent")
     d1 = estimate_derivatives(image1, est)
     d2 = estimate_derivatives(image2, est)
@@ -337,6 +357,12 @@ def predicted_range_error(
     c1 = d1.E - d2.E
     rng_map = np.asarray(range_map, dtype=np.float64)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        if model == "stereo":
+            norm = np.hypot(dx, dy)
+            grad_b = 0.5 * ((d1.Ex + d2.Ex) * dx + (d1.Ey + d2.Ey) * dy) / norm
+            sigma_d = np.sqrt(disparity_sigma_px**2 + 2.0 * noise_sigma**2 / grad_b**2)
+            eps = sigma_d * rng_map / norm  # σ_δ / δ, δ = |d| / range
+            return np.where(np.isfinite(eps), eps, np.inf)
         rho = np.abs(diff) / np.abs(total)
         noise = math.sqrt(2.0) * noise_sigma / np.abs(c1)
         parallax = disparity_sigma_px * rng_map / np.hypot(dx, dy)
@@ -386,6 +412,9 @@ class ExtractionConfig:
         Growth across the ray and on top (ft): pixel footprint and edge blur.
     max_range
         Drop points beyond this range along the optical axis (``None``: keep all).
+    error_model
+        ``"motion"`` or ``"stereo"``: the range-error model of
+        :func:`predicted_range_error` (the pair's and the pipeline's ranging).
     """
 
     min_height: float = 1.0
@@ -404,8 +433,14 @@ class ExtractionConfig:
     min_rows: int = 3
     lateral_margin_ft: float = 1.0
     max_range: float | None = None
+    error_model: str = "motion"
 
     def __post_init__(self) -> None:
+        if self.error_model not in ERROR_MODELS:
+            raise ValueError(
+                f"extraction error_model must be one of {', '.join(ERROR_MODELS)}, "
+                f"not {self.error_model!r}"
+            )
         for name in (
             "max_height", "max_relative_error", "link_ft", "along_ray_k",
             "min_log_spread", "lateral_margin_ft", "ground_slope",
@@ -486,7 +521,14 @@ def _cluster_box(
     q_lo, q_hi = np.quantile(u, [0.25, 0.75])
     u_lo, u_hi = min(float(q_lo), u_med - grow_u), max(float(q_hi), u_med + grow_u)
     m = cfg.lateral_margin_ft
-    v_lo, v_hi = float(v.min()) - m, float(v.max()) + m
+    # Across the ray a point is its bearing (known to the pixel) times its range (known
+    # to ε): the object lies in the wedge of its points' bearings anywhere in [u_lo,
+    # u_hi]. The box holds that wedge as well as the points themselves.
+    bearing = v / np.maximum(u, 1e-9)
+    near_far = (max(u_lo, 0.0), u_hi)
+    wedge = [w * e for w in (float(bearing.min()), float(bearing.max())) for e in near_far]
+    v_lo = min(float(v.min()), *wedge) - m
+    v_hi = max(float(v.max()), *wedge) + m
     mid_u, mid_v = 0.5 * (u_lo + u_hi), 0.5 * (v_lo + v_hi)
     centre = camera_xy + mid_u * np.array([c, s]) + mid_v * np.array([-s, c])
     top = float(pts[:, 2].max()) * (1.0 + cfg.grow_k * (eps_med if eps_med > 0 else spread)) + m
@@ -649,6 +691,7 @@ def extract_obstacles(
         eps = predicted_range_error(
             images[0], images[1], camera, motion, rng_map,
             noise_sigma=cfg.noise_sigma, disparity_sigma_px=cfg.disparity_sigma_px,
+            model=cfg.error_model,
         )  # fmt: skip
     else:
         eps = np.zeros(rng_map.shape)

@@ -284,8 +284,9 @@ def save_stress_figure(stress, path: str | Path, k: int = 4) -> Path:
     """The ``k`` stress layouts that came closest to a true vehicle, in plan view
     (:class:`~rangefx.guidance.stress.StressResult`): extents and their clearance, true
     vehicles, the avoiding law's path (its hold point when it took a safe manoeuvre)
-    and the report law's path."""
-    worst = stress.worst(k)
+    and the report law's path. Layouts taken from an earlier run's journal (no
+    flight in ``stress.runs``) are left out."""
+    worst = [r for r in stress.worst(len(stress.rows)) if r["name"] in stress.runs][:k]
     n = max(len(worst), 1)
     cols = min(n, 2)
     rows = math.ceil(n / cols)

@@ -23,7 +23,8 @@ what the layout asks of a law that does not avoid).
 from __future__ import annotations
 
 import math
-from concurrent.futures import ProcessPoolExecutor
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -214,6 +215,7 @@ def _stress_row(
 ) -> tuple[dict, tuple]:
     """One layout of :func:`stress_programme`: its row and ``(moved case, avoid run,
     report run)``."""
+    cpu0, wall0 = time.process_time(), time.perf_counter()
     moved = case.shifted(lay.shift_ft)
     rep = fly(moved, "report", clearance_ft=clearance_ft, config=config, avoid=avoid)
     run = fly(moved, "avoid", clearance_ft=clearance_ft, config=config, avoid=avoid)
@@ -256,6 +258,8 @@ def _stress_row(
         "report_law_min_true_distance_ft": rep.metrics["min_true_obstacle_distance_ft"],
         "report_law_collision": bool(rep.metrics["min_true_obstacle_distance_ft"] < 0),
         "warnings": run.warnings,
+        "cpu_s": time.process_time() - cpu0,  # both laws, this layout (its process)
+        "wall_s": time.perf_counter() - wall0,
     }
     return row, (moved, run, rep)
 
@@ -272,6 +276,8 @@ def stress_programme(
     progress=None,
     indices: list[int] | None = None,
     jobs: int = 1,
+    done: dict[str, dict] | None = None,
+    on_row=None,
 ) -> StressResult:
     """Fly ``count`` stress layouts of ``case`` (:func:`stress_layouts`) with the avoiding
     law, and the report's law beside it, and score both against the true vehicles.
@@ -284,32 +290,45 @@ def stress_programme(
     (``planner_wall_s``, the sum of its solves) and the report law's true distance and
     collision. ``indices`` flies only those of the ``count`` layouts (the layouts are
     drawn per index, so a programme can be split over processes); ``jobs`` > 1 flies
-    them in that many worker processes (the same rows, in layout order)."""
+    them in that many worker processes (the same rows, in layout order).
+
+    ``done`` maps layout names to rows flown before (a resumed run): those layouts are
+    not flown again and their rows are taken as they are (``runs`` has no entry for
+    them). ``on_row(row)`` is called with each newly flown row as soon as it is
+    finished (in finishing order with ``jobs`` > 1), e.g. to append it to a journal."""
     if not isinstance(jobs, int) or jobs < 1:
         raise ValueError(f"stress jobs must be an integer >= 1, not {jobs!r}")
     nominal = fly(case, "report", clearance_ft=clearance_ft, config=config, avoid=avoid)
     nom = nominal.result
-    rows: list[dict] = []
     runs: dict = {}
     layouts = stress_layouts(case, nom.t, nom.positions, count, seed=seed)
     todo = layouts if indices is None else [layouts[i] for i in indices]
+    done = done or {}
+    by_name = {lay.name: done[lay.name] for lay in todo if lay.name in done}
+    fly_now = [lay for lay in todo if lay.name not in by_name]
+    for name in by_name:
+        if progress is not None:
+            progress(name)
     args = (nom.positions, clearance_ft, config, avoid)
-    if jobs > 1 and len(todo) > 1:
+
+    def finished(lay: StressLayout, row: dict, flown) -> None:
+        by_name[lay.name], runs[lay.name] = row, flown
+        if on_row is not None:
+            on_row(row)
+        if progress is not None:
+            progress(lay.name)
+
+    if jobs > 1 and len(fly_now) > 1:
         # The rendered scene is not needed to fly: the workers get the case without it.
         light = replace(case, scene=None)
-        with ProcessPoolExecutor(max_workers=min(jobs, len(todo))) as pool:
-            futures = [pool.submit(_stress_row, light, lay, *args) for lay in todo]
-            for lay, fut in zip(todo, futures, strict=True):
-                row, runs[lay.name] = fut.result()
-                rows.append(row)
-                if progress is not None:
-                    progress(lay.name)
+        with ProcessPoolExecutor(max_workers=min(jobs, len(fly_now))) as pool:
+            futures = {pool.submit(_stress_row, light, lay, *args): lay for lay in fly_now}
+            for fut in as_completed(futures):
+                finished(futures[fut], *fut.result())
     else:
-        for lay in todo:
-            row, runs[lay.name] = _stress_row(case, lay, *args)
-            rows.append(row)
-            if progress is not None:
-                progress(lay.name)
+        for lay in fly_now:
+            finished(lay, *_stress_row(case, lay, *args))
+    rows = [by_name[lay.name] for lay in todo]
     camera = np.asarray(nom.bc.r0)
     return StressResult(
         source, clearance_ft, seed, rows, nom.flight_time,

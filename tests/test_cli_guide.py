@@ -160,3 +160,13 @@ def test_guide_stress_json_and_worst_case_plot(tmp_path, capsys):
     assert s["layouts"] == 1 and sum(s["outcomes"].values()) == 1
     assert data["extent_along_ray_ft"]["n"] >= 1
     assert (out / "stress.json").is_file() and (out / "stress_worst.png").is_file()
+    # the layout went to the journal as it finished; the same command again takes it
+    # from there (flies nothing) and keeps the journal
+    (rec,) = [json.loads(x) for x in (out / "stress_layouts.jsonl").read_text().splitlines()]
+    assert rec["row"]["name"] == row["name"] and rec["settings"]["seed"] == 2
+    assert data["resumed_layouts"] == []
+    assert main(argv) == 0
+    again = json.loads(capsys.readouterr().out.strip())
+    assert again["resumed_layouts"] == [row["name"]]
+    assert again["layouts"] == data["layouts"]
+    assert len((out / "stress_layouts.jsonl").read_text().splitlines()) == 1

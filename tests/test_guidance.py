@@ -588,3 +588,55 @@ def test_runway_stereo_pair_is_the_runway_view_with_a_second_camera_beside_it():
         assert want in modes
     assert runway_scene_for(("stereo",), size=size).kind == "stereo"
     assert runway_scene_for(("stereo", "motion"), size=size).kind == "motion"
+
+
+@pytest.fixture(scope="module")
+def p3_runway():
+    """The stereo runway pair ranged by P3 as the guidance chain configures it."""
+    from rangefx.golden.scenes import render_runway_stereo
+    from rangefx.rtl_model.registry import get_pipeline
+    from rangefx.tools.studies.flights import runway_config
+    from rangefx.tools.studies.runner import range_source
+
+    scene = render_runway_stereo()
+    pipe = get_pipeline("p3")
+    return scene, range_source(pipe, runway_config("p3"))(scene), pipe
+
+
+def test_p3_ranges_every_runway_vehicle_with_the_chains_range_word(p3_runway):
+    # P3's default range word (u20.12) saturates range_max at 256 ft: Vehicles 1, 2, 4
+    # and 5 (300-607 ft) had no valid pixel. The chain's word holds 2000 ft.
+    from rangefx.tools.studies.runner import range_source
+
+    scene, (rng, valid), pipe = p3_runway
+    labels = scene.labels1
+    for lab in range(1, 6):
+        seen = valid & (labels == lab)
+        assert seen.sum() >= 0.8 * (labels == lab).sum(), lab
+        err = np.abs(rng[seen] / scene.depth1[seen] - 1.0)
+        assert np.median(err) < 0.03, lab
+    _, valid_default = range_source(pipe, pipe.default_config())(scene)
+    assert not (valid_default & (labels == 2)).any()  # the default word: Vehicle 2 unseen
+
+
+def test_stereo_range_error_model_bounds_p3_and_is_tighter_than_the_motion_one(p3_runway):
+    # model="stereo": the disparity error over the disparity f B / Z, no truncation
+    # term. On P3's vehicle pixels it bounds the measured error on >= 95 % of them,
+    # at a median a fraction of the motion model's (eq 14's first-order residual,
+    # which grows with the disparity).
+    from rangefx.guidance.extraction import predicted_range_error
+
+    scene, (rng, valid), _ = p3_runway
+    args = (scene.image1, scene.image2, scene.camera, scene.motion, rng)
+    stereo = predicted_range_error(*args, model="stereo")
+    motion = predicted_range_error(*args, model="motion")
+    veh = valid & (scene.labels1 > 0)
+    err = np.abs(rng[veh] / scene.depth1[veh] - 1.0)
+    assert np.mean(err <= stereo[veh]) >= 0.95
+    assert np.median(stereo[veh]) < 0.3 * np.median(motion[veh])
+    # noise-free, the model is the disparity error over the disparity, Z-proportional
+    quiet = predicted_range_error(*args, model="stereo", noise_sigma=0.0, disparity_sigma_px=0.5)
+    disparity = scene.camera.f_px * 1.75 / rng[veh]
+    assert np.allclose(quiet[veh], 0.5 / disparity, rtol=1e-9)
+    with pytest.raises(ValueError, match="error model"):
+        predicted_range_error(*args, model="sonar")

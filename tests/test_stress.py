@@ -215,3 +215,56 @@ def test_start_inside_a_clearance_with_no_landing_holds():
     assert ex["outcome"] in ("hover", "go-around") and ex["manoeuvre"]["keeps_clearance_floor"]
     assert _dist(res.positions, (truck,)).min() >= FAST.clearance_ft
     assert np.linalg.norm(res.positions[-1] - BC.rf) > 20.0
+
+
+def test_stress_journal_resumes_the_layouts_it_holds(synthetic, tmp_path):
+    # Each finished layout goes to the journal at once; a re-run takes those rows from it
+    # (flies nothing again) and flies only the rest. A torn last line (a kill mid-write)
+    # is cut off; records of other settings are ignored; a bad line is one error.
+    from rangefx.tools.errors import UserError
+    from rangefx.tools.studies.flights import read_stress_journal
+
+    coarse = AvoidConfig(n_samples=24, n_basis=5, replan_interval=50.0)
+    sim = SimulationConfig(guidance_interval=0.5)
+    kw = {"seed": 1, "source": "synthetic", "config": sim, "avoid": coarse}
+    flown: list[dict] = []
+    first = stress_programme(synthetic, 1, on_row=flown.append, **kw)
+    assert [r["name"] for r in flown] == ["stress1-0"] and set(first.runs) == {"stress1-0"}
+    settings = {"source": "synthetic", "seed": 1}
+    path = tmp_path / "stress_layouts.jsonl"
+    lines = [json.dumps({"settings": settings, "row": r}) for r in flown]
+    other = json.dumps({"settings": {**settings, "seed": 2}, "row": {**flown[0], "outcome": "x"}})
+    path.write_text("\n".join([*lines, other]) + "\n" + lines[0][:30])  # torn last line
+    done = read_stress_journal(path, settings)
+    assert list(done) == ["stress1-0"] and done["stress1-0"]["outcome"] == flown[0]["outcome"]
+    assert path.read_text().endswith("\n")  # the torn line is cut off
+    again: list[dict] = []
+    second = stress_programme(synthetic, 2, done=done, on_row=again.append, **kw)
+    assert [r["name"] for r in second.rows] == ["stress1-0", "stress1-1"]
+    assert second.rows[0] == json.loads(lines[0])["row"]  # taken, not flown again
+    assert set(second.runs) == {"stress1-1"} and [r["name"] for r in again] == ["stress1-1"]
+    path.write_text(lines[0] + "\nnot json\n")
+    with pytest.raises(UserError, match="line 2 is not a stress layout record"):
+        read_stress_journal(path, settings)
+
+
+def test_an_escape_from_inside_an_extent_leaves_it_sideways_not_over_its_top():
+    # runway/P1 stress0-10 in miniature: the start lies inside a long along-ray extent's
+    # footprint, 4 ft below its top, flying along it at 38 ft/s; a true vehicle inside
+    # the extent stands 80 ft ahead, 8 ft to the side. The nearest way out of the extent
+    # was up through its top (4 ft): the escape climbed there, slowly (0.09 g at the
+    # load-factor limit), and passed the vehicle at 18.2 ft, 2 ft above its roof. Made
+    # a wall for the escape, the extent is left sideways: >= 20 ft from the vehicle.
+    bc = BoundaryConditions(
+        r0=[0.0, 0.0, 7.0], v0=[38.0, 0.0, 0.0], rf=[300.0, 140.0, 5.0], vf=[5.0, 0.0, 0.0]
+    )
+    extent = ObstacleBox("extent", (100.0, -3.0), 0.0, 160.0, 12.0, 11.0)
+    truck = ObstacleBox("truck", (80.0, -8.0), 0.0, 10.0, 4.0, 8.0)
+    field = ObstacleField(np.array([[100.0, -3.0, 4.0]]), WEIGHTS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = simulate_avoid(bc, field, (extent,), config=SIM, avoid=FAST)
+    ex = res.extras
+    assert "the start is" in ex["landing_blocked"] and ex["manoeuvre"]["keeps_clearance_floor"]
+    assert _dist(res.positions, (truck,)).min() >= FAST.clearance_ft
+    assert ex["outcome"] == "landing"  # and it lands from the hold point

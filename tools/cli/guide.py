@@ -18,7 +18,9 @@ the ±10 ft shift grid and ``N`` seeded random layouts of the synthetic set inst
 ``--stress N [--pipeline NAME] [--seed S]`` flies both laws over ``N`` seeded layouts of
 the ``runway`` scene ranged by the pipeline, each moved so that a true vehicle stands on
 or near the nominal path (:mod:`rangefx.guidance.stress`), and writes ``stress.json``
-and ``stress_worst.png``. When no path to the touch-down keeps the clearance the
+and ``stress_worst.png``; each finished layout is appended to ``stress_layouts.jsonl`` in
+``--out`` at once, and a re-run of the same command flies only the layouts not yet
+there. When no path to the touch-down keeps the clearance the
 avoiding law takes a safe manoeuvre (hover and hold, climb over, turn away) and says so.
 
 One call of :func:`rangefx.api.guide` (:mod:`rangefx.tools.studies.flights`). Writes
@@ -49,7 +51,7 @@ def cmd_guide(args: argparse.Namespace) -> int:
         args.obstacles, law=args.law, clearance_ft=args.clearance, shift=tuple(args.shift),
         guidance_interval=args.guidance_interval, replan_interval=args.replan_interval,
         layout_sweep=args.layout_sweep, stress=args.stress, pipeline=args.pipeline,
-        seed=args.seed, jobs=args.jobs,
+        seed=args.seed, jobs=args.jobs, out=args.out if args.stress is not None else None,
     )  # fmt: skip
     out = result.write(args.out)
     if result.programme == "stress":
@@ -170,7 +172,8 @@ def add_parser(sub) -> None:
         metavar="N",
         help="stress programme: N seeded layouts of the runway scene ranged by --pipeline, "
         "each moved so that a true vehicle stands on or near the nominal path; the avoiding "
-        "law and the report's flown on each (writes stress.json, stress_worst.png)",
+        "law and the report's flown on each (writes stress.json, stress_worst.png, and "
+        "stress_layouts.jsonl as each layout ends: a re-run resumes)",
     )
     p.add_argument(
         "--pipeline",

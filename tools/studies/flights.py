@@ -26,6 +26,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import os
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -39,12 +40,25 @@ from rangefx.rtl_model.registry import PIPELINES
 from ..errors import UserError
 from ..report import atomic_output_dir, atomic_write_text, json_safe
 
-__all__ = ["OBSTACLE_SETS", "PROGRAMMES", "GuideResult", "guide_flight", "stress_table"]
+__all__ = [
+    "OBSTACLE_SETS",
+    "PROGRAMMES",
+    "STRESS_JOURNAL",
+    "GuideResult",
+    "guide_flight",
+    "read_stress_journal",
+    "runway_config",
+    "stress_table",
+]
 
 #: Obstacle sets of a single flight.
 OBSTACLE_SETS = ("synthetic", "runway", *(f"runway-{name}" for name in PIPELINES))
 #: The programmes :func:`guide_flight` flies.
 PROGRAMMES = ("flight", "layout-sweep", "stress")
+#: The stress programme's journal in its output directory: one JSON line per finished
+#: layout, appended (and synced) as it finishes, so that an interrupted programme keeps
+#: the layouts it flew and a re-run of the same command flies only the others.
+STRESS_JOURNAL = "stress_layouts.jsonl"
 
 
 def _csv(header: str, rows: np.ndarray) -> str:
@@ -101,7 +115,7 @@ class GuideResult:
             from rangefx.guidance.plots import save_stress_figure
 
             atomic_write_text(d / "stress.json", _json(self.summary))
-            if self._payload.rows:
+            if self._payload.runs:
                 save_stress_figure(self._payload, d / "stress_worst.png")
 
 
@@ -131,10 +145,11 @@ def guide_flight(
     obstacles: str = "synthetic", *, law: str = "avoid", clearance_ft: float = 20.0,
     shift: Sequence[float] = (0.0, 0.0, 0.0), guidance_interval: float = 0.1,
     replan_interval: float = 0.5, layout_sweep: int | None = None, stress: int | None = None,
-    pipeline: str = "p1", seed: int = 0, jobs: int = 1,
+    pipeline: str = "p1", seed: int = 0, jobs: int = 1, out: str | Path | None = None,
 ) -> GuideResult:
     """:func:`rangefx.api.guide` (its parameters and errors are documented there): one
-    flight of ``law`` on ``obstacles``, the layout sweep, or the stress programme."""
+    flight of ``law`` on ``obstacles``, the layout sweep, or the stress programme (with
+    ``out``, journalled in that output directory: :data:`STRESS_JOURNAL`)."""
     # fmt: on
     if len(shift) != 3 or not all(math.isfinite(v) for v in shift):
         raise UserError(f"--shift must be finite numbers, not {list(shift)}")
@@ -154,7 +169,7 @@ def guide_flight(
         if jobs < 1:
             raise UserError(f"--jobs must be >= 1, not {jobs}")
         return _stress(stress, pipeline, seed, clearance_ft, guidance_interval, replan_interval,
-                       jobs)  # fmt: skip
+                       jobs, out)  # fmt: skip
     if layout_sweep is not None:
         if layout_sweep < 0:
             raise UserError(f"--layout-sweep must be >= 0, not {layout_sweep}")
@@ -186,12 +201,7 @@ def _runway_case(pipeline: str | None):
     label = f"--pipeline {pipeline}" if pipeline else "--obstacles runway"
     if pipeline is not None:
         pipe = get_pipeline(pipeline)
-        if pipeline == "p1":  # the consistent variant, as the documented figures
-            from rangefx.rtl_model.p1 import P1Config
-
-            config = P1Config.default(variant="consistent")
-        else:
-            config = pipe.default_config()
+        config = runway_config(pipeline)
         source = range_source(pipe, config)
         try:
             scene = runway_scene_for(pipe.modes)
@@ -205,6 +215,7 @@ def _runway_case(pipeline: str | None):
     case.info["method"] = (
         f"{pipeline.upper()} fixed point, {mode} mode, default config"
         + (", consistent" if pipeline == "p1" else "")
+        + (f", p3_range {config.formats['p3_range']}" if pipeline == "p3" else "")
         if pipeline
         else "golden g4_consistent"
     )
@@ -212,27 +223,136 @@ def _runway_case(pipeline: str | None):
     return case
 
 
+def runway_config(pipeline: str):
+    """The config ``pipeline`` ranges the runway scene with in the guidance chain: P1's
+    consistent variant (as the documented figures), P3's default with a range word that
+    holds the runway's ``range_max`` (2000 ft), any other pipeline's default.
+
+    P3's default ``p3_range`` is u20.12: 8 integer bits, so its ``range_max`` register
+    saturates at 256 ft and the ``u >= u_min`` gate (``z <= range_max``) flags every
+    pixel beyond it invalid -- on the stereo runway pair 4 of the 5 vehicles (300-607
+    ft; measured: 0 valid pixels of 2 922). The same 20-bit word with 11 integer bits
+    (u20.9, 1/512 ft) ranges all 5 (every pixel of Vehicles 1, 2, 4, 5)."""
+    from dataclasses import replace
+
+    from rangefx.golden.methods import SCENE_RANGING
+    from rangefx.rtl_model.registry import get_pipeline
+
+    if pipeline == "p1":
+        from rangefx.rtl_model.p1 import P1Config
+
+        return P1Config.default(variant="consistent")
+    config = get_pipeline(pipeline).default_config()
+    if pipeline != "p3":
+        return config
+    fmt = config.formats["p3_range"]
+    need = SCENE_RANGING["runway"].range_max
+    if fmt.raw_max * fmt.lsb >= need:
+        return config
+    int_bits = math.ceil(math.log2(need)) + int(fmt.signed)
+    return config.with_formats(p3_range=replace(fmt, frac=fmt.word - int_bits))
+
+
 def _stress(
     count: int, pipeline: str, seed: int, clearance_ft: float, guidance_interval: float,
-    replan_interval: float, jobs: int = 1,
+    replan_interval: float, jobs: int = 1, out: str | Path | None = None,
 ) -> GuideResult:  # fmt: skip
     """The stress programme (:func:`rangefx.guidance.stress.stress_programme`) on the
-    ``runway`` scene ranged by ``pipeline``."""
+    ``runway`` scene ranged by ``pipeline``; with ``out``, each finished layout is
+    appended to ``out/``:data:`STRESS_JOURNAL` and the layouts already there (of the
+    same settings) are taken from it instead of flown again."""
     from tqdm import tqdm
 
     from rangefx.guidance.stress import stress_programme
 
     config, avoid = _configs(guidance_interval, clearance_ft, replan_interval)
-    case = _runway_case(pipeline)
+    settings = {
+        "source": f"runway-{pipeline}", "seed": seed, "clearance_ft": clearance_ft,
+        "guidance_interval_s": guidance_interval, "replan_interval_s": replan_interval,
+    }  # fmt: skip
+    case = _runway_case(pipeline)  # a user error here leaves no output directory behind
+    journal = None if out is None else _open_stress_journal(Path(out))
+    done = {} if journal is None else read_stress_journal(journal, settings)
     bar = tqdm(total=count, desc="stress", disable=not sys.stderr.isatty())
+    flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT
+    fd = None if journal is None else os.open(journal, flags, 0o666)
+
+    def append(row: dict) -> None:
+        if fd is None:
+            return
+        # NaN and inf kept (Python's JSON reads them back): a resumed row is the row flown
+        rec = {"settings": settings, "row": row}
+        data = (json.dumps(rec, default=_numpy_scalar) + "\n").encode()
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view) :]
+            os.fsync(fd)
+        except OSError as exc:
+            raise UserError(f"cannot append to {journal}: {exc.strerror}") from None
+
     try:
         res = stress_programme(
-            case, count, seed=seed, source=f"runway-{pipeline}", clearance_ft=clearance_ft,
+            case, count, seed=seed, source=settings["source"], clearance_ft=clearance_ft,
             config=config, avoid=avoid, progress=lambda _n: bar.update(), jobs=jobs,
+            done=done, on_row=append,
         )  # fmt: skip
     finally:
         bar.close()
-    return GuideResult("stress", res.to_dict(), _payload=res)
+        if fd is not None:
+            os.close(fd)
+    summary = res.to_dict()
+    summary["resumed_layouts"] = sorted(n for n in done if n in {r["name"] for r in res.rows})
+    return GuideResult("stress", summary, _payload=res)
+
+
+def _numpy_scalar(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def _open_stress_journal(out: Path) -> Path:
+    """``out/``:data:`STRESS_JOURNAL`, creating ``out`` as an (empty) rangefx output
+    directory if it does not exist, so that the journal lives where the results go."""
+    if not out.exists():
+        with atomic_output_dir(out):
+            pass
+    path = out / STRESS_JOURNAL
+    if path.exists() and (path.is_symlink() or not path.is_file()):
+        raise UserError(f"{path} is not a file (rangefx journals the stress layouts there)")
+    return path
+
+
+def read_stress_journal(path: str | Path, settings: dict) -> dict[str, dict]:
+    """The rows of stress journal ``path`` flown with ``settings`` (source, seed,
+    clearance and intervals), by layout name; records of other settings are ignored (a
+    later record of a layout wins). A torn last line (a kill mid-write) is cut off the
+    file, so that appending continues on a clean line; any other unreadable line is a
+    :class:`UserError`."""
+    path = Path(path)
+    if not path.exists():
+        return {}
+    data = path.read_bytes()
+    end = data.rfind(b"\n") + 1
+    if end != len(data):
+        with open(path, "r+b") as f:
+            f.truncate(end)
+    rows: dict[str, dict] = {}
+    for n, line in enumerate(data[:end].splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            rec = json.loads(line)
+            row = rec["row"]
+            if rec["settings"] == settings:
+                rows[row["name"]] = row
+        except (ValueError, KeyError, TypeError):
+            raise UserError(
+                f"{path}: line {n} is not a stress layout record; delete it (and the lines "
+                "after it) to resume from the layouts before it"
+            ) from None
+    return rows
 
 
 def _layout_sweep(
