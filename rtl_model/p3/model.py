@@ -14,6 +14,10 @@ gradient test and the range divider ``z = f B / u``. Every filter replicates its
 borders, as the streaming schedule (:func:`rangefx.golden.multiscale.streaming_schedule`)
 does at the frame edges; the values do not depend on timing, the cycle stamps follow
 the schedule (:func:`tap_cycles`).
+
+A warp stage runs as line work (:func:`_stage_rows`, :func:`_stage_rows_vertical`) then
+column work (:func:`_stage_columns`), each over every line of the level; on two threads
+each runs in two bands of lines with their own logs (:func:`_in_bands`), merged after.
 """
 
 from __future__ import annotations
