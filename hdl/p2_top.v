@@ -5,13 +5,13 @@
 //
 // Units and their cycles (r: a sweep slot's line-buffer read, E = r + SWEEP_READ its loop
 // entry, t: a forward slot's sweep-buffer read, F = t + FWD_READ; every stage holds one
-// multiply (fx_mul_pipe, MUL_LAT = 3 stages), one carry chain or one cast; block RAMs
-// read through their output register, LB_READ = 2):
+// multiply (fx_mul_pipe, MUL_LAT = 3 stages), one carry chain or one cast; the line and
+// sweep buffers read in LB_READ = 5 cycles, p2_ram below):
 //   beat + 1  x1, x2 = cast(E, pix)          beat + 2  d, g_hat (tap), line-buffer write
-//   r + 2     d_k, G_k (RAM output register)  r + 3     D = d_k + d_k+1, dG
-//   r + 6     KA D                            r + 7     a = cast(KA D)
-//   r + 10    a^2                             r + 11    cast(a^2)
-//   E = r+12  c = max(cast(a^2), C_MIN)       E + 1     S~_k+1, Q~_k+1 (lane state read)
+//   r + 5     d_k, G_k (p2_ram's output)      r + 6     D = d_k + d_k+1, dG
+//   r + 9     KA D                            r + 10    a = cast(KA D)
+//   r + 13    a^2                             r + 14    cast(a^2)
+//   E = r+15  c = max(cast(a^2), C_MIN)       E + 1     S~_k+1, Q~_k+1 (lane state read)
 //   E + 4     c S~, S~ dG                     E + 5     1 + c S~, Q~ - S~ dG
 //   E + 6     den (divider operand), h        E + 6 + T_DIV  r
 //   E + 9 + T_DIV  r S~, r h                  E + 10 + T_DIV  M + r S~
@@ -20,7 +20,7 @@
 //   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, -a
 //   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w   F + 10  lam (tap)
 //   F + 13    (-a) lam  F + 14 z (tap)  F + 17  a z        F + 18  u + a z, cast into the
-//   lane's e state (T_F = 20: the lane's next e operand is read at its next t + 1)
+//   lane's e state (T_F = 20: the lane's next e operand is read at its next t + 4)
 //   F + 15    valid, range (threshold)  F + 16  output register (taps, m_axis)
 // Lines are taken in groups of LANES (ping-pong line and sweep buffers, bank = group mod 2);
 // a group's sweep runs WIDTH columns x P_B cycles (column WIDTH-1's slot loads S~_end,
@@ -36,6 +36,7 @@ module p2_top #(
     parameter integer HEIGHT = 8,
     parameter integer LANES = 11,
     parameter integer T_DIV = 14,       // rtl_model/p2/config.py divider_latency_p2
+                                        // (reciprocal: fx_div_reciprocal PIPE 1, UNIT 1)
     parameter integer DIVIDER = 1,      // 1 reciprocal, 0 restoring
     parameter integer RECIP_L = 8,
     parameter integer RECIP_R = 20,
