@@ -125,9 +125,9 @@ def runway_case(
     """The ``runway`` scene end to end: ``source`` ranges it (default golden
     ``g4_consistent``; the P1 pipeline plugs in), the valid points give the report's
     obstacle points (:func:`.obstacles.obstacles_from_range`, ≤ ``max_points`` by voxel
-    clustering) and the extents (:func:`.extraction.extract_obstacles` with the
-    range-error model of the pair: motion, or stereo for a stereo pair); truth is the
-    scene's vehicles."""
+    clustering) and the extents (:func:`.extraction.extract_obstacles`; by default with
+    the range-error model of the pair: motion, or stereo for a stereo pair); truth is
+    the scene's vehicles."""
     from rangefx.golden.methods import SCENE_RANGING
     from rangefx.golden.scenes import render_scene
 
@@ -141,9 +141,10 @@ def runway_case(
         rng_map, valid, scene.camera, scene.motion,
         max_points=max_points, max_range=max_range, frame_map=fmap,
     )  # fmt: skip
-    # the range-error model of the pair ranged: a stereo pair (P3) is not motion ranging
-    kind = "stereo" if getattr(scene, "kind", "motion") == "stereo" else "motion"
-    ex_cfg = replace(extraction or ExtractionConfig(), max_range=max_range, error_model=kind)
+    if extraction is None:  # the range-error model of the pair: stereo (P3) or motion
+        kind = "stereo" if getattr(scene, "kind", "motion") == "stereo" else "motion"
+        extraction = ExtractionConfig(error_model=kind)
+    ex_cfg = replace(extraction, max_range=max_range)
     ex = extract_obstacles(
         rng_map, valid, scene.camera, scene.motion,
         images=(scene.image1, scene.image2), frame_map=fmap, config=ex_cfg,
