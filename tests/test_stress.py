@@ -284,7 +284,7 @@ def test_a_landing_from_the_hold_point_that_reaches_zero_airspeed_holds_not_cras
 
     def failing(state, ctrl, params, t, *args):
         if t >= decided + 1.0:
-            raise RuntimeError("integration failed at t = %g s: injected" % t)
+            raise RuntimeError(f"integration failed at t = {t:g} s: injected")
         return real(state, ctrl, params, t, *args)
 
     monkeypatch.setattr(avoid, "integrate_held_controls", failing)
