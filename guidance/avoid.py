@@ -1255,6 +1255,15 @@ def simulate_avoid(
             if not last and goal is not bc and stopped:
                 stopped_short = remaining
                 break
+            if not last and landing_after is not None and crawling and not slowing:
+                # The landing from a hold point starts at the hold speed (~1 ft/s); a
+                # plan that turns the velocity round there passes V = 0, which the
+                # model cannot fly (runway/P1 stress0-14: "integration failed" at
+                # t = 7.5 s, just after the hold). A rotorcraft holds: the flight ends
+                # here, holding, and the landing is reported as not flown.
+                landing_after.update(landed=False, aborted_at_s=t, aborted=str(exc))
+                feasible = False
+                break
             if not last:
                 crash = str(exc)  # the model left its domain: the flight ends, said so
                 break
@@ -1310,6 +1319,9 @@ def simulate_avoid(
                 if landing_after is None
                 else "; then landed from the hold point on a plan that keeps the clearance"
                 if landed_after
+                else f"; the landing from the hold point reached zero airspeed (the model's "
+                f"limit) at t = {landing_after['aborted_at_s']:.1f} s: holding there"
+                if "aborted_at_s" in landing_after
                 else "; no landing from the hold point keeps the clearance: holding"
             ),
             InfeasibleClearanceWarning,

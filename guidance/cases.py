@@ -124,17 +124,18 @@ def runway_case(
     """The ``runway`` scene end to end: ``source`` ranges it (default golden
     ``g4_consistent``; the P1 pipeline plugs in), the valid points give the report's
     obstacle points (:func:`.obstacles.obstacles_from_range`, ≤ ``max_points`` by voxel
-    clustering) and the extents (:func:`.extraction.extract_obstacles` with the
-    range-error model of the pair: motion, or stereo for a stereo pair); truth is the
-    scene's vehicles."""
+    clustering) and the extents (:func:`.extraction.extract_obstacles`; by default with
+    the range-error model of the pair: motion, or stereo for a stereo pair); truth is
+    the scene's vehicles."""
     r = runway_range(source, scene=scene)
     pts = obstacles_from_range(
         r.range_map, r.valid, r.scene.camera, r.scene.motion,
         max_points=max_points, max_range=r.max_range, frame_map=r.frame_map,
     )  # fmt: skip
-    # the range-error model of the pair ranged: a stereo pair (P3) is not motion ranging
-    kind = "stereo" if getattr(r.scene, "kind", "motion") == "stereo" else "motion"
-    ex_cfg = replace(extraction or ExtractionConfig(), max_range=r.max_range, error_model=kind)
+    if extraction is None:  # the range-error model of the pair: stereo (P3) or motion
+        kind = "stereo" if getattr(r.scene, "kind", "motion") == "stereo" else "motion"
+        extraction = ExtractionConfig(error_model=kind)
+    ex_cfg = replace(extraction, max_range=r.max_range)
     ex = extract_obstacles(
         r.range_map, r.valid, r.scene.camera, r.scene.motion,
         images=(r.scene.image1, r.scene.image2), frame_map=r.frame_map, config=ex_cfg,

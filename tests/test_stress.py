@@ -268,3 +268,30 @@ def test_an_escape_from_inside_an_extent_leaves_it_sideways_not_over_its_top():
     assert "the start is" in ex["landing_blocked"] and ex["manoeuvre"]["keeps_clearance_floor"]
     assert _dist(res.positions, (truck,)).min() >= FAST.clearance_ft
     assert ex["outcome"] == "landing"  # and it lands from the hold point
+
+
+def test_a_landing_from_the_hold_point_that_reaches_zero_airspeed_holds_not_crashes(monkeypatch):
+    # The landing from a hold point starts at the hold speed; if the model's integration
+    # fails there (V -> 0, eqs 2-3 singular: runway/P1 stress0-14 crashed so), the
+    # vehicle holds where it is: outcome the manoeuvre's, the landing reported as not
+    # flown, never "crash". Injected: the integrator fails 1 s into the landing.
+    import rangefx.guidance.avoid as avoid
+
+    extent, _ = _start_inside_layout()
+    res, _ = _fly((extent,))
+    decided = res.extras["manoeuvre"]["landing_after"]["decided_at_s"]
+    real = avoid.integrate_held_controls
+
+    def failing(state, ctrl, params, t, *args):
+        if t >= decided + 1.0:
+            raise RuntimeError(f"integration failed at t = {t:g} s: injected")
+        return real(state, ctrl, params, t, *args)
+
+    monkeypatch.setattr(avoid, "integrate_held_controls", failing)
+    res, notes = _fly((extent,))
+    ex = res.extras
+    after = ex["manoeuvre"]["landing_after"]
+    assert ex["outcome"] == ex["manoeuvre"]["outcome"] and ex["crash_reason"] == ""
+    assert after["landed"] is False and after["aborted_at_s"] >= decided + 1.0
+    assert ex["feasible"] is False
+    assert any("reached zero airspeed" in n for n in notes)
