@@ -196,7 +196,9 @@ def write_api_pages(app) -> None:
         # no ``.. contents::``: furo shows the page's contents beside it
         parts = [f"{package}\n{'=' * len(package)}\n\n{summary}\n"]
         for module in public_modules(package):
-            parts.append(f"\n{module}\n{'-' * len(module)}\n\n.. automodule:: {module}\n")
+            # the package's own module sits under the page's title (no second heading)
+            heading = "" if module == package else f"{module}\n{'-' * len(module)}\n\n"
+            parts.append(f"\n{heading}.. automodule:: {module}\n")
         text = "".join(parts)
         page = API_DIR / name
         if not page.exists() or page.read_text() != text:

@@ -344,7 +344,7 @@ def test_default_config_bit_exact_under_every_timing(name, k):
         assert_bit_exact(pipeline.run(case, config, timing), ref)
 
 
-@pytest.mark.parametrize("name", ["p1", "p2"])
+@pytest.mark.parametrize("name", list(PIPELINES))
 def test_the_plain_cast_body_is_taken_exactly_when_every_mode_is_plain(name):
     """The shipped configs (RND / TRN, SAT) take the plain body; one signal in RND_CONV,
     TRN_ZERO, WRAP or SAT_ZERO sends the whole config to the body for any modes."""
