@@ -23,8 +23,8 @@ what the layout asks of a law that does not avoid).
 from __future__ import annotations
 
 import math
+import multiprocessing
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -205,6 +205,12 @@ def extent_along_ray_lengths(case: GuidanceCase, camera: np.ndarray) -> dict:
     }
 
 
+def _stress_row_indexed(job: tuple[int, tuple]) -> tuple[int, tuple[dict, tuple]]:
+    """:func:`_stress_row` in a worker process, with the index of its layout."""
+    index, args = job
+    return index, _stress_row(*args)
+
+
 def _stress_row(
     case: GuidanceCase,
     lay: StressLayout,
@@ -321,10 +327,20 @@ def stress_programme(
     if jobs > 1 and len(fly_now) > 1:
         # The rendered scene is not needed to fly: the workers get the case without it.
         light = replace(case, scene=None)
-        with ProcessPoolExecutor(max_workers=min(jobs, len(fly_now))) as pool:
-            futures = {pool.submit(_stress_row, light, lay, *args): lay for lay in fly_now}
-            for fut in as_completed(futures):
-                finished(futures[fut], *fut.result())
+        work = [(i, (light, lay, *args)) for i, lay in enumerate(fly_now)]
+        pool = multiprocessing.get_context().Pool(min(jobs, len(fly_now)))
+        try:
+            for i, result in pool.imap_unordered(_stress_row_indexed, work):
+                finished(fly_now[i], *result)
+        except BaseException:
+            # a stop signal or a failed layout ends the programme: its workers end with it
+            # (joining them would fly every layout still running first)
+            pool.terminate()
+            raise
+        else:
+            pool.close()
+        finally:
+            pool.join()
     else:
         for lay in fly_now:
             finished(lay, *_stress_row(case, lay, *args))

@@ -12,6 +12,8 @@ a tolerance (the analytic derivative moves SLSQP's iterates by its round-off).
 
 from __future__ import annotations
 
+import os
+import time
 import warnings
 
 import numpy as np
@@ -130,3 +132,37 @@ def test_stress_jobs_fly_the_same_rows():
     assert [r["name"] for r in two.rows] == ["stress2-0", "stress2-1"]
     with pytest.raises(ValueError, match="jobs"):
         stress_programme(case, 1, jobs=0, **kw)
+
+
+def _one_fails_one_runs_on(case, lay, *args):
+    """A stand-in flight, module level so that any pool can send it to a worker: layout 0
+    runs for 20 s, layout 1 fails once layout 0 has started."""
+    from pathlib import Path
+
+    work = Path(os.environ["RANGEFX_TEST_STRESS_DIR"])
+    if lay.name.endswith("-0"):
+        (work / "started").write_text("")
+        time.sleep(20.0)
+        (work / "finished").write_text("")
+        return {}, ()
+    while not (work / "started").exists():
+        time.sleep(0.01)
+    raise RuntimeError("layout failed")
+
+
+def test_a_stopped_stress_programme_ends_its_workers(monkeypatch, tmp_path):
+    # One layout fails while the other is still being flown in its worker: the programme
+    # raises at once and the other worker is ended, not waited for (a stop signal takes
+    # the same path: the command's workers must not outlive it).
+    from rangefx.guidance import stress
+
+    monkeypatch.setenv("RANGEFX_TEST_STRESS_DIR", str(tmp_path))
+    monkeypatch.setattr(stress, "_stress_row", _one_fails_one_runs_on)
+    with pytest.raises(RuntimeError, match="layout failed"):
+        stress_programme(
+            synthetic_case(), 2, jobs=2, seed=2, source="synthetic",
+            config=SimulationConfig(guidance_interval=0.5),
+            avoid=AvoidConfig(n_samples=24, n_basis=5, replan_interval=50.0),
+        )  # fmt: skip
+    time.sleep(0.5)
+    assert (tmp_path / "started").exists() and not (tmp_path / "finished").exists()
