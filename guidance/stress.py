@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import multiprocessing
+import signal
 import time
 from dataclasses import dataclass, field, replace
 
@@ -205,6 +206,16 @@ def extent_along_ray_lengths(case: GuidanceCase, camera: np.ndarray) -> dict:
     }
 
 
+def _worker_signals() -> None:
+    """A worker's stop signals: the default action (a forked worker inherits the
+    command's handler, which would let it fly on until its code returns to Python), and
+    Ctrl-C left to the command, which ends its workers."""
+    for name in ("SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _stress_row_indexed(job: tuple[int, tuple]) -> tuple[int, tuple[dict, tuple]]:
     """:func:`_stress_row` in a worker process, with the index of its layout."""
     index, args = job
@@ -328,7 +339,9 @@ def stress_programme(
         # The rendered scene is not needed to fly: the workers get the case without it.
         light = replace(case, scene=None)
         work = [(i, (light, lay, *args)) for i, lay in enumerate(fly_now)]
-        pool = multiprocessing.get_context().Pool(min(jobs, len(fly_now)))
+        pool = multiprocessing.get_context().Pool(
+            min(jobs, len(fly_now)), initializer=_worker_signals
+        )
         try:
             for i, result in pool.imap_unordered(_stress_row_indexed, work):
                 finished(fly_now[i], *result)
