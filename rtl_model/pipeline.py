@@ -389,6 +389,13 @@ class Pipeline(abc.ABC):
     calibration_configs: ClassVar[dict[str, tuple[str | None, dict[str, Any], bool]]] = {}
     #: The fitted coefficients, relative to the package root (``""``: none).
     area_calibration: ClassVar[str] = ""
+    #: Peak resident bytes a pixel of ``rangefx run`` of this pipeline beside its golden,
+    #: above the process's base (:data:`rangefx.tools.studies.runner.RUN_BASE_BYTES`):
+    #: the fit of ``/usr/bin/time -f %M rangefx run --pipeline P --left L.npy --right
+    #: R.npy`` at 512x512 and 2048x2048 with 15 % headroom, which the memory guard of a
+    #: run reads (:func:`rangefx.tools.studies.runner.run_memory_bytes`); ``None``: not
+    #: measured, estimated at the largest of the registry's.
+    run_bytes_per_pixel: ClassVar[int | None] = None
 
     def sweep_example_paths(self) -> tuple[Path, ...]:
         """:attr:`sweep_examples` as absolute paths."""

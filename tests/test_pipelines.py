@@ -21,6 +21,7 @@ from rangefx.rtl_model.registry import PIPELINES, get_pipeline
 from rangefx.rtl_model.runtime import finish_band, reciprocal_lut
 from rangefx.tools.cli import main
 from rangefx.tools.studies.cases import crop_case, scene_case
+from rangefx.tools.studies.runner import RUN_BASE_BYTES, run_memory_bytes
 from rangefx.vectors.generate import build_vectors, check_vectors, diff_dump, write_vectors
 
 NAMES = list(PIPELINES)
@@ -45,6 +46,9 @@ def test_registry():
     for name, p in PIPELINES.items():
         assert p.name == name and get_pipeline(name) is p
         assert issubclass(p.config_type, WordLengthConfig)
+        # the memory guard's figure is the pipeline's own, and every shipped one is measured
+        assert p.run_bytes_per_pixel is not None and p.run_bytes_per_pixel > 0
+        assert run_memory_bytes(10, name) == RUN_BASE_BYTES + 10 * p.run_bytes_per_pixel
     with pytest.raises(ValueError, match=f"unknown pipeline 'p9'; choose from {', '.join(NAMES)}$"):
         get_pipeline("p9")
 

@@ -104,6 +104,9 @@ class ToyPipeline(Pipeline):
     settings_type: ClassVar[type] = ToySettings
     case_options: ClassVar[tuple[str, ...]] = ("range_max",)
     buildup_axes: ClassVar[dict[str, str]] = {"rows": "row index"}
+    #: ``/usr/bin/time -f %M`` of ``rangefx run --pipeline toy`` on a pair at 512x512 and
+    #: 2048x2048: 69 B a pixel, with 15 % headroom.
+    run_bytes_per_pixel: ClassVar[int | None] = 80
 
     def stage_latencies(self, config: WordLengthConfig) -> dict[str, int]:
         return {"box": BOX_LATENCY, "out": OUT_LATENCY}
@@ -294,6 +297,25 @@ def test_the_toy_sweeps_and_optimises(toy, tmp_path, capsys):
     assert report["pipeline"] == "toy" and report["bits_saved"] > 0
     optimised = ToyConfig.load(opt / "optimised.toml")
     assert optimised.register_bits() < toy.default_config().register_bits()
+
+
+def test_the_memory_guard_reads_the_toys_own_bytes_a_pixel(toy):
+    """A run's memory estimate takes the pipeline's own figure; a pipeline that declares
+    none is estimated at the largest of the registry's."""
+    from rangefx.tools.studies.runner import RUN_BASE_BYTES, run_bytes_per_pixel, run_memory_bytes
+
+    assert run_bytes_per_pixel("toy") == 80
+    assert run_memory_bytes(1000, "toy", runs=2) == RUN_BASE_BYTES + 2 * 1000 * 80
+    largest = max(p.run_bytes_per_pixel or 0 for p in PIPELINES.values())
+    assert largest > 80 and run_bytes_per_pixel() == largest
+    unmeasured = type(
+        "Unmeasured", (ToyPipeline,), {"name": "unmeasured", "run_bytes_per_pixel": None}
+    )
+    register_pipeline(unmeasured())
+    try:
+        assert run_bytes_per_pixel("unmeasured") == largest
+    finally:
+        unregister_pipeline("unmeasured")
 
 
 def test_the_real_pair_protocol_takes_its_pipelines_from_the_registry(toy):

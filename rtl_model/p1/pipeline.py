@@ -61,6 +61,7 @@ class P1Pipeline(Pipeline):
         cost.CALIBRATION_CONFIGS
     )
     area_calibration: ClassVar[str] = "rtl_model/p1/synth_calibration.toml"
+    run_bytes_per_pixel: ClassVar[int | None] = 363  # measured 316, with 15 % headroom
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:

@@ -56,6 +56,7 @@ class P2Pipeline(Pipeline):
         cost.CALIBRATION_CONFIGS
     )
     area_calibration: ClassVar[str] = "rtl_model/p2/synth_calibration.toml"
+    run_bytes_per_pixel: ClassVar[int | None] = 202  # measured 176, with 15 % headroom
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:

@@ -18,14 +18,14 @@ from rangefx.golden.scenes import Scene
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig, propose_config
 from rangefx.rtl_model.fixedpoint import FixedFormat, cast_array
 from rangefx.rtl_model.pipeline import Case, GoldenReference, Pipeline, PipelineResult
-from rangefx.rtl_model.registry import get_pipeline
+from rangefx.rtl_model.registry import PIPELINES, get_pipeline
 
 from .. import report
 from ..errors import UserError, require_memory
 
 __all__ = [
+    "GOLDEN_BYTES_PER_PIXEL",
     "RUN_BASE_BYTES",
-    "RUN_BYTES_PER_PIXEL",
     "check_input_levels",
     "compare_ranges",
     "golden_case",
@@ -34,6 +34,7 @@ __all__ = [
     "propose_from_cases",
     "range_source",
     "require_run_memory",
+    "run_bytes_per_pixel",
     "run_case",
     "run_memory_bytes",
 ]
@@ -78,21 +79,35 @@ def check_input_levels(
 
 #: Peak resident memory of ``rangefx run`` (a pipeline beside its golden, or a golden
 #: method alone): a base (the interpreter, numpy, numba and the loaded kernels) plus
-#: bytes per pixel, per pipeline. Fitted to ``/usr/bin/time -f %M rangefx run --pipeline
-#: P --left L.npy --right R.npy`` at 512x512 and 2048x2048 (random 8-bit pair, AMD EPYC,
-#: warm kernel cache): base ~200 MB; golden 195, P1 316, P2 176, P3 323 B a pixel; the
-#: figures here are those with 15 % of headroom, so the estimate is 14-21 % above the
-#: measured peak at both sizes (docs/guarantees.md). A pipeline not listed is estimated
-#: at the largest.
+#: bytes per pixel, each pipeline's its own :attr:`Pipeline.run_bytes_per_pixel`. Fitted
+#: to ``/usr/bin/time -f %M rangefx run --pipeline P --left L.npy --right R.npy`` at
+#: 512x512 and 2048x2048 (random 8-bit pair, AMD EPYC, warm kernel cache): base ~200 MB;
+#: golden 195, P1 316, P2 176, P3 323 B a pixel; the figures are those with 15 % of
+#: headroom, so the estimate is 14-21 % above the measured peak at both sizes
+#: (docs/guarantees.md).
 RUN_BASE_BYTES = 220 * 2**20
-RUN_BYTES_PER_PIXEL: dict[str, int] = {"golden": 224, "p1": 363, "p2": 202, "p3": 371}
+#: A golden method alone, bytes a pixel (``rangefx run --method``).
+GOLDEN_BYTES_PER_PIXEL = 224
+
+
+def run_bytes_per_pixel(pipeline: str | None = None) -> int:
+    """Bytes a pixel of a run of ``pipeline`` (a registry name: its
+    :attr:`~rangefx.rtl_model.pipeline.Pipeline.run_bytes_per_pixel`; ``"golden"``: a
+    golden method alone). None, or a pipeline that declares no figure: the largest
+    figure of the registry and golden."""
+    if pipeline == "golden":
+        return GOLDEN_BYTES_PER_PIXEL
+    own = getattr(PIPELINES.get(pipeline or ""), "run_bytes_per_pixel", None)
+    if own is not None:
+        return own
+    declared = (p.run_bytes_per_pixel for p in PIPELINES.values())
+    return max(GOLDEN_BYTES_PER_PIXEL, *(b for b in declared if b is not None))
 
 
 def run_memory_bytes(pixels: int, pipeline: str | None = None, runs: int = 1) -> int:
     """Estimated peak bytes of ``runs`` concurrent runs of ``pipeline`` (a registry name,
     ``"golden"`` for a golden method alone, None for the largest) on ``pixels`` pixels."""
-    per_pixel = RUN_BYTES_PER_PIXEL.get(pipeline or "", max(RUN_BYTES_PER_PIXEL.values()))
-    return RUN_BASE_BYTES + runs * pixels * per_pixel
+    return RUN_BASE_BYTES + runs * pixels * run_bytes_per_pixel(pipeline)
 
 
 def require_run_memory(what: str, pixels: int, runs: int = 1, pipeline: str | None = None) -> None:
