@@ -28,7 +28,7 @@ from rangefx.golden.scenes import Scene
 from .config import TimingConfig, WordLengthConfig
 from .cost import CostReport, estimate_area, load_area_calibration
 from .fixedpoint import FixedFormat, Overflow, Quant
-from .runtime import divider_roms
+from .runtime import check_threads, divider_roms
 
 __all__ = [
     "MODES",
@@ -439,9 +439,10 @@ class Pipeline(abc.ABC):
             return {}
         return self.buildup_model(result, golden, self.tap_specs(result.config, result.mode))
 
-    #: The model function the default :meth:`simulate` calls, as a ``staticmethod``:
-    #: ``run_model(image1, image2, camera, motion, config, settings, *, timing, taps,
-    #: threads, log) -> PipelineResult``.
+    #: The model function the default :meth:`simulate` calls, as a ``staticmethod``, on
+    #: the arguments :meth:`run` has checked: ``run_model(case, config, settings, timing,
+    #: *, taps, threads, log) -> PipelineResult`` (``settings``: :meth:`settings` of the
+    #: case; ``lines=`` too for a :attr:`line_independent` pipeline).
     run_model: ClassVar[Callable[..., PipelineResult] | None] = None
 
     #: Build-up profile name -> what its index counts (the plot's x label).
@@ -459,11 +460,6 @@ class Pipeline(abc.ABC):
     #: ``cycle_model(tap_name, config, in_cycles, hblank) -> cycles`` of a pipeline whose
     #: samples leave on a schedule (:meth:`tap_cycles`).
     cycle_model: ClassVar[Callable[..., np.ndarray] | None] = None
-
-    def model_options(self, case: Case) -> dict[str, Any]:
-        """Keyword arguments of :attr:`run_model` taken from the case besides its images,
-        camera, motion and settings (P1: its ``mode``); none by default."""
-        return {}
 
     # -- configs ----------------------------------------------------------------------
     def default_config(self, **design: Any) -> WordLengthConfig:
@@ -526,6 +522,7 @@ class Pipeline(abc.ABC):
         those rows of the whole frame's run, with the frame's cycle stamps."""
         config = self.check_config(self.default_config() if config is None else config)
         self.check_mode(case)
+        check_threads(threads)
         timing = timing or TimingConfig()
         if lines is None:
             return self.simulate(case, config, timing, taps, threads, log)
@@ -544,18 +541,15 @@ class Pipeline(abc.ABC):
         lines: tuple[int, int] | None = None,
     ) -> PipelineResult:
         """The model itself, on checked arguments (:meth:`run` is the public entry): by
-        default :attr:`run_model` on the case's images, camera and motion and this
-        pipeline's settings, and ``lines=`` when :meth:`run` is given a band of lines (only
+        default :attr:`run_model` on the case, the config, this pipeline's settings of the
+        case and the timing, and ``lines=`` when :meth:`run` is given a band of lines (only
         for a pipeline that sets :attr:`line_independent`). A pipeline whose model takes
         more overrides this."""
         if self.run_model is None:
             raise NotImplementedError(f"pipeline {self.name} has neither run_model nor simulate")
         band = {} if lines is None else {"lines": lines}
-        return self.run_model(
-            case.image1, case.image2, case.camera, case.motion, config, self.settings(case),
-            timing=timing, taps=taps, threads=threads, log=log, **band,
-            **self.model_options(case),
-        )  # fmt: skip
+        return self.run_model(case, config, self.settings(case), timing, taps=taps,
+                              threads=threads, log=log, **band)  # fmt: skip
 
     def golden(
         self, case: Case, config: WordLengthConfig | None = None, *, taps: bool = False

@@ -32,9 +32,10 @@ from rangefx.rtl_model.kernels import (
     divide_row_lanes,
     floor_log2_lanes,
 )
-from rangefx.rtl_model.p1 import RANGE_TAPS, run_p1, stage_latencies
+from rangefx.rtl_model.p1 import RANGE_TAPS, stage_latencies
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
 from rangefx.rtl_model.p1.model import LINE_BUFFER_READ_AHEAD, RANGE, untranspose_band
+from rangefx.rtl_model.pipeline import Case
 from rangefx.rtl_model.registry import PIPELINES
 from rangefx.rtl_model.runtime import DIV_RECIPROCAL, divider_setup, format_table
 from rangefx.rtl_model.stream import make_stream, pixel_cycles
@@ -127,16 +128,15 @@ def plane():
     return render_plane(depth=30.0, size=(24, 32), f_px=60.0, baseline=0.1, seed=2)
 
 
+def _run_pair(image1, image2, camera, motion, mode="stereo", timing=None, **kw):
+    """P1 through its pipeline's public ``run`` on a case of the pair."""
+    ranging = RangingConfig(threshold_e=1.0, threshold_g=1.0, range_max=100.0)
+    case = Case(image1, image2, camera, motion, mode, settings={"ranging": ranging})
+    return PIPELINES["p1"].run(case, kw.pop("config", P1Config.default()), timing, **kw)
+
+
 def _run(plane, **kw):
-    return run_p1(
-        plane.image1,
-        plane.image2,
-        plane.camera,
-        plane.motion,
-        kw.pop("config", P1Config.default()),
-        RangingConfig(threshold_e=1.0, threshold_g=1.0, range_max=100.0),
-        **kw,
-    )
+    return _run_pair(plane.image1, plane.image2, plane.camera, plane.motion, **kw)
 
 
 @pytest.mark.parametrize(
@@ -197,9 +197,9 @@ def test_line_buffer_hazard_is_rejected(hblank):
     timing = TimingConfig(hblank=hblank)
     if 2 + hblank < shortest:
         with pytest.raises(ValueError, match="line-buffer hazard"):
-            run_p1(img, img, cam, MotionIncrement.stereo(0.1), timing=timing)
+            _run_pair(img, img, cam, MotionIncrement.stereo(0.1), timing=timing)
     else:
-        assert run_p1(img, img, cam, MotionIncrement.stereo(0.1), timing=timing).range.shape
+        assert _run_pair(img, img, cam, MotionIncrement.stereo(0.1), timing=timing).range.shape
 
 
 @pytest.mark.parametrize(
@@ -212,7 +212,7 @@ def test_line_buffer_hazard_is_rejected(hblank):
 )
 def test_bad_images_are_rejected(plane, images, message):
     with pytest.raises(ValueError, match=message):
-        run_p1(*images, plane.camera, plane.motion)
+        _run_pair(*images, plane.camera, plane.motion)
 
 
 def test_taps_are_optional_and_outputs_identical(plane):

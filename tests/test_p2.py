@@ -22,17 +22,24 @@ from rangefx.rtl_model.p2.model import (
     SWEEP_READ,
     group_starts,
     p2_schedule,
-    run_p2,
 )
+from rangefx.rtl_model.pipeline import Case
+from rangefx.rtl_model.registry import PIPELINES
 from rangefx.rtl_model.stream import input_cycles, pixel_cycles
 from rangefx.tools.cli import main
 from rangefx.tools.studies.runner import compare_ranges
 
 
+def run_pair(image1, image2, camera, motion, config, riccati, timing=None, **kw):
+    """P2 through its pipeline's public ``run`` on a stereo case of the pair."""
+    case = Case(image1, image2, camera, motion, settings={"riccati": riccati})
+    return PIPELINES["p2"].run(case, config, timing, **kw)
+
+
 @pytest.fixture(scope="module")
 def lab_runs(lab):
     cfg = SCENE_RICCATI["lab"]
-    res = run_p2(lab.image1, lab.image2, lab.camera, lab.motion, P2Config.default(), cfg)
+    res = run_pair(lab.image1, lab.image2, lab.camera, lab.motion, P2Config.default(), cfg)
     gold = range_g5(lab.image1, lab.image2, lab.camera, lab.motion, cfg)
     return res, gold
 
@@ -106,7 +113,7 @@ def test_cycle_stamps_closed_form(hblank):
     rng = np.random.default_rng(1)
     im1 = rng.integers(0, 256, (m, n))
     im2 = np.roll(im1, 1, axis=1)
-    res = run_p2(im1, im2, PinholeCamera(n, m, 600.0), MotionIncrement.stereo(0.1), cfg,
+    res = run_pair(im1, im2, PinholeCamera(n, m, 600.0), MotionIncrement.stereo(0.1), cfg,
                  SCENE_RICCATI["lab"], timing=TimingConfig(hblank=hblank), taps=False)  # fmt: skip
     tin = pixel_cycles((m, n), TimingConfig(hblank=hblank))[0]
     assert np.array_equal(res.in_cycles, tin)
@@ -135,7 +142,7 @@ def test_band_cycle_maps_equal_the_whole_frame_schedule(threads, gap_prob):
     m, n = 3 * cfg.effective_lanes() + 1, 20
     timing = TimingConfig(hblank=4, vblank=3, gap_prob=gap_prob, seed=5)
     im1 = np.random.default_rng(2).integers(0, 256, (m, n))
-    res = run_p2(im1, np.roll(im1, 1, axis=1), PinholeCamera(n, m, 600.0),
+    res = run_pair(im1, np.roll(im1, 1, axis=1), PinholeCamera(n, m, 600.0),
                  MotionIncrement.stereo(0.1), cfg, SCENE_RICCATI["lab"], timing=timing,
                  taps=False, threads=threads)  # fmt: skip
     tin = input_cycles((m, n), timing)[-1]
@@ -226,7 +233,7 @@ def test_tap_cycles_are_the_oracles_one_sample_per_cycle(divider, lanes, hblank,
     rng = np.random.default_rng(3)
     im1 = rng.integers(0, 256, (m, n))
     timing = TimingConfig(hblank=hblank, gap_prob=gap_prob)
-    res = run_p2(im1, np.roll(im1, 1, axis=1), PinholeCamera(n, m, 600.0),
+    res = run_pair(im1, np.roll(im1, 1, axis=1), PinholeCamera(n, m, 600.0),
                  MotionIncrement.stereo(0.1), cfg, SCENE_RICCATI["lab"], timing=timing,
                  taps=False)  # fmt: skip
     _, info, rows = p2_schedule(res.in_cycles, cfg, hblank)
@@ -246,10 +253,10 @@ def test_throughput_assertion():
     im = np.zeros((m, n), dtype=np.int64)
     args = (im, im, PinholeCamera(n, m, 600.0), MotionIncrement.stereo(0.1), cfg)
     with pytest.raises(ValueError, match="one pixel per clock"):
-        run_p2(*args, SCENE_RICCATI["lab"], taps=False)
+        run_pair(*args, SCENE_RICCATI["lab"], taps=False)
     tb = max(loop_latency(cfg), FWD_LOOP)  # the longer loop sets both periods at 2 lanes
     hblank = -(-(n * tb) // 2) - n
-    res = run_p2(*args, SCENE_RICCATI["lab"], timing=TimingConfig(hblank=hblank), taps=False)
+    res = run_pair(*args, SCENE_RICCATI["lab"], timing=TimingConfig(hblank=hblank), taps=False)
     assert res.schedule["backward_cycles"] <= res.schedule["group_period"]
 
 
@@ -257,8 +264,8 @@ def test_gaps_change_only_cycle_stamps(lab):
     crop = (slice(200, 230), slice(100, 164))
     im1, im2 = lab.image1[crop], lab.image2[crop]
     cam = PinholeCamera(64, 30, lab.camera.f_px)
-    base = run_p2(im1, im2, cam, lab.motion, None, SCENE_RICCATI["lab"])
-    gap = run_p2(im1, im2, cam, lab.motion, None, SCENE_RICCATI["lab"],
+    base = run_pair(im1, im2, cam, lab.motion, None, SCENE_RICCATI["lab"])
+    gap = run_pair(im1, im2, cam, lab.motion, None, SCENE_RICCATI["lab"],
                  timing=TimingConfig(hblank=3, vblank=5, gap_prob=0.3, seed=2))  # fmt: skip
     for k in base.taps:
         assert np.array_equal(base.taps[k], gap.taps[k])
@@ -336,7 +343,7 @@ def test_band_kernel_equals_the_general_kernel_over_bands_and_threads(lab, divid
     assert model.band_fits(model.runtime.format_table(config))
 
     def run(**kw):
-        return run_p2(im1, im2, camera, lab.motion, config, cfg, **kw)
+        return run_pair(im1, im2, camera, lab.motion, config, cfg, **kw)
 
     monkeypatch.setattr(model, "BANDED", False)
     ref = run(threads=1)
@@ -379,7 +386,7 @@ def test_a_cast_shifting_by_more_than_62_bits_takes_the_general_kernel(lab):
     case = Case(lab.image1[200:203, 300:312], lab.image2[200:203, 300:312], camera, lab.motion,
                 "stereo", settings={"riccati": SCENE_RICCATI["lab"]})  # fmt: skip
     ref = ORACLES["p2"].run(case, config)
-    res = run_p2(case.image1, case.image2, camera, case.motion, config, case.settings["riccati"])
+    res = PIPELINES["p2"].run(case, config)
     for name, want in ref.taps.items():
         np.testing.assert_array_equal(res.taps[name], want, err_msg=name)
     assert res.overflows == ref.overflows

@@ -36,7 +36,7 @@ from ..kernels import (
     log_site,
     signal_plan,
 )
-from ..pipeline import PipelineResult, build_result
+from ..pipeline import Case, PipelineResult, build_result
 from ..runtime import (
     DIV_RESTORING,
     KERNEL_BOOL,
@@ -46,7 +46,6 @@ from ..runtime import (
     RegisterFile,
     SignalStats,
     check_image_pair,
-    check_threads,
     divider_latency,
     divider_setup,
     finish_band,
@@ -1002,21 +1001,19 @@ def frame_store_word(config: P1Config) -> int:
 
 
 def run_p1(
-    image1: np.ndarray,
-    image2: np.ndarray,
-    camera: PinholeCamera,
-    motion: MotionIncrement,
-    config: P1Config | None = None,
-    ranging: RangingConfig | None = None,
+    case: Case,
+    config: P1Config,
+    ranging: RangingConfig,
+    timing: TimingConfig,
     *,
-    timing: TimingConfig | None = None,
-    mode: str = "stereo",
-    taps: bool = True,
-    threads: int = 2,
-    log: bool = True,
+    taps: bool,
+    threads: int,
+    log: bool,
 ) -> PipelineResult:
-    """Run P1 on an image pair: E1 = ``image1`` (left, or the previous frame in
-    ``mode="motion"``), E2 = ``image2``; integer grey levels.
+    """P1 on ``case``'s pair, on arguments :meth:`~rangefx.rtl_model.pipeline.Pipeline.run`
+    has checked (the public entry: ``PIPELINES["p1"].run(case, ...)``): E1 =
+    ``case.image1`` (left, or the previous frame in motion mode), E2 = ``case.image2``;
+    integer grey levels.
 
     ``threads`` (1 or 2): the two streams' front ends, then two row bands of the range
     stage, run concurrently (the kernels release the GIL). ``log`` (as ``fipref``'s
@@ -1024,15 +1021,8 @@ def run_p1(
     ``minmax`` is empty and the front end skips its log. Every output, tap and overflow
     count is the same either way.
     """
-    if mode not in ("stereo", "motion"):
-        raise ValueError(f"unknown P1 mode {mode!r}; choose 'stereo' or 'motion'")
-    check_threads(threads)
-    config = config or P1Config.default()
-    if not isinstance(config, P1Config):
-        raise ValueError(f"P1 needs a P1Config, not {type(config).__name__}")
-    ranging = ranging or RangingConfig()
-    timing = timing or TimingConfig()
-    im1, im2 = check_image_pair(image1, image2, camera, pipeline="p1", min_shape=(2, 2),
+    camera, motion, mode = case.camera, case.motion, case.mode
+    im1, im2 = check_image_pair(case.image1, case.image2, camera, pipeline="p1", min_shape=(2, 2),
                                 convert=False)  # fmt: skip
     m, n = im1.shape
     lat = stage_latencies(config)

@@ -74,9 +74,6 @@ class P1Pipeline(Pipeline):
         )
         return groups
 
-    def model_options(self, case: Case) -> dict[str, Any]:
-        return {"mode": case.mode}  # P1 models both modes
-
     def reference(self, case: Case, config: WordLengthConfig, taps: bool) -> GoldenReference:
         est = EstimatorConfig(
             pole=config.pole, variant=config.variant, bias=config.bias, init=config.init

@@ -48,7 +48,7 @@ from ..kernels import (
 )
 from ..kernels import cast_site as _cast
 from ..kernels import divide_into as _divide_into
-from ..pipeline import PipelineResult, build_result
+from ..pipeline import Case, PipelineResult, build_result
 from ..stream import input_cycles, line_starts
 from .config import (
     ADD_LATENCY,
@@ -703,21 +703,20 @@ def buffer_bits(config: P2Config, width: int) -> dict[str, int]:
 
 
 def run_p2(
-    image1: np.ndarray,
-    image2: np.ndarray,
-    camera: PinholeCamera,
-    motion: MotionIncrement,
-    config: P2Config | None = None,
-    riccati: RiccatiConfig | None = None,
+    case: Case,
+    config: P2Config,
+    riccati: RiccatiConfig,
+    timing: TimingConfig,
     *,
-    timing: TimingConfig | None = None,
-    taps: bool = True,
-    threads: int = 2,
-    log: bool = True,
+    taps: bool,
+    threads: int,
+    log: bool,
     lines: tuple[int, int] | None = None,
 ) -> PipelineResult:
-    """Run P2 on a registered stereo pair (E1 = ``image1`` left, E2 = ``image2``, camera 2
-    displaced ``b`` to the right), integer grey levels; ``riccati`` gives the weights
+    """P2 on ``case``'s registered stereo pair (E1 = ``case.image1`` left, E2 =
+    ``case.image2``, camera 2 displaced ``b`` to the right), integer grey levels, on
+    arguments :meth:`~rangefx.rtl_model.pipeline.Pipeline.run` has checked (the public
+    entry: ``PIPELINES["p2"].run(case, ...)``); ``riccati`` gives the weights
     (α, β, γ, pixel pitch), ``threshold_e`` and ``range_max`` of golden G5 (its ``form``
     must be ``"lq"`` and ``a_sampling`` ``"edge"``, the discretisation P2 implements).
 
@@ -732,21 +731,15 @@ def run_p2(
     output has ``j1 - j0`` rows, equal to those rows of the whole frame's run; the cycle
     stamps, latency and ``total_cycles`` are the frame's, for those lines (the schedule
     is the whole frame's); overflows and ``minmax`` count those lines only."""
-    runtime.check_threads(threads)
-    config = config or P2Config.default()
-    riccati = riccati or RiccatiConfig()
     if riccati.form != "lq" or riccati.a_sampling != "edge":
         raise ValueError("P2 implements the lq sweep with A at the pixel edge only")
-    timing = timing or TimingConfig()
-    if not isinstance(config, P2Config):
-        raise ValueError(f"P2 needs a P2Config, not {type(config).__name__}")
-    im1, im2 = runtime.check_image_pair(image1, image2, camera, pipeline="p2", min_shape=(1, 2),
-                                        convert=False)  # fmt: skip
+    im1, im2 = runtime.check_image_pair(case.image1, case.image2, case.camera, pipeline="p2",
+                                        min_shape=(1, 2), convert=False)  # fmt: skip
     m, n = frame = im1.shape
     r0, r1 = (0, m) if lines is None else lines
     if not 0 <= r0 < r1 <= m:
         raise ValueError(f"lines must be (j0, j1) with 0 <= j0 < j1 <= {m}, not {lines!r}")
-    regs = p2_registers(camera, motion, riccati, config)
+    regs = p2_registers(case.camera, case.motion, riccati, config)
     # timing first: an impossible schedule is rejected before any work. Without input
     # gaps the input cycles have a closed form and the bands fill their rows of both
     # cycle maps (serially they took ~0.7 ms of a 5 ms two-thread run); with gaps, the

@@ -40,7 +40,7 @@ from ..fixedpoint import FixedFormat, cast_modes, cast_raw, cast_row
 from ..kernels import at_frac as _at
 from ..kernels import divide_lanes_fit, divide_row_lanes
 from ..kernels import divide_row as _divide_row
-from ..pipeline import PipelineResult, build_result
+from ..pipeline import Case, PipelineResult, build_result
 from ..runtime import DIV_RECIPROCAL, KERNEL_INT, KERNEL_PLANE, KERNEL_ROW
 from ..stream import input_cycles
 from .config import P3_SIGNALS, P3Config
@@ -984,34 +984,27 @@ def _run_level(
 
 
 def run_p3(
-    image1: np.ndarray,
-    image2: np.ndarray,
-    camera: PinholeCamera,
-    motion: MotionIncrement,
-    config: P3Config | None = None,
-    ranging: RangingConfig | None = None,
+    case: Case,
+    config: P3Config,
+    ranging: RangingConfig,
+    timing: TimingConfig,
     *,
-    timing: TimingConfig | None = None,
-    taps: bool = True,
-    threads: int = 2,
-    log: bool = True,
+    taps: bool,
+    threads: int,
+    log: bool,
 ) -> PipelineResult:
-    """Run P3 on a registered stereo pair (E1 = ``image1`` left, E2 = ``image2``, camera 2
+    """Run P3 on ``case``'s registered stereo pair (E1 left, E2 right, camera 2
     ``B > 0`` to the right), integer grey levels; only ``ranging.range_max`` is read (G6's
     thresholds are design fields). ``threads`` = 2 builds the two pyramids at once, then
     runs each level of :data:`BAND_PIXELS` or more and the output stage in two bands of
     lines (:func:`_in_bands`). ``log`` off: ``minmax`` is empty (the casts still keep
     their min/max, the dividers skip their float log); overflow counts are always
-    kept."""
-    runtime.check_threads(threads)
-    config = config or P3Config.default()
-    if not isinstance(config, P3Config):
-        raise ValueError(f"P3 needs a P3Config, not {type(config).__name__}")
-    ranging = ranging or RangingConfig()
-    timing = timing or TimingConfig()
-    im1, im2 = runtime.check_image_pair(image1, image2, camera, pipeline="p3", min_shape=(1, 2))
+    kept. The arguments are those :meth:`~rangefx.rtl_model.pipeline.Pipeline.run` checked
+    (the public entry)."""
+    im1, im2 = runtime.check_image_pair(case.image1, case.image2, case.camera, pipeline="p3",
+                                        min_shape=(1, 2))  # fmt: skip
     m, n = im1.shape
-    regs = p3_registers(config, camera, motion, ranging, (m, n))
+    regs = p3_registers(config, case.camera, case.motion, ranging, (m, n))
     fm = runtime.format_table(config)
     kind, lut = runtime.divider_setup(config)
     rom, rom_overflows, rom_range = keys_rom_casts(config)
