@@ -1,7 +1,9 @@
 """Independent, deliberately slow test oracle of the P1 datapath (issue 4, deliverable 6).
 
 Written from ``docs/p1_datapath.md`` only: it shares nothing with the numba kernels of
-``rangefx.rtl_model`` but the word-length config (formats, modes and design fields).
+``rangefx.rtl_model`` but the word-length config (formats, modes and design fields) and
+the pipeline's public tap names (``FRONTEND_TAPS``, ``RANGE_TAPS``: the interface the
+bit-exact test compares by; a tap the oracle does not compute is compared as zeros).
 Signal values are :class:`apytypes.APyFixed` (exact arithmetic, growing word length);
 every ``cast`` quantises with apytypes in the configured quantisation mode and brings the
 result into range with apytypes' ``WRAP``/``SAT`` (``SAT_ZERO``/``SAT_SYM``, which
@@ -17,7 +19,7 @@ Everything runs as Python loops over the pixels in scan order; use small images 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
@@ -25,55 +27,20 @@ from apytypes import APyFixed, OverflowMode, QuantizationMode
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera, k_matrix
 from rangefx.golden.ranging import RangingConfig
+from rangefx.rtl_model.config import WordLengthConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
-from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
+from rangefx.rtl_model.p1 import FRONTEND_TAPS, RANGE_TAPS
+from rangefx.rtl_model.p1.config import P1Config
 
 __all__ = [
-    "RANGE_TAPS",
-    "STREAM_TAPS",
     "OracleResult",
+    "SignalLog",
     "cast_exact",
     "divide_reciprocal",
     "divide_restoring",
     "oracle_p1",
     "reg_raw",
 ]
-
-STREAM_TAPS = (
-    "bias_in",
-    "row_r1",
-    "row_r2",
-    "row_state",
-    "col_s1",
-    "col_s2",
-    "col_state",
-    "ex",
-    "col2_state",
-)
-RANGE_TAPS = (
-    "xp",
-    "yp",
-    "c1",
-    "a1",
-    "b1",
-    "k0",
-    "k1",
-    "k2",
-    "vx",
-    "vy",
-    "wx",
-    "wy",
-    "w0",
-    "gv",
-    "num",
-    "den",
-    "range_q",
-    "v_sq",
-    "g_sq",
-    "g_thr",
-    "valid",
-    "range",
-)
 
 _APY_QUANT = {q: getattr(QuantizationMode, q.name) for q in Quant}
 
@@ -262,11 +229,20 @@ def divide_reciprocal(
 # ---------------------------------------------------------------------------------------
 @dataclass
 class OracleResult:
-    """Taps (int64 raw codes, shape (m, n)), overflow counts and pre-quantisation ranges."""
+    """What a bit-exact test compares: taps (int64 raw codes, shape (m, n)), among them the
+    outputs ``range`` and ``valid``, overflow counts and pre-quantisation ranges."""
 
     taps: dict[str, np.ndarray]
     overflows: dict[str, int]
     minmax: dict[str, tuple[float, float]]
+
+    @property
+    def range_raw(self) -> np.ndarray:
+        return self.taps["range"]
+
+    @property
+    def valid(self) -> np.ndarray:
+        return self.taps["valid"].astype(bool)
 
 
 @dataclass
@@ -277,30 +253,44 @@ class _Sig:
     v: APyFixed
 
 
-@dataclass
-class _Ctx:
-    config: P1Config
-    overflows: dict[str, int] = field(default_factory=dict)
-    lo: dict[str, Fraction] = field(default_factory=dict)
-    hi: dict[str, Fraction] = field(default_factory=dict)
+class SignalLog:
+    """What every oracle keeps of its casts beside the taps: the overflow count and the
+    exact pre-quantisation min/max of every signal of ``config`` (the model's
+    ``overflows`` and ``minmax``)."""
 
-    def __post_init__(self) -> None:
-        self.overflows = dict.fromkeys(P1_SIGNALS, 0)
+    def __init__(self, config: WordLengthConfig) -> None:
+        self.config = config
+        self.overflows = dict.fromkeys(config.signals(), 0)
+        self.lo: dict[str, Fraction] = {}
+        self.hi: dict[str, Fraction] = {}
+
+    def log(self, name: str, x: Fraction) -> None:
+        """Widen ``name``'s min/max to the exact value ``x``."""
+        if name not in self.lo or x < self.lo[name]:
+            self.lo[name] = x
+        if name not in self.hi or x > self.hi[name]:
+            self.hi[name] = x
+
+    def minmax(self) -> dict[str, tuple[float, float]]:
+        signals = self.config.signals()
+        return {k: (float(self.lo[k]), float(self.hi[k])) for k in signals if k in self.lo}
+
+    def result(self, taps: dict[str, np.ndarray]) -> OracleResult:
+        return OracleResult(taps=taps, overflows=dict(self.overflows), minmax=self.minmax())
+
+
+class _Ctx(SignalLog):
+    def __init__(self, config: P1Config) -> None:
+        super().__init__(config)
         self._lut = None
-        if self.config.divider == "reciprocal":
-            self._lut = _recip_lut(self.config.recip_lut_bits, self.config.recip_bits)
+        if config.divider == "reciprocal":
+            self._lut = _recip_lut(config.recip_lut_bits, config.recip_bits)
 
     def fmt(self, name: str) -> FixedFormat:
         return self.config.fmt(name)
 
     def _log(self, name: str, n: int, f: int) -> None:
-        self._log_fraction(name, _fraction(n, f))
-
-    def _log_fraction(self, name: str, x: Fraction) -> None:
-        if name not in self.lo or x < self.lo[name]:
-            self.lo[name] = x
-        if name not in self.hi or x > self.hi[name]:
-            self.hi[name] = x
+        self.log(name, _fraction(n, f))
 
     def cast_nf(self, n: int, f: int, name: str, *, log: bool = True) -> _Sig:
         fmt = self.fmt(name)
@@ -341,13 +331,10 @@ class _Ctx:
             cfg = self.config
             m, f = _reciprocal_value(n, fn, d, fd, self._lut, cfg.recip_lut_bits, cfg.recip_bits)
         # logged: fl(fl(N) / fl(D)) 2**(F_D - F_N); the final cast logs nothing more
-        self._log_fraction(name, Fraction(math.ldexp(float(n) / float(d), fd - fn)))
+        self.log(name, Fraction(math.ldexp(float(n) / float(d), fd - fn)))
         before = self.overflows[name]
         sig = self.cast_nf(m, f, name, log=False)
         return sig, self.overflows[name] != before
-
-    def minmax(self) -> dict[str, tuple[float, float]]:
-        return {k: (float(self.lo[k]), float(self.hi[k])) for k in P1_SIGNALS if k in self.lo}
 
 
 _HALF = APyFixed(1, bits=2, frac_bits=1)
@@ -360,7 +347,7 @@ def _stream(image: np.ndarray, ctx: _Ctx, C: _Sig, B: _Sig) -> dict[str, np.ndar
     consistent = cfg.variant == "consistent"
     first = cfg.init == "first"
     m, n = image.shape
-    taps = {k: np.zeros((m, n), dtype=np.int64) for k in STREAM_TAPS}
+    taps = {k: np.zeros((m, n), dtype=np.int64) for k in FRONTEND_TAPS}
     if not consistent:
         del taps["col2_state"]
     lb1: list[_Sig | None] = [None] * n
@@ -571,4 +558,4 @@ def oracle_p1(
     taps = {f"e1.{k}": v for k, v in t1.items()}
     taps.update({f"e2.{k}": v for k, v in t2.items()})
     taps.update(_range_stage(t1, t2, ctx, camera, motion, ranging))
-    return OracleResult(taps=taps, overflows=dict(ctx.overflows), minmax=ctx.minmax())
+    return ctx.result(taps)

@@ -12,13 +12,14 @@ images only.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
 from apytypes import APyFixed
 from oracle_p1 import (
     OracleResult,
+    SignalLog,
     _apy,
     _div_zero,
     _exact,
@@ -32,7 +33,7 @@ from oracle_p1 import (
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.riccati import RiccatiConfig
-from rangefx.rtl_model.p2.config import P2_SIGNALS, P2Config
+from rangefx.rtl_model.p2.config import P2Config
 from rangefx.rtl_model.runtime import divider_latency
 
 __all__ = ["TAPS", "oracle_p2", "oracle_p2_cycles"]
@@ -48,21 +49,8 @@ class _Sig:
     v: APyFixed
 
 
-@dataclass
-class _Ctx:
+class _Ctx(SignalLog):
     config: P2Config
-    overflows: dict[str, int] = field(default_factory=dict)
-    lo: dict[str, Fraction] = field(default_factory=dict)
-    hi: dict[str, Fraction] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        self.overflows = dict.fromkeys(P2_SIGNALS, 0)
-
-    def _log(self, name: str, x: Fraction) -> None:
-        if name not in self.lo or x < self.lo[name]:
-            self.lo[name] = x
-        if name not in self.hi or x > self.hi[name]:
-            self.hi[name] = x
 
     def sig(self, raw: int, name: str) -> _Sig:
         return _Sig(raw, _apy(raw, self.config.fmt(name).frac))
@@ -70,7 +58,7 @@ class _Ctx:
     def cast(self, v: APyFixed | int, name: str, *, log: bool = True) -> _Sig:
         n, f = (v, 0) if isinstance(v, int) else _exact(v)
         if log:
-            self._log(name, _fraction(n, f))
+            self.log(name, _fraction(n, f))
         raw, acted = cast_exact(n, f, self.config.fmt(name))
         self.overflows[name] += acted
         return self.sig(raw, name)
@@ -82,7 +70,7 @@ class _Ctx:
         if den.raw == 0:  # not a cast: nothing logged, one overflow
             self.overflows["p2_r"] += 1
             return self.sig(_div_zero(1, fmt), "p2_r")
-        self._log("p2_r", Fraction(math.ldexp(1.0 / float(den.raw), fd)))
+        self.log("p2_r", Fraction(math.ldexp(1.0 / float(den.raw), fd)))
         if cfg.divider == "restoring":
             m, f = _restoring_value(1, 0, den.raw, fd, fmt)
         else:
@@ -166,8 +154,7 @@ def oracle_p2(
         taps["range"][j, n - 1] = RMAX.raw
         for i in range(n):
             taps["d"][j, i], taps["g_hat"][j, i] = d[i].raw, g[i].raw
-    minmax = {k: (float(ctx.lo[k]), float(ctx.hi[k])) for k in P2_SIGNALS if k in ctx.lo}
-    return OracleResult(taps=taps, overflows=dict(ctx.overflows), minmax=minmax)
+    return ctx.result(taps)
 
 
 def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.ndarray]:

@@ -21,6 +21,7 @@ from fractions import Fraction
 import numpy as np
 from oracle_p1 import (
     OracleResult,
+    SignalLog,
     _recip_lut,
     _reciprocal_value,
     _restoring_value,
@@ -31,7 +32,7 @@ from oracle_p1 import (
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.multiscale import pyramid_levels
 from rangefx.golden.ranging import RangingConfig
-from rangefx.rtl_model.p3.config import P3_SIGNALS, P3Config
+from rangefx.rtl_model.p3.config import P3Config
 
 __all__ = ["oracle_p3"]
 
@@ -63,26 +64,17 @@ def _keys(t: Fraction) -> tuple[Fraction, ...]:
     )
 
 
-class _Ctx:
+class _Ctx(SignalLog):
     def __init__(self, config: P3Config) -> None:
-        self.config = config
-        self.overflows = dict.fromkeys(P3_SIGNALS, 0)
-        self.lo: dict[str, Fraction] = {}
-        self.hi: dict[str, Fraction] = {}
+        super().__init__(config)
         self.lut = _recip_lut(config.recip_lut_bits, config.recip_bits)
 
     def val(self, raw: int, name: str) -> Fraction:
         return raw * _scale(self.config.fmt(name).frac)
 
-    def _log(self, name: str, x: Fraction) -> None:
-        if name not in self.lo or x < self.lo[name]:
-            self.lo[name] = x
-        if name not in self.hi or x > self.hi[name]:
-            self.hi[name] = x
-
     def cast(self, x: Fraction, name: str) -> int:
         """``cast(x, S)``: raw code; logs the exact value, counts an overflow."""
-        self._log(name, x)
+        self.log(name, x)
         raw, acted = cast_exact(*_dyadic(x), self.config.fmt(name))
         self.overflows[name] += acted
         return raw
@@ -90,7 +82,7 @@ class _Ctx:
     def divide(self, n: int, fn: int, d: int, fd: int, name: str) -> tuple[int, bool]:
         """``divide(N, D, S)`` of raw codes (``d != 0``): (raw quotient, overflowed)."""
         cfg, fmt = self.config, self.config.fmt(name)
-        self._log(name, Fraction(math.ldexp(float(n) / float(d), fd - fn)))
+        self.log(name, Fraction(math.ldexp(float(n) / float(d), fd - fn)))
         if cfg.divider == "restoring":
             q, f = _restoring_value(n, fn, d, fd, fmt)
         else:
@@ -337,5 +329,4 @@ def oracle_p3(
             final["valid"][y, x] = int(ok)
             final["range"][y, x] = z if ok else RMAX
     taps.update(final)
-    minmax = {k: (float(ctx.lo[k]), float(ctx.hi[k])) for k in P3_SIGNALS if k in ctx.lo}
-    return OracleResult(taps=taps, overflows=dict(ctx.overflows), minmax=minmax)
+    return ctx.result(taps)

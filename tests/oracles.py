@@ -10,33 +10,13 @@ do not depend on timing, so ``timing`` and ``threads`` are accepted and ignored.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-import numpy as np
-from oracle_p1 import oracle_p1
+from oracle_p1 import OracleResult, oracle_p1
 from oracle_p2 import oracle_p2
 from oracle_p3 import oracle_p3
 
 from rangefx.rtl_model.config import TimingConfig, WordLengthConfig
 from rangefx.rtl_model.pipeline import Case
 from rangefx.rtl_model.registry import PIPELINES
-
-
-@dataclass
-class OracleRun:
-    """What a bit-exact test compares: taps, outputs, overflow counts, min/max."""
-
-    taps: dict[str, np.ndarray]
-    overflows: dict[str, int]
-    minmax: dict[str, tuple[float, float]]
-
-    @property
-    def range_raw(self) -> np.ndarray:
-        return self.taps["range"]
-
-    @property
-    def valid(self) -> np.ndarray:
-        return self.taps["valid"].astype(bool)
 
 
 class Oracle:
@@ -50,11 +30,10 @@ class Oracle:
         *,
         taps: bool = True,
         threads: int = 1,
-    ) -> OracleRun:
-        ref = self.compute(case, config)
-        return OracleRun(ref.taps, ref.overflows, ref.minmax)
+    ) -> OracleResult:
+        return self.compute(case, config)
 
-    def compute(self, case: Case, config: WordLengthConfig):
+    def compute(self, case: Case, config: WordLengthConfig) -> OracleResult:
         raise NotImplementedError
 
 

@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 import pytest
 from bitexact_cases import assert_bit_exact, lab_crop, p1_case, p3_case
-from oracles import ORACLES, OracleRun
+from oracle_p1 import OracleResult
+from oracles import ORACLES
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.riccati import PAPER_PIXEL_PITCH_IN, RiccatiConfig
@@ -286,7 +287,7 @@ def test_bit_exact(name, spec, monkeypatch):
     # the min/max log off (fipref's LoggingMode): everything else identical, no min/max
     unlogged = pipeline.run(case, config, spec["timing"], taps=True, log=False)
     assert unlogged.minmax == {}
-    assert_bit_exact(unlogged, OracleRun(ref.taps, ref.overflows, {}))
+    assert_bit_exact(unlogged, OracleResult(ref.taps, ref.overflows, {}))
     # without taps (P1's fused range stage runs only then), logged and unlogged: the same
     # outputs, overflow counts and min/max
     for log in (True, False):

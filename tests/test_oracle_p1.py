@@ -12,7 +12,6 @@ import math
 import numpy as np
 import pytest
 from oracle_p1 import (
-    RANGE_TAPS,
     cast_exact,
     divide_reciprocal,
     divide_restoring,
@@ -26,6 +25,7 @@ from rangefx.golden.geometry import MotionIncrement, PinholeCamera
 from rangefx.golden.ranging import RangingConfig, range_g4
 from rangefx.golden.scenes import render_plane, render_scene
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p1 import RANGE_TAPS
 from rangefx.rtl_model.p1.config import P1_SIGNALS, P1Config
 from rangefx.rtl_model.p1.pipeline import FRONTEND_SIGNALS
 

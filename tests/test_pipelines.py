@@ -75,6 +75,8 @@ def test_config_type_round_trips_and_names_the_signal(name, tmp_path):
     other = PIPELINES[next(n for n in NAMES if n != name)].default_config()
     with pytest.raises(ValueError, match=f"{name.upper()} needs a {p.config_type.__name__}"):
         p.run(lab_crop(), other)
+    with pytest.raises(ValueError, match="threads must be 1 or 2, not 3"):
+        p.run(lab_crop(), threads=3)  # checked once, by run, for every pipeline
 
 
 @pytest.mark.parametrize("name", NAMES)
