@@ -85,6 +85,7 @@ from numpy.polynomial import legendre as npleg
 from numpy.polynomial import polynomial as nppoly
 from scipy.optimize import minimize
 
+from .checks import check_choice, check_numbers
 from .extraction import BoxSet, ObstacleBox
 from .law import (
     FIRST_SINGULAR_SIGMA_T,
@@ -219,18 +220,11 @@ class AvoidConfig:
     when_blocked: str = "manoeuvre"
 
     def __post_init__(self) -> None:
-        if self.when_blocked not in WHEN_BLOCKED:
-            raise ValueError(
-                f"avoid when_blocked must be one of {', '.join(WHEN_BLOCKED)}, "
-                f"not {self.when_blocked!r}"
-            )
-        for name in (
+        check_choice("avoid", "when_blocked", self.when_blocked, WHEN_BLOCKED)
+        check_numbers("avoid", self, (
             "clearance_ft", "max_load_factor", "max_theta_deg", "max_phi_deg",
             "replan_interval", "terminal_time", "track_omega", "track_damping",
-        ):  # fmt: skip
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"avoid {name} must be a positive number, not {v!r}")
+        ))  # fmt: skip
         if not (isinstance(self.margin_ft, (int, float)) and self.margin_ft >= 0):
             raise ValueError(f"avoid margin_ft must be >= 0, not {self.margin_ft!r}")
         if self.max_load_factor <= 1.0:

@@ -68,6 +68,7 @@ from rangefx.golden.geometry import (
     k_coefficients,
 )
 
+from .checks import check_choice, check_numbers
 from .obstacles import FrameMap, ParkedVehicle, guidance_from_ned, usable_range
 
 __all__ = [
@@ -436,22 +437,13 @@ class ExtractionConfig:
     error_model: str = "motion"
 
     def __post_init__(self) -> None:
-        if self.error_model not in ERROR_MODELS:
-            raise ValueError(
-                f"extraction error_model must be one of {', '.join(ERROR_MODELS)}, "
-                f"not {self.error_model!r}"
-            )
-        for name in (
+        check_choice("extraction", "error_model", self.error_model, ERROR_MODELS)
+        check_numbers("extraction", self, (
             "max_height", "max_relative_error", "link_ft", "along_ray_k",
             "min_log_spread", "lateral_margin_ft", "ground_slope",
-        ):  # fmt: skip
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"extraction {name} must be a positive number, not {v!r}")
-        for name in ("min_height", "noise_sigma", "disparity_sigma_px", "grow_k", "ground_k"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ValueError(f"extraction {name} must be a number >= 0, not {v!r}")
+        ))  # fmt: skip
+        check_numbers("extraction", self, ("min_height", "noise_sigma", "disparity_sigma_px",
+                                           "grow_k", "ground_k"), positive=False)  # fmt: skip
         if self.min_height >= self.max_height:
             raise ValueError(
                 f"min_height ({self.min_height:g}) must be < max_height ({self.max_height:g})"

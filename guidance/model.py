@@ -39,6 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .checks import check_numbers
+
 __all__ = [
     "G_FT_S2",
     "RHO_SL_SLUG_FT3",
@@ -82,10 +84,7 @@ class VehicleParams:
     g: float = G_FT_S2
 
     def __post_init__(self) -> None:
-        for name in ("weight_lbf", "ref_area_ft2", "rho", "g"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"vehicle parameter {name} must be a positive number, not {v!r}")
+        check_numbers("vehicle parameter", self, ("weight_lbf", "ref_area_ft2", "rho", "g"))
         cd = self.drag_coefficient
         if not isinstance(cd, (int, float)) or not math.isfinite(cd) or cd < 0:
             raise ValueError(f"drag_coefficient must be a finite number >= 0, not {cd!r}")

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .checks import check_numbers
 from .law import (
     BoundaryConditions,
     NoTransversalityRootWarning,
@@ -91,10 +92,7 @@ class SimulationConfig:
 
     def __post_init__(self) -> None:
         names = ("guidance_interval", "sample_interval", "t_go_min", "t_go_max")
-        for name in (*names, "terminal_time", "max_time"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"simulation {name} must be a positive number, not {v!r}")
+        check_numbers("simulation", self, (*names, "terminal_time", "max_time"))
         if self.sample_interval > self.guidance_interval:
             raise ValueError(
                 f"sample_interval ({self.sample_interval:g} s) must not exceed "
