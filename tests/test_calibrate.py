@@ -164,3 +164,17 @@ def test_the_shipped_calibration_covers_the_reference_and_estimates_the_default(
         assert set(shipped["targets"][target]) == set(pipe.area_features)
         est = pipe.estimated_area(pipe.default_config(), (512, 512), "stereo", target)
         assert all(v > 0 for v in est.values()), (target, est)
+
+
+def test_an_rtl_is_identified_by_its_own_files_only():
+    """The calibration's RTL identity and the synthesis/timing cache keys hash the
+    pipeline's sources and the headers they include: a change to another pipeline's
+    parameter header neither marks P1's calibration stale nor misses P1's caches."""
+    from rangefx.tools.studies.synth import RTL_TOPS
+    from rangefx.vectors.hdl import rtl_files
+
+    files = {name: {p.name for p in rtl_files(top.sources)} for name, top in RTL_TOPS.items()}
+    assert {"p1_frontend_params.vh", "p1_range_params.vh", "p1_top.v"} <= files["p1"]
+    assert {"p2_params.vh", "p2_top.v"} <= files["p2"]
+    assert "p2_params.vh" not in files["p1"]
+    assert not any(name.startswith("p1_") for name in files["p2"])

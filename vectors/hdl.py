@@ -47,6 +47,7 @@ __all__ = [
     "read_stream_mem",
     "register_codes",
     "register_port_widths",
+    "rtl_files",
     "stream_entries",
     "top_parameters",
     "write_dump",
@@ -58,6 +59,27 @@ HDL_DIR = Path(__file__).resolve().parent.parent / "hdl"
 #: One stream's front end (p1_frontend), and with the top (p1_top).
 FRONTEND_SOURCES = ("fx_cast_sized.v", "fx_pipe.v", "fx_divide.v", "p1_colfilt.v", "p1_frontend.v")
 HDL_SOURCES = (*FRONTEND_SOURCES, "p1_range.v", "p1_top.v")
+
+
+_INCLUDE = re.compile(r'^\s*`include\s+"([^"]+)"', re.M)
+
+
+def rtl_files(sources: Sequence[str]) -> tuple[Path, ...]:
+    """The files of ``hdl/`` that a design of ``sources`` reads: the sources and the
+    headers they `` `include`` (transitively, each once), in that order. Cache keys and
+    the RTL identity hash these, so a change to another pipeline's header does not
+    invalidate them."""
+    files: list[Path] = []
+    todo = [HDL_DIR / s for s in sources]
+    while todo:
+        path = todo.pop(0)
+        if path in files:
+            continue
+        files.append(path)
+        todo.extend(HDL_DIR / h for h in _INCLUDE.findall(path.read_text()))
+    return tuple(files)
+
+
 TOPLEVEL = "p1_top"
 
 #: Tap (without ``e1.``/``e2.``) -> (output port, its stage's valid port) of p1_frontend.

@@ -49,7 +49,7 @@ import numpy as np
 from rangefx.rtl_model.cost import load_area_calibration
 from rangefx.rtl_model.pipeline import Pipeline
 from rangefx.rtl_model.registry import get_pipeline
-from rangefx.vectors.hdl import HDL_DIR
+from rangefx.vectors.hdl import HDL_DIR, rtl_files
 
 from .synth import AREA_KEYS, RTL_TOPS, synth_pipeline_top, yosys_version
 
@@ -81,14 +81,15 @@ def calibrated_pipelines() -> tuple[str, ...]:
 
 
 def rtl_identity(pipeline: str) -> dict[str, str]:
-    """The RTL calibrated: the SHA-256 of the pipeline's Verilog sources and ``hdl/``'s
-    headers and, in a git checkout, the last commit that touched ``hdl/`` (``unknown``
-    otherwise)."""
+    """The RTL calibrated: the SHA-256 of the pipeline's Verilog sources and the headers
+    they include (:func:`rangefx.vectors.hdl.rtl_files`) and, in a git checkout, the last
+    commit that touched one of them (``unknown`` otherwise)."""
     h = hashlib.sha256()
-    for path in (*(HDL_DIR / s for s in RTL_TOPS[pipeline].sources),
-                 *sorted(HDL_DIR.glob("*.vh"))):  # fmt: skip
+    files = rtl_files(RTL_TOPS[pipeline].sources)
+    for path in files:
         h.update(path.read_bytes())
-    run = subprocess.run(["git", "-C", str(HDL_DIR), "log", "-1", "--format=%h", "--", "."],
+    run = subprocess.run(["git", "-C", str(HDL_DIR), "log", "-1", "--format=%h", "--",
+                          *(p.name for p in files)],
                          capture_output=True, text=True, check=False)  # fmt: skip
     commit = run.stdout.strip() if run.returncode == 0 and run.stdout.strip() else "unknown"
     return {"rtl_commit": commit, "rtl_sha256": h.hexdigest()[:16]}

@@ -49,6 +49,7 @@ from rangefx.vectors.hdl import (
     frontend_parameters,
     p2_config_parameters,
     range_parameters,
+    rtl_files,
     write_recip_rom,
 )
 
@@ -289,8 +290,7 @@ def _key(stage: str, target: str, params: Mapping, version: str) -> str:
     t = TARGETS[target]
     command = t.command + (f"; {t.prepare}" if t.prepare else "")  # other targets' keys kept
     h.update(json.dumps([stage, target, command, sorted(params.items()), version]).encode())
-    # the sources and every header they may `include (the shared parameter lists)
-    for path in (*(HDL_DIR / s for s in sources), *sorted(HDL_DIR.glob("*.vh"))):
+    for path in rtl_files(sources):  # the sources and the headers they include
         h.update(path.read_bytes())
     return h.hexdigest()[:32]
 

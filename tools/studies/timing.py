@@ -46,12 +46,12 @@ from pathlib import Path
 
 from rangefx.rtl_model.p1.config import P1Config
 from rangefx.vectors.hdl import (
-    HDL_DIR,
     HDL_SOURCES,
     P2_SOURCES,
     frontend_parameters,
     p2_timing_wrapper,
     register_port_widths,
+    rtl_files,
     write_recip_rom,
 )
 
@@ -409,7 +409,7 @@ def _clock(name: str) -> str:
 
 def _key(*parts: object, sources: Sequence[str] = HDL_SOURCES) -> str:
     h = hashlib.sha256(json.dumps([str(p) for p in parts]).encode())
-    for path in (*(HDL_DIR / s for s in sources), *sorted(HDL_DIR.glob("*.vh"))):
+    for path in rtl_files(sources):
         h.update(path.read_bytes())
     return h.hexdigest()[:32]
 
@@ -583,7 +583,7 @@ def time_top(
             # under the host's /tmp is not where its absolute paths point
             rtl_dir = work / "rtl"
             rtl_dir.mkdir()
-            for path in (*(HDL_DIR / s for s in timed.sources), *HDL_DIR.glob("*.vh")):
+            for path in rtl_files(timed.sources):
                 shutil.copyfile(path, rtl_dir / path.name)
             sources = " ".join(f"rtl/{s}" for s in timed.sources)
             defines = TARGET_DEFINES.get(target, "")
