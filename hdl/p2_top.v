@@ -25,7 +25,9 @@
 // Lines are taken in groups of LANES (ping-pong line and sweep buffers, bank = group mod 2);
 // a group's sweep runs WIDTH columns x P_B cycles (column WIDTH-1's slot loads S~_end,
 // Q~ = 0), its forward pass WIDTH x P_F; the controllers start them as the model's
-// schedule does (rtl_model/p2/model.py group_starts). Flags (sticky): align_error (the two
+// schedule does (rtl_model/p2/model.py group_starts), each slot decided the cycle before
+// (its registers hold its phase, column, bank and buffer address; the buffers hold entry
+// (lane, bank, column k) at (lane 2 + bank) WIDTH + k). Flags (sticky): align_error (the two
 // inputs' TVALID/TUSER/TLAST differ), line_too_long (a line over WIDTH pixels: its extra
 // pixels are dropped), overrun (a group's first pixel would overwrite a line buffer its
 // sweep has not read: the lanes cannot sustain the rate). Overflow counters (32 bits)
