@@ -25,7 +25,9 @@
 // Lines are taken in groups of LANES (ping-pong line and sweep buffers, bank = group mod 2);
 // a group's sweep runs WIDTH columns x P_B cycles (column WIDTH-1's slot loads S~_end,
 // Q~ = 0), its forward pass WIDTH x P_F; the controllers start them as the model's
-// schedule does (rtl_model/p2/model.py group_starts). Flags (sticky): align_error (the two
+// schedule does (rtl_model/p2/model.py group_starts), each slot decided the cycle before
+// (its registers hold its phase, column, bank and buffer address; the buffers hold entry
+// (lane, bank, column k) at (lane 2 + bank) WIDTH + k). Flags (sticky): align_error (the two
 // inputs' TVALID/TUSER/TLAST differ), line_too_long (a line over WIDTH pixels: its extra
 // pixels are dropped), overrun (a group's first pixel would overwrite a line buffer its
 // sweep has not read: the lanes cannot sustain the rate). Overflow counters (32 bits)
@@ -166,7 +168,7 @@ module p2_top #(
         x2 <= x2_n;
         ox1 <= ovf_x1;
         ox2 <= ovf_x2;
-        a1 <= (bank_now * LANES + lane_now) * WIDTH + col_now[XW-1:0];
+        a1 <= {lane_now, bank_now} * WIDTH + col_now[XW-1:0];
         // the group's last pixel: its last line (lane LANES-1 or the frame's last row)
         last1 <= (col_now == WIDTH - 1) && (lane_now == LANES - 1 || row_now == HEIGHT - 1);
         first1 <= (col_now == 0) && (lane_now == 0);
@@ -196,9 +198,14 @@ module p2_top #(
     end
     // the line buffer (p2_ram), written here, read by the sweep engine
     wire [D_W+G_W-1:0] lb_q;
-    wire [AW-1:0] lb_ra;
 
-    // ---- the sweep controller ----------------------------------------------------------
+    // ---- the controllers ----------------------------------------------------------------
+    // Each controller's registers describe its slot of the current cycle (on, phase,
+    // column, bank, buffer address); the cycle before decides them, so no decision (go)
+    // and no address arithmetic lies between a register and the block RAMs' address.
+    // Buffer layout (line and sweep buffers alike): entry (lane, bank, column k) at
+    // (lane 2 + bank) WIDTH + k, a concatenation when WIDTH is a power of two; the read
+    // addresses advance by 2 WIDTH per lane and by one column per slot (no multiply).
     reg [1:0] ready;                 // per bank: a group is in the line buffer
     reg [LW:0] lines [0:1];          // per bank: the group's lines
     reg [1:0] lb_busy;               // per bank: its sweep has reads left
@@ -206,55 +213,70 @@ module p2_top #(
     reg [1:0] f_started;             // per bank: that group's forward pass has started
     reg [1:0] f_pend;                // per bank: a swept group waits for its forward pass
     reg [47:0] f_ready [0:1];
-    reg sw_run, sw_bank, sw_next;
-    reg [PBW-1:0] sw_ph;
-    reg [XW-1:0] sw_t;               // slot: column WIDTH-1-sw_t
-    // the controllers' time compares, registered (one carry chain each): per bank,
-    // hold_met = now - f_start >= HOLD, fwd_met = now >= f_ready
-    reg [47:0] now1;                 // now + 1
     reg [47:0] hold_at [0:1];        // f_start + HOLD
-    reg [1:0] hold_met, fwd_met;
-    wire hold_ok = !used[sw_next] || (f_started[sw_next] && hold_met[sw_next]);
-    wire sw_go = !sw_run && ready[sw_next] && hold_ok;
-    wire sw_on = sw_go || sw_run;
-    wire [PBW-1:0] ph = sw_go ? {PBW{1'b0}} : sw_ph;
-    wire [XW-1:0] st_t = sw_go ? {XW{1'b0}} : sw_t;
-    wire sb_bank = sw_go ? sw_next : sw_bank;
+    // the time compares, registered two cycles ahead (one carry chain each): per bank,
+    // hold_met2 = now + 2 - f_start >= HOLD, fwd_met2 = now + 2 >= f_ready
+    reg [47:0] now2;                 // now + 2
+    reg [1:0] hold_met2, fwd_met2;
+    // the sweep's slot at this cycle: sw_go (its first), sw_on, phase ph (the lane),
+    // st_t (column WIDTH-1-st_t), bank, line-buffer read address lb_ra
+    reg sw_go, sw_on, sw_bank, sw_next, sw_ph_last, sw_t_last;
+    reg [PBW-1:0] ph;
+    reg [XW-1:0] st_t;
+    reg [AW-1:0] lb_ra, lb_ca;       // the slot's address; (bank, column)'s: bank WIDTH + col
+    wire sb_bank = sw_bank;
     wire [LW:0] sw_lines = lines[sb_bank];
     wire r_v = sw_on && (ph < sw_lines);
     wire [XW-1:0] r_col = WIDTH - 1 - st_t;
-    wire sw_last_read = sw_on && (ph == LANES - 1) && (st_t == WIDTH - 1);
-    wire sw_end = sw_on && (ph == P_B - 1) && (st_t == WIDTH - 1);
-
-    // ---- the forward controller ---------------------------------------------------------
-    reg fw_run, fw_bank, fw_next;
-    reg [PFW-1:0] fw_ph;
-    reg [XW-1:0] fw_k;
-    wire fw_go = !fw_run && f_pend[fw_next] && fwd_met[fw_next];
-    wire fw_on = fw_go || fw_run;
-    wire [PFW-1:0] fph = fw_go ? {PFW{1'b0}} : fw_ph;
-    wire [XW-1:0] fk = fw_go ? {XW{1'b0}} : fw_k;
-    wire fb = fw_go ? fw_next : fw_bank;
+    wire sw_last_read = sw_on && (ph == LANES - 1) && sw_t_last;
+    wire sw_wrap = sw_on && sw_ph_last;
+    wire sw_end = sw_wrap && sw_t_last;
+    wire sw_free = !sw_on || sw_end;            // no slot of this sweep next cycle
+    // the forward pass's slot at this cycle likewise (sweep-buffer read address sb_ra)
+    reg fw_go, fw_on, fw_bank, fw_next, fw_ph_last, fw_k_last;
+    reg [PFW-1:0] fph;
+    reg [XW-1:0] fk;
+    reg [AW-1:0] sb_ra, sb_ca;       // the slot's address; bank WIDTH + k
     reg [LW:0] sw_lines_b [0:1];     // per bank: the lines of the group swept into it
-    reg [LW:0] fw_lines_r;
-    wire [LW:0] fw_lines = fw_go ? sw_lines_b[fw_next] : fw_lines_r;
+    reg [LW:0] fw_lines;
+    wire fb = fw_bank;
     wire t_v = fw_on && (fph < fw_lines);
-    wire fw_end = fw_on && (fph == P_F - 1) && (fk == WIDTH - 1);
+    wire fw_wrap = fw_on && fw_ph_last;
+    wire fw_end = fw_wrap && fw_k_last;
+    wire fw_free = !fw_on || fw_end;
+    // next cycle's starts: the sweep when its next bank's group is in the line buffer
+    // (or arrives now) and the sweep buffer's hold has passed; the forward pass when its
+    // next bank's sweep is written back
+    wire [1:0] bank2_is = {bank2, ~bank2};
+    wire [1:0] ready_n = ready | ({2{v2 && last2}} & bank2_is);
+    wire [1:0] fwgo_is = {2{fw_go}} & {fw_next, ~fw_next};
+    wire [1:0] started_n = f_started | fwgo_is;
+    wire hold_now = (HOLD <= 1);
+    wire [1:0] hold_n = (fwgo_is & {2{hold_now}}) | (~fwgo_is & hold_met2);
+    wire hold_ok_n = !used[sw_next] || (started_n[sw_next] && hold_n[sw_next]);
+    wire sw_go_n = sw_free && ready_n[sw_next] && hold_ok_n;
+    wire fw_go_n = fw_free && f_pend[fw_next] && fwd_met2[fw_next];
+    // the first slot's addresses: column WIDTH-1 (the sweep) or 0 (the forward pass) of
+    // lane 0 in the next bank
+    wire [AW-1:0] sw_start = sw_next ? 2 * WIDTH - 1 : WIDTH - 1;
+    wire [AW-1:0] fw_start = fw_next ? WIDTH : 0;
 
     always @(posedge clk) begin
         if (rst) begin
             ready <= 2'b00; lb_busy <= 2'b00; used <= 2'b00; f_started <= 2'b00;
             f_pend <= 2'b00; overrun <= 1'b0;
-            sw_run <= 1'b0; sw_bank <= 1'b0; sw_next <= 1'b0; sw_ph <= 0; sw_t <= 0;
-            fw_run <= 1'b0; fw_bank <= 1'b0; fw_next <= 1'b0; fw_ph <= 0; fw_k <= 0;
-            now1 <= 48'd1; hold_met <= 2'b00; fwd_met <= 2'b00;
+            now2 <= 48'd2; hold_met2 <= 2'b00; fwd_met2 <= 2'b00;
+            sw_go <= 1'b0; sw_on <= 1'b0; sw_bank <= 1'b0; sw_next <= 1'b0; ph <= 0;
+            st_t <= 0; sw_ph_last <= (P_B == 1); sw_t_last <= (WIDTH == 1);
+            fw_go <= 1'b0; fw_on <= 1'b0; fw_bank <= 1'b0; fw_next <= 1'b0; fph <= 0;
+            fk <= 0; fw_ph_last <= (P_F == 1); fw_k_last <= (WIDTH == 1);
         end else begin
-            now1 <= now1 + 48'd1;
-            // the compares for the next cycle (overridden below where a bank restarts)
-            hold_met[0] <= $signed(now1) >= $signed(hold_at[0]);
-            hold_met[1] <= $signed(now1) >= $signed(hold_at[1]);
-            fwd_met[0] <= now1 >= f_ready[0];
-            fwd_met[1] <= now1 >= f_ready[1];
+            now2 <= now2 + 48'd1;
+            // the compares for the cycle after next (overridden below where a bank restarts)
+            hold_met2[0] <= $signed(now2) >= $signed(hold_at[0]);
+            hold_met2[1] <= $signed(now2) >= $signed(hold_at[1]);
+            fwd_met2[0] <= now2 >= f_ready[0];
+            fwd_met2[1] <= now2 >= f_ready[1];
             // the input side: a group's first pixel claims its bank, its last one is ready
             if (v2 && first2) begin
                 if (lb_busy[bank2] || ready[bank2]) overrun <= 1'b1;
@@ -271,29 +293,51 @@ module p2_top #(
                 f_started[sw_next] <= 1'b0;
                 f_pend[sw_next] <= 1'b1;
                 f_ready[sw_next] <= now + SWEEP_LEN + T_B;
-                fwd_met[sw_next] <= 1'b0;     // SWEEP_LEN + T_B > 1 cycles away
+                fwd_met2[sw_next] <= 1'b0;    // SWEEP_LEN + T_B > 2 cycles away
                 sw_lines_b[sw_next] <= lines[sw_next];
-                sw_bank <= sw_next;
                 sw_next <= ~sw_next;
             end
-            if (sw_on) begin
-                sw_run <= !sw_end;
-                sw_ph <= (ph == P_B - 1) ? {PBW{1'b0}} : ph + 1'b1;
-                sw_t <= (ph == P_B - 1) ? st_t + 1'b1 : st_t;
+            // the sweep's next slot
+            sw_go <= sw_go_n;
+            sw_on <= sw_go_n || !sw_free;
+            ph <= sw_wrap ? {PBW{1'b0}} : sw_on ? ph + 1'b1 : ph;
+            sw_ph_last <= (sw_wrap || !sw_on) ? (P_B == 1) : (ph == P_B - 2);
+            st_t <= sw_end ? {XW{1'b0}} : sw_wrap ? st_t + 1'b1 : st_t;
+            sw_t_last <= sw_end ? (WIDTH == 1) : sw_wrap ? (st_t == WIDTH - 2) : sw_t_last;
+            if (sw_free) begin
+                sw_bank <= sw_next;
+                lb_ra <= sw_start;
+                lb_ca <= sw_start;
+            end else if (sw_wrap) begin
+                lb_ra <= lb_ca - 1'b1;
+                lb_ca <= lb_ca - 1'b1;
+            end else begin
+                lb_ra <= lb_ra + 2 * WIDTH;
             end
             if (fw_go) begin
                 f_pend[fw_next] <= 1'b0;
                 f_started[fw_next] <= 1'b1;
                 hold_at[fw_next] <= now + HOLD;
-                hold_met[fw_next] <= (HOLD <= 1);  // now + 1 - f_start = 1
-                fw_lines_r <= sw_lines_b[fw_next];
-                fw_bank <= fw_next;
+                hold_met2[fw_next] <= (HOLD <= 2);  // now + 2 - f_start = 2
                 fw_next <= ~fw_next;
             end
-            if (fw_on) begin
-                fw_run <= !fw_end;
-                fw_ph <= (fph == P_F - 1) ? {PFW{1'b0}} : fph + 1'b1;
-                fw_k <= (fph == P_F - 1) ? fk + 1'b1 : fk;
+            // the forward pass's next slot
+            fw_go <= fw_go_n;
+            fw_on <= fw_go_n || !fw_free;
+            fph <= fw_wrap ? {PFW{1'b0}} : fw_on ? fph + 1'b1 : fph;
+            fw_ph_last <= (fw_wrap || !fw_on) ? (P_F == 1) : (fph == P_F - 2);
+            fk <= fw_end ? {XW{1'b0}} : fw_wrap ? fk + 1'b1 : fk;
+            fw_k_last <= fw_end ? (WIDTH == 1) : fw_wrap ? (fk == WIDTH - 2) : fw_k_last;
+            if (fw_free) begin
+                fw_bank <= fw_next;
+                fw_lines <= sw_lines_b[fw_next];
+                sb_ra <= fw_start;
+                sb_ca <= fw_start;
+            end else if (fw_wrap) begin
+                sb_ra <= sb_ca + 1'b1;
+                sb_ca <= sb_ca + 1'b1;
+            end else begin
+                sb_ra <= sb_ra + 2 * WIDTH;
             end
         end
     end
@@ -312,7 +356,6 @@ module p2_top #(
 `define P2_FTAG(i) ftags[FTAGW*((i)-1) +: FTAGW]
     // r+1: the address registered, r+2: the block RAMs' read, r+3: their outputs
     // registered, r+4, r+5: combined (p2_ram)
-    assign lb_ra = (sb_bank * LANES + ph[LW-1:0]) * WIDTH + r_col;
     p2_ram #(D_W + G_W, DEPTH, AW) u_lb (
         .clk(clk), .we(v2), .wa(a2w), .wd({d2, g2}), .ra(lb_ra), .zero(1'b0), .rd(lb_q));
     wire [D_W+G_W-1:0] rd2 = lb_q;
@@ -545,10 +588,8 @@ module p2_top #(
     end
     // the sweep buffer: entry (bank, lane, k) = a, r, S~_k+1, Q~_k+1, dG, |D| >= T_D of
     // step k, written at the write-back (column WIDTH-1: no entry)
-    wire [XW-1:0] wb_col = tag_wb[1 +: XW];
-    wire wb_bank = tag_wb[0];
-    wire [AW-1:0] sb_wa = (wb_bank * LANES + wb_lane) * WIDTH + wb_col;
-    wire [AW-1:0] sb_ra;
+    reg [AW-1:0] sb_wa;              // registered from the tag a cycle ahead
+    always @(posedge clk) sb_wa <= {tg9[XW+1 +: LW], tg9[0]} * WIDTH + tg9[1 +: XW];
     wire sb_zero;
     wire [SB_W-1:0] sb_q;
     p2_ram #(SB_W, DEPTH, AW) u_sb (
@@ -570,7 +611,6 @@ module p2_top #(
     // registered; t+4, t+5 = F: combined (p2_ram; column WIDTH-1: zeros) and the e
     // operand e_k (tap e: 0 for k = 0, else the lane's state)
     wire [FTAGW-1:0] ft1 = `P2_FTAG(FWD_READ - 1);
-    assign sb_ra = (fb * LANES + fph[LW-1:0]) * WIDTH + fk;
     assign sb_zero = ft1[FTAGW-2];
     wire [SB_W-1:0] fr2 = sb_q;
     reg [E_W-1:0] e_state [0:LANES-1];
