@@ -25,7 +25,12 @@ from rangefx.guidance.cases import synthetic_case
 from rangefx.guidance.extraction import ObstacleBox
 from rangefx.guidance.law import BoundaryConditions, GuidanceWeights, ObstacleField
 from rangefx.guidance.simulate import SimulationConfig
-from rangefx.guidance.stress import stress_layouts, stress_programme
+from rangefx.guidance.stress import (
+    braking_segment,
+    stopping_distance,
+    stress_layouts,
+    stress_programme,
+)
 
 # A short straight-in problem: 300 ft down range, the report's weights.
 BC = BoundaryConditions(
@@ -150,6 +155,24 @@ def test_stress_layouts_put_a_vehicle_on_the_nominal_path(synthetic):
         assert 0.15 * 18 <= lay.path_time_s <= 0.85 * 18
         # no true vehicle on the start or the touch-down
         assert _dist(pos[[0, -1]], moved.truth).min() >= 5.0
+
+
+def test_stress_layouts_keep_the_braking_segment_clear(synthetic):
+    # A layout whose true vehicle lies within the stopping distance (or the clearance)
+    # of the start has no safe answer: such draws are redrawn, so braking straight
+    # ahead keeps 20 ft from every true vehicle. Seed 2 draws two (stress2-10, -13).
+    t, pos = _nominal()
+    v0 = (pos[1] - pos[0]) / (t[1] - t[0])
+    seg = braking_segment(pos[0], v0)
+    speed = math.hypot(*v0[:2])
+    decel = 32.174 * math.tan(math.radians(0.9 * 20.0))  # the default limits less back-off
+    assert stopping_distance(speed) == pytest.approx(speed**2 / (2 * decel))
+    assert np.linalg.norm(seg[-1] - seg[0]) == pytest.approx(stopping_distance(speed))
+    assert seg[-1] - seg[0] == pytest.approx(stopping_distance(speed) * v0 / speed)
+    lays = stress_layouts(synthetic, t, pos, 14, seed=2, clearance_ft=20.0)
+    assert lays == stress_layouts(synthetic, t, pos, 14, seed=2, clearance_ft=20.0)
+    for lay in lays:
+        assert _dist(seg, synthetic.shifted(lay.shift_ft).truth).min() >= 20.0, lay.name
 
 
 def test_stress_programme_scores_against_the_true_vehicles(synthetic):
