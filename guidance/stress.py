@@ -30,17 +30,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .avoid import OUTCOMES, AvoidConfig
+from .avoid import OUTCOMES, AvoidConfig, stopping_distance
 from .cases import GuidanceCase, fly
 from .extraction import ObstacleBox
-from .model import G_FT_S2
 from .simulate import SimulationConfig
 
 __all__ = [
     "StressLayout",
     "StressResult",
     "braking_segment",
-    "stopping_distance",
     "stress_layouts",
     "stress_programme",
 ]
@@ -72,16 +70,6 @@ def _min_distance(pos: np.ndarray, boxes: tuple[ObstacleBox, ...]) -> np.ndarray
     if not boxes:
         return np.full(len(pos), math.inf)
     return np.min([b.signed_distance(pos) for b in boxes], axis=0)
-
-
-def stopping_distance(speed: float, avoid: AvoidConfig | None = None) -> float:
-    """Distance (ft) to stop from ``speed`` ft/s at constant altitude at the largest
-    deceleration within ``avoid``'s pitch limit less its back-off, ``g tan((1 - backoff)
-    θ_max)`` (10.45 ft/s² by default: 69 ft from the report's 38 ft/s; its load factor,
-    1.05, is within the 1.1 limit)."""
-    av = avoid or AvoidConfig()
-    decel = G_FT_S2 * math.tan(math.radians((1.0 - av.limit_backoff) * av.max_theta_deg))
-    return float(speed) ** 2 / (2.0 * decel)
 
 
 def braking_segment(
