@@ -67,9 +67,11 @@ manoeuvre then keeps what the start leaves and moves away sideways (the extents 
 clearance holds the start are walls, :func:`escape_walls`; the floor rises to the full
 clearance over ``ESCAPE_TIME_S``, points away from the extent are tried first), and
 at its hold point the law decides again: it lands only on a plan that keeps the
-clearance, else it holds. ``when_blocked="best-effort"`` keeps the old behaviour (land
-on the plan that keeps the full clearance from every extent except those an end point
-is within the clearance of, and from those as much as that end point leaves).
+clearance, else it holds. When no manoeuvre keeps its floor the law brakes straight
+ahead to a stop (:func:`plan_braking_stop`) and holds there.
+``when_blocked="best-effort"`` keeps the old behaviour (land on the plan that keeps the
+full clearance from every extent except those an end point is within the clearance of,
+and from those as much as that end point leaves).
 """
 
 from __future__ import annotations
@@ -1038,9 +1040,10 @@ def plan_safe_manoeuvre(
     From such a start, candidates whose straight chord keeps that floor
     (:func:`_chord_clearance`, a geometric test) are solved first, in their order; the
     others after them (elsewhere the order is the least departure first). ``None``
-    when no candidate has such a plan, unless ``closest_if_none``: then the candidate
-    least short of that floor (within the limits first), ``keeps_floor=False``
-    (the caller reports it; never a landing)."""
+    when no candidate has such a plan, unless ``closest_if_none``: then the braking
+    stop (:func:`plan_braking_stop`), or if no stop is within the limits the candidate
+    least short of that floor (within the limits first); ``keeps_floor=False`` either
+    way (the caller reports it; never a landing)."""
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
     # A hold point is a short, open target: a plan that keeps the clearance converges
