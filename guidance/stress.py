@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .avoid import OUTCOMES, AvoidConfig, stopping_distance
+from .avoid import OUTCOMES, STOP_DISTANCE_FACTORS, AvoidConfig, stopping_distance
 from .cases import GuidanceCase, fly
 from .extraction import ObstacleBox
 from .simulate import SimulationConfig
@@ -75,16 +75,19 @@ def _min_distance(pos: np.ndarray, boxes: tuple[ObstacleBox, ...]) -> np.ndarray
 def braking_segment(
     start: np.ndarray, velocity: np.ndarray, avoid: AvoidConfig | None = None, n: int = 33
 ) -> np.ndarray:
-    """``n`` points from ``start`` along the horizontal part of ``velocity`` over the
-    :func:`stopping_distance` of its speed: where a vehicle braking straight ahead from
-    ``start`` passes (the stress layouts keep every true vehicle ``clearance`` from it)."""
+    """``n`` points from ``start`` along the horizontal part of ``velocity`` to where the
+    law's braking stop (:func:`rangefx.guidance.avoid.plan_braking_stop`) holds: its
+    first hold point, ``STOP_DISTANCE_FACTORS[0]`` × the :func:`stopping_distance` of the
+    speed ahead (1.25 × 69 ft = 86 ft from the report's 38 ft/s). The stress layouts
+    keep every true vehicle ``clearance`` from it."""
     start = np.asarray(start, dtype=np.float64)
     v = np.asarray(velocity, dtype=np.float64)
     speed = float(np.hypot(v[0], v[1]))
     if speed < 1e-9:
         return start[None].copy()
     d = np.array([v[0] / speed, v[1] / speed, 0.0])
-    s = np.linspace(0.0, stopping_distance(speed, avoid), n)[:, None]
+    length = STOP_DISTANCE_FACTORS[0] * stopping_distance(speed, avoid)
+    s = np.linspace(0.0, length, n)[:, None]
     return start[None] + s * d[None]
 
 
@@ -110,10 +113,11 @@ def stress_layouts(
     there) are redrawn, and so are those that put one within ``clearance_ft`` of the
     **braking segment** (:func:`braking_segment`: the start, and the straight line
     along the start's velocity ``start_velocity`` -- default the nominal path's first
-    step -- over which a deceleration within ``avoid``'s limits stops): such a vehicle
-    is inside the stopping distance, or inside the clearance, of the start, and no law
-    within the limits can keep the clearance from it. Every layout drawn therefore has a
-    safe answer, braking straight ahead to a hover."""
+    step -- to where the law's braking stop holds, 1.25 × the distance a deceleration
+    within ``avoid``'s limits needs): such a vehicle is inside the stopping distance, or
+    inside the clearance, of the start, and no law within the limits need keep the
+    clearance from it. Every layout drawn therefore has a safe answer, the law's own
+    braking stop."""
     if count < 0:
         raise ValueError(f"stress layout count must be >= 0, not {count!r}")
     if not case.truth:
