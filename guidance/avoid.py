@@ -67,9 +67,11 @@ manoeuvre then keeps what the start leaves and moves away sideways (the extents 
 clearance holds the start are walls, :func:`escape_walls`; the floor rises to the full
 clearance over ``ESCAPE_TIME_S``, points away from the extent are tried first), and
 at its hold point the law decides again: it lands only on a plan that keeps the
-clearance, else it holds. ``when_blocked="best-effort"`` keeps the old behaviour (land
-on the plan that keeps the full clearance from every extent except those an end point
-is within the clearance of, and from those as much as that end point leaves).
+clearance, else it holds. When no manoeuvre keeps its floor the law brakes straight
+ahead to a stop (:func:`plan_braking_stop`) and holds there.
+``when_blocked="best-effort"`` keeps the old behaviour (land on the plan that keeps the
+full clearance from every extent except those an end point is within the clearance of,
+and from those as much as that end point leaves).
 """
 
 from __future__ import annotations
@@ -96,6 +98,7 @@ from .law import (
     solve_time_to_go,
 )
 from .model import (
+    G_FT_S2,
     Controls,
     VehicleParams,
     inverse_controls,
@@ -124,9 +127,11 @@ __all__ = [
     "limit_margins",
     "limited_command",
     "manoeuvre_candidates",
+    "plan_braking_stop",
     "plan_safe_manoeuvre",
     "plan_trajectory",
     "simulate_avoid",
+    "stopping_distance",
     "within_limits",
 ]
 
@@ -138,8 +143,13 @@ class InfeasibleClearanceWarning(UserWarning):
 #: What the law may do when no path to the touch-down keeps the clearance.
 WHEN_BLOCKED: tuple[str, ...] = ("manoeuvre", "best-effort")
 
-#: The safe manoeuvres, in the order they are tried (the least departure first).
-MANOEUVRES: tuple[str, ...] = ("hover", "climb", "turn-away")
+#: The safe manoeuvres, in the order they are tried (the least departure first); the
+#: last, ``stop`` (brake straight ahead to a hover), is flown when none keeps its floor.
+MANOEUVRES: tuple[str, ...] = ("hover", "climb", "turn-away", "stop")
+
+#: Hold points of the braking stop, in units of the stopping distance
+#: (:func:`stopping_distance`): the first whose plan is within the limits is flown.
+STOP_DISTANCE_FACTORS: tuple[float, ...] = (1.25, 1.5, 2.0, 3.0)
 
 #: SLSQP iterations allowed to one safe-manoeuvre candidate (one seed).
 MANOEUVRE_MAXITER: int = 80
@@ -556,6 +566,8 @@ class _Problem:
     def clearances(self, x) -> np.ndarray:
         """Signed distance of every sample to every extent, (samples, boxes)."""
         r, _, _ = self.path(x)
+        if self._boxset is None:  # no extents (the braking stop): nothing to keep from
+            return np.empty((len(r), 0))
         return self._boxset.signed_distance(r)
 
     def clearance_margin(self, x) -> np.ndarray:
@@ -874,9 +886,9 @@ class SafeManoeuvre:
 
     @property
     def outcome(self) -> str:
-        """``hover`` (held short of the obstacles) or ``go-around`` (climbed over or
-        turned away, then held)."""
-        return "hover" if self.kind == "hover" else "go-around"
+        """``hover`` (held short of the obstacles, or braked to a stop) or ``go-around``
+        (climbed over or turned away, then held)."""
+        return "hover" if self.kind in ("hover", "stop") else "go-around"
 
     def to_dict(self) -> dict:
         return {
@@ -1022,9 +1034,10 @@ def plan_safe_manoeuvre(
     From such a start, candidates whose straight chord keeps that floor
     (:func:`_chord_clearance`, a geometric test) are solved first, in their order; the
     others after them (elsewhere the order is the least departure first). ``None``
-    when no candidate has such a plan, unless ``closest_if_none``: then the candidate
-    least short of that floor (within the limits first), ``keeps_floor=False``
-    (the caller reports it; never a landing)."""
+    when no candidate has such a plan, unless ``closest_if_none``: then the braking
+    stop (:func:`plan_braking_stop`), or if no stop is within the limits the candidate
+    least short of that floor (within the limits first); ``keeps_floor=False`` either
+    way (the caller reports it; never a landing)."""
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
     # A hold point is a short, open target: a plan that keeps the clearance converges
@@ -1068,7 +1081,71 @@ def plan_safe_manoeuvre(
             if closest is None or key > (closest.plan.limits_ok, closest.plan.floor_margin_ft):
                 closest = SafeManoeuvre(kind, goal, plan, t0, tried, keeps_floor=False)
     if closest is not None:
-        return replace(closest, candidates_tried=tried)
+        stop = plan_braking_stop(
+            r, v, field, boxes, hold_speed=hold_speed, params=params, config=cfg, t0=t0
+        )
+        return replace(stop or closest, candidates_tried=tried)
+    return None
+
+
+def stopping_distance(speed: float, config: AvoidConfig | None = None) -> float:
+    """Distance (ft) to stop from ``speed`` ft/s at constant altitude at the largest
+    deceleration within the pitch limit less its back-off, ``g tan((1 - backoff)
+    θ_max)`` (10.45 ft/s² by default: 69 ft from the report's 38 ft/s; its load factor,
+    1.05, is within the 1.1 limit)."""
+    cfg = config or AvoidConfig()
+    decel = G_FT_S2 * math.tan(math.radians((1.0 - cfg.limit_backoff) * cfg.max_theta_deg))
+    return float(speed) ** 2 / (2.0 * decel)
+
+
+def plan_braking_stop(
+    r: np.ndarray,
+    v: np.ndarray,
+    field: ObstacleField,
+    boxes: tuple[ObstacleBox, ...],
+    *,
+    hold_speed: float = 1.0,
+    params: VehicleParams | None = None,
+    config: AvoidConfig | None = None,
+    t0: float = 0.0,
+) -> SafeManoeuvre | None:
+    """The braking stop: decelerate straight ahead, at the present altitude, to a hover
+    :data:`STOP_DISTANCE_FACTORS` × the :func:`stopping_distance` ahead (the first whose
+    plan is within the limits; ``None`` if none is). Flown when no safe manoeuvre keeps
+    its clearance floor: no plan then certifies the clearance, the distance to an extent
+    no longer bounds the distance to the object inside it (a P1 extent runs 86-480 ft
+    along its ray), and the least of the map a rotorcraft can cross is the stretch it
+    needs to stop. The candidate least short of its floor went further: runway/P1
+    stress0-13 passed Vehicle 3 at 18.58 ft climbing over its extent; the stop holds
+    30 ft short of it (issue 39). Planned on the limits alone (its clearance from
+    ``boxes`` is reported, ``keeps_floor=False``)."""
+    params = params or VehicleParams()
+    cfg = config or AvoidConfig()
+    r = np.asarray(r, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    speed = float(np.hypot(v[0], v[1]))
+    ahead = np.array([v[0], v[1], 0.0]) / speed if speed > 1e-6 else np.array([1.0, 0, 0])
+    d_stop = max(stopping_distance(speed, cfg), 5.0)
+    hold = _hold_field(field)
+    for k, factor in enumerate(STOP_DISTANCE_FACTORS, 1):
+        point = r + factor * d_stop * ahead
+        goal = BoundaryConditions(r0=r, v0=v, rf=point, vf=hold_speed * ahead)
+        plan = plan_trajectory(
+            r, v, goal, hold, (), params=params, config=cfg, t0=t0, relax=False,
+            side_seeds=False, t_go_max=MANOEUVRE_MAX_TIME,
+        )  # fmt: skip
+        if not plan.limits_ok:
+            continue
+        if boxes:
+            tau = np.linspace(0.0, plan.t_go, 65)
+            clear = float(_clearances(plan.evaluate(tau)[0], boxes).min())
+        else:
+            clear = math.inf
+        plan = replace(
+            plan, feasible=False, meets_floor=False, min_clearance_ft=clear,
+            floor_margin_ft=clear - cfg.clearance_ft,
+        )  # fmt: skip
+        return SafeManoeuvre("stop", goal, plan, t0, k, keeps_floor=False)
     return None
 
 
@@ -1106,11 +1183,19 @@ def _decide(
         t0=t0, closest_if_none=closest_if_none,
     )  # fmt: skip
     if man is not None:
-        if not man.keeps_floor:
+        if man.kind == "stop":
+            why += "; no safe manoeuvre keeps it either: braking to a stop"
+        elif not man.keeps_floor:
             why += "; no safe manoeuvre keeps it either: the one that comes closest"
         return man.plan, man, why
-    # No hold point keeps clearance + margin + 2 ft (no candidate at all): straight
-    # ahead to a hover (flagged); never the landing.
+    # No hold point keeps clearance + margin + 2 ft (no candidate at all): the braking
+    # stop (flagged); never the landing.
+    stop = plan_braking_stop(
+        r, v, field, boxes, hold_speed=float(np.linalg.norm(bc.vf)), params=params, config=av,
+        t0=t0,
+    )  # fmt: skip
+    if stop is not None:
+        return stop.plan, stop, why + "; no hold point keeps the clearance: braking to a stop"
     kind, point = "hover", np.array([*(r[:2] + 150.0 * v[:2] / max(np.hypot(*v[:2]), 1e-9)), r[2]])
     chord = point - r
     vf = float(np.linalg.norm(bc.vf)) * chord / float(np.linalg.norm(chord))
@@ -1177,6 +1262,8 @@ def simulate_avoid(
     # A manoeuvre's re-plans keep its walls (an escape from within an extent's
     # clearance leaves it sideways, :func:`escape_walls`).
     walls = boxes if manoeuvre is None else escape_walls(boxes, bc.r0, av.clearance_ft)
+    if manoeuvre is not None and manoeuvre.kind == "stop":
+        walls = ()  # the braking stop is re-planned on the limits alone, as it was planned
     landing_after: dict | None = None
     phase_start = plan  # the first plan of the flight's current phase (its arrival cap)
     # A manoeuvre's re-plans get its candidates' iteration budget (a short, open target).
@@ -1199,8 +1286,9 @@ def simulate_avoid(
         r, v = state[:3], velocity_from_state(state)
         remaining = plan.t_go - (t - plan.t0)
         if t - last_plan_t >= av.replan_interval - 1e-9 and remaining > av.terminal_time:
+            replan_boxes = boxes if goal is bc else walls
             new = plan_trajectory(
-                r, v, goal, plan_field, boxes if goal is bc else walls, params=params,
+                r, v, goal, plan_field, replan_boxes, params=params,
                 config=replan_cfg if plan.meets_floor else av, warm=plan, t0=t,
                 # A re-plan may delay the arrival by at most one re-plan interval (and
                 # never past 1.25 x the first plan's), a relaxed plan (whose cost is the
@@ -1216,7 +1304,7 @@ def simulate_avoid(
                 # Following a plan that keeps the clearance, a re-plan that does not is
                 # dropped anyway: do not pay for the relaxed programme, nor for the bent
                 # seeds (the warm start is the plan's own path, already clear of them).
-                relax=not plan.meets_floor,
+                relax=not plan.meets_floor and bool(replan_boxes),
                 side_seeds=not plan.meets_floor,
                 report_seed=not plan.meets_floor,
             )  # fmt: skip

@@ -30,12 +30,18 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .avoid import OUTCOMES, AvoidConfig
+from .avoid import OUTCOMES, STOP_DISTANCE_FACTORS, AvoidConfig, stopping_distance
 from .cases import GuidanceCase, fly
 from .extraction import ObstacleBox
 from .simulate import SimulationConfig
 
-__all__ = ["StressLayout", "StressResult", "stress_layouts", "stress_programme"]
+__all__ = [
+    "StressLayout",
+    "StressResult",
+    "braking_segment",
+    "stress_layouts",
+    "stress_programme",
+]
 
 
 @dataclass(frozen=True)
@@ -66,6 +72,25 @@ def _min_distance(pos: np.ndarray, boxes: tuple[ObstacleBox, ...]) -> np.ndarray
     return np.min([b.signed_distance(pos) for b in boxes], axis=0)
 
 
+def braking_segment(
+    start: np.ndarray, velocity: np.ndarray, avoid: AvoidConfig | None = None, n: int = 33
+) -> np.ndarray:
+    """``n`` points from ``start`` along the horizontal part of ``velocity`` to where the
+    law's braking stop (:func:`rangefx.guidance.avoid.plan_braking_stop`) holds: its
+    first hold point, ``STOP_DISTANCE_FACTORS[0]`` × the :func:`stopping_distance` of the
+    speed ahead (1.25 × 69 ft = 86 ft from the report's 38 ft/s). The stress layouts
+    keep every true vehicle ``clearance`` from it."""
+    start = np.asarray(start, dtype=np.float64)
+    v = np.asarray(velocity, dtype=np.float64)
+    speed = float(np.hypot(v[0], v[1]))
+    if speed < 1e-9:
+        return start[None].copy()
+    d = np.array([v[0] / speed, v[1] / speed, 0.0])
+    length = STOP_DISTANCE_FACTORS[0] * stopping_distance(speed, avoid)
+    s = np.linspace(0.0, length, n)[:, None]
+    return start[None] + s * d[None]
+
+
 def stress_layouts(
     case: GuidanceCase,
     nominal_t: np.ndarray,
@@ -75,6 +100,9 @@ def stress_layouts(
     seed: int = 0,
     max_offset_ft: float = 12.0,
     end_clearance_ft: float = 5.0,
+    clearance_ft: float = 20.0,
+    start_velocity: np.ndarray | None = None,
+    avoid: AvoidConfig | None = None,
 ) -> list[StressLayout]:
     """``count`` seeded layouts of ``case``: layout ``k`` draws, with
     ``numpy.random.default_rng([seed, k])``, a true vehicle, a time uniform in the
@@ -82,13 +110,23 @@ def stress_layouts(
     offset uniform in ``±max_offset_ft``, and shifts the layout horizontally so that the
     vehicle's centre lands there. Draws that put a true vehicle within
     ``end_clearance_ft`` of the start or the touch-down (no flight could start or end
-    there) are redrawn."""
+    there) are redrawn, and so are those that put one within ``clearance_ft`` of the
+    **braking segment** (:func:`braking_segment`: the start, and the straight line
+    along the start's velocity ``start_velocity`` -- default the nominal path's first
+    step -- to where the law's braking stop holds, 1.25 × the distance a deceleration
+    within ``avoid``'s limits needs): such a vehicle is inside the stopping distance, or
+    inside the clearance, of the start, and no law within the limits need keep the
+    clearance from it. Every layout drawn therefore has a safe answer, the law's own
+    braking stop."""
     if count < 0:
         raise ValueError(f"stress layout count must be >= 0, not {count!r}")
     if not case.truth:
         raise ValueError("stress layouts need true vehicles to put on the path")
     t_end = float(nominal_t[-1])
     ends = nominal_pos[[0, -1]]
+    if start_velocity is None:
+        start_velocity = (nominal_pos[1] - nominal_pos[0]) / (nominal_t[1] - nominal_t[0])
+    braking = braking_segment(nominal_pos[0], start_velocity, avoid)
     out: list[StressLayout] = []
     for k in range(count):
         rng = np.random.default_rng([seed, k])
@@ -107,10 +145,16 @@ def stress_layouts(
                 replace(b, centre=(b.centre[0] + shift[0], b.centre[1] + shift[1]))
                 for b in case.truth
             )
-            if _min_distance(ends, moved).min() >= end_clearance_ft:
+            if (
+                _min_distance(ends, moved).min() >= end_clearance_ft
+                and _min_distance(braking, moved).min() >= clearance_ft
+            ):
                 break
         else:  # pragma: no cover - 1000 draws all blocked an end point
-            raise ValueError(f"stress layout {k}: every draw puts a vehicle on an end point")
+            raise ValueError(
+                f"stress layout {k}: every draw puts a vehicle on an end point or on the "
+                "braking segment"
+            )
         out.append(StressLayout(f"stress{seed}-{k}", shift, box.name, t, off))
     return out
 
@@ -318,7 +362,10 @@ def stress_programme(
     nominal = fly(case, "report", clearance_ft=clearance_ft, config=config, avoid=avoid)
     nom = nominal.result
     runs: dict = {}
-    layouts = stress_layouts(case, nom.t, nom.positions, count, seed=seed)
+    layouts = stress_layouts(
+        case, nom.t, nom.positions, count, seed=seed, clearance_ft=clearance_ft,
+        start_velocity=nom.bc.v0, avoid=avoid,
+    )  # fmt: skip
     todo = layouts if indices is None else [layouts[i] for i in indices]
     done = done or {}
     by_name = {lay.name: done[lay.name] for lay in todo if lay.name in done}

@@ -170,3 +170,33 @@ def test_guide_stress_json_and_worst_case_plot(tmp_path, capsys):
     assert again["resumed_layouts"] == [row["name"]]
     assert again["layouts"] == data["layouts"]
     assert len((out / "stress_layouts.jsonl").read_text().splitlines()) == 1
+
+
+def test_an_interrupted_stress_programme_says_what_its_journal_kept(tmp_path, capsys, monkeypatch):
+    # Stopped after one layout finished: the journal keeps it, and the line says so
+    # (not "no output was written"); the same command resumes from it.
+    import signal
+
+    import rangefx.guidance.stress as stress
+    import rangefx.tools.studies.flights as flights
+    from rangefx.guidance.cases import synthetic_case
+    from rangefx.tools.interrupts import Interrupted
+
+    def programme(case, count, *, on_row, done, **kw):
+        assert done == {}
+        on_row({"name": "stress0-0", "outcome": "hover"})
+        raise Interrupted(signal.SIGTERM)  # the second layout is flying
+
+    monkeypatch.setattr(flights, "_runway_case", lambda pipeline: synthetic_case())
+    monkeypatch.setattr(stress, "stress_programme", programme)
+    out = tmp_path / "o"
+    assert main(["guide", "--out", str(out), "--stress", "2", *COARSE]) == 128 + signal.SIGTERM
+    err = capsys.readouterr().err.strip()
+    journal = out / "stress_layouts.jsonl"
+    assert err == (
+        f"rangefx: interrupted; 1 finished stress layout kept in {journal} (no other output "
+        "was written): the same command flies only the others"
+    )
+    (rec,) = [json.loads(x) for x in journal.read_text().splitlines()]
+    assert rec["row"]["name"] == "stress0-0"
+    assert "stress.json" not in {p.name for p in out.iterdir()}

@@ -16,16 +16,18 @@ import pytest
 from rangefx.guidance.avoid import (
     MANOEUVRES,
     OUTCOMES,
+    STOP_DISTANCE_FACTORS,
     AvoidConfig,
     InfeasibleClearanceWarning,
     manoeuvre_candidates,
     simulate_avoid,
+    stopping_distance,
 )
 from rangefx.guidance.cases import synthetic_case
 from rangefx.guidance.extraction import ObstacleBox
 from rangefx.guidance.law import BoundaryConditions, GuidanceWeights, ObstacleField
 from rangefx.guidance.simulate import SimulationConfig
-from rangefx.guidance.stress import stress_layouts, stress_programme
+from rangefx.guidance.stress import braking_segment, stress_layouts, stress_programme
 
 # A short straight-in problem: 300 ft down range, the report's weights.
 BC = BoundaryConditions(
@@ -152,6 +154,25 @@ def test_stress_layouts_put_a_vehicle_on_the_nominal_path(synthetic):
         assert _dist(pos[[0, -1]], moved.truth).min() >= 5.0
 
 
+def test_stress_layouts_keep_the_braking_segment_clear(synthetic):
+    # A layout whose true vehicle lies within the stopping distance (or the clearance)
+    # of the start has no safe answer: such draws are redrawn, so the law's braking
+    # stop keeps 20 ft from every true vehicle. Seed 2 draws three (stress2-10, -12, -13).
+    t, pos = _nominal()
+    v0 = (pos[1] - pos[0]) / (t[1] - t[0])
+    seg = braking_segment(pos[0], v0)
+    speed = math.hypot(*v0[:2])
+    decel = 32.174 * math.tan(math.radians(0.9 * 20.0))  # the default limits less back-off
+    assert stopping_distance(speed) == pytest.approx(speed**2 / (2 * decel))
+    # to where the braking stop holds: its first hold point
+    length = STOP_DISTANCE_FACTORS[0] * stopping_distance(speed)
+    assert seg[-1] - seg[0] == pytest.approx(length * v0 / speed)
+    lays = stress_layouts(synthetic, t, pos, 14, seed=2, clearance_ft=20.0)
+    assert lays == stress_layouts(synthetic, t, pos, 14, seed=2, clearance_ft=20.0)
+    for lay in lays:
+        assert _dist(seg, synthetic.shifted(lay.shift_ft).truth).min() >= 20.0, lay.name
+
+
 def test_stress_programme_scores_against_the_true_vehicles(synthetic):
     coarse = AvoidConfig(n_samples=24, n_basis=5, replan_interval=50.0)
     res = stress_programme(
@@ -268,6 +289,27 @@ def test_an_escape_from_inside_an_extent_leaves_it_sideways_not_over_its_top():
     assert "the start is" in ex["landing_blocked"] and ex["manoeuvre"]["keeps_clearance_floor"]
     assert _dist(res.positions, (truck,)).min() >= FAST.clearance_ft
     assert ex["outcome"] == "landing"  # and it lands from the hold point
+
+
+def test_when_no_manoeuvre_keeps_its_floor_the_law_brakes_to_a_stop():
+    # runway/P1 stress0-13 in miniature: the start inside a false ground strip's
+    # clearance (along the track), a wide extent 40 ft ahead that no manoeuvre keeps
+    # 20 ft from, a truck inside it. The law brakes straight ahead to a hover (the least
+    # of the map it can cross) and holds, >= 20 ft from the truck; the candidate least
+    # short of its floor (the rule before) turned through the extent 12.6 ft from it.
+    strip = _box(60.0, 0.0, half_u=80.0, half_v=1.5, top=2.0)
+    wide = _box(100.0, 0.0, half_u=60.0, half_v=100.0, top=12.0)
+    truck = _box(50.0, -40.0, half_u=10.0, half_v=4.0, top=8.0)
+    res, notes = _fly((strip, wide))
+    ex = res.extras
+    assert ex["outcome"] == "hover" and ex["manoeuvre"]["kind"] == "stop"
+    assert ex["manoeuvre"]["keeps_clearance_floor"] is False
+    assert "braking to a stop" in notes[0]
+    hold = np.asarray(ex["manoeuvre"]["hold_point_ft"])
+    speed = float(np.linalg.norm(BC.v0))
+    assert hold == pytest.approx([1.25 * stopping_distance(speed, FAST), 0.0, 10.0])
+    assert np.abs(res.positions[:, 1]).max() < 1.0  # straight ahead
+    assert _dist(res.positions, (truck,)).min() >= 20.0
 
 
 def test_a_landing_from_the_hold_point_that_reaches_zero_airspeed_holds_not_crashes(monkeypatch):

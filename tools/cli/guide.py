@@ -21,7 +21,8 @@ or near the nominal path (:mod:`rangefx.guidance.stress`), and writes ``stress.j
 and ``stress_worst.png``; each finished layout is appended to ``stress_layouts.jsonl`` in
 ``--out`` at once, and a re-run of the same command flies only the layouts not yet
 there. When no path to the touch-down keeps the clearance the
-avoiding law takes a safe manoeuvre (hover and hold, climb over, turn away) and says so.
+avoiding law takes a safe manoeuvre (hover and hold, climb over, turn away; brake to a
+stop when none keeps its floor) and says so.
 
 One call of :func:`rangefx.api.guide` (:mod:`rangefx.tools.studies.flights`). Writes
 Figs 4-10 look-alikes (extents, clearance and true vehicles drawn),

@@ -145,6 +145,8 @@ def _output_locked(args: argparse.Namespace) -> Iterator[None]:
 
 
 def _interrupted_message(args: argparse.Namespace | None, exc: BaseException) -> str:
+    if getattr(exc, "stop_line", None):  # the command says what it kept (guide --stress)
+        return exc.stop_line
     if getattr(exc, "output_in_place", None):
         return f"interrupted after the output was put in place in {exc.output_in_place}"
     if args is not None and args.command == "sweep":

@@ -38,6 +38,7 @@ import numpy as np
 from rangefx.rtl_model.registry import PIPELINES
 
 from ..errors import UserError
+from ..interrupts import set_stop_line
 from ..report import atomic_output_dir, atomic_write_text, json_safe
 
 __all__ = [
@@ -291,12 +292,25 @@ def _stress(
         except OSError as exc:
             raise UserError(f"cannot append to {journal}: {exc.strerror}") from None
 
+    kept = set(done)  # the layouts of these settings in the journal
+
+    def journalled(row: dict) -> None:
+        append(row)
+        kept.add(row["name"])
+        set_stop_line(_stress_stop_line(journal, len(kept)))
+
+    if journal is not None:
+        set_stop_line(_stress_stop_line(journal, len(kept)))
     try:
         res = stress_programme(
             case, count, seed=seed, source=settings["source"], clearance_ft=clearance_ft,
             config=config, avoid=avoid, progress=lambda _n: bar.update(), jobs=jobs,
-            done=done, on_row=append,
+            done=done, on_row=journalled,
         )  # fmt: skip
+    except KeyboardInterrupt as exc:
+        if journal is not None:  # the command's line says what the journal kept
+            exc.stop_line = _stress_stop_line(journal, len(kept))
+        raise
     finally:
         bar.close()
         if fd is not None:
@@ -304,6 +318,15 @@ def _stress(
     summary = res.to_dict()
     summary["resumed_layouts"] = sorted(n for n in done if n in {r["name"] for r in res.rows})
     return GuideResult("stress", summary, _payload=res)
+
+
+def _stress_stop_line(journal: Path, kept: int) -> str:
+    """The line of an interrupted stress programme: the journal keeps its finished
+    layouts (nothing else was written), and the same command resumes from them."""
+    return (
+        f"interrupted; {kept} finished stress layout{'s' if kept != 1 else ''} kept in "
+        f"{journal} (no other output was written): the same command flies only the others"
+    )
 
 
 def _numpy_scalar(obj: Any) -> Any:
