@@ -1,8 +1,8 @@
 """Fixtures shared by the test modules, and where their helper modules come from.
 
-Helper modules (``oracles.py``, ``oracle_p1.py``, ``oracle_p2.py``, ``oracle_p3.py``,
-``bitexact_cases.py``, ``ap_types.py``) are plain modules beside the tests, not test
-modules, imported by name (``from oracles import ORACLES``): ``tests/`` has no
+Helper modules (``oracles.py``, ``oracle_exact.py``, ``oracle_p1.py``, ``oracle_p2.py``,
+``oracle_p3.py``, ``bitexact_cases.py``, ``ap_types.py``) are plain modules beside the
+tests, not test modules, imported by name (``from oracles import ORACLES``): ``tests/`` has no
 ``__init__.py``, so pytest (its default ``prepend`` import mode) puts this file's folder
 on ``sys.path`` before it imports this conftest or any test module. No test module
 imports another test module or edits ``sys.path`` itself

@@ -17,18 +17,18 @@ from fractions import Fraction
 
 import numpy as np
 from apytypes import APyFixed
-from oracle_p1 import (
+from oracle_exact import (
     OracleResult,
     SignalLog,
-    _apy,
-    _div_zero,
-    _exact,
-    _fraction,
-    _recip_lut,
-    _reciprocal_value,
-    _restoring_value,
+    apy_value,
     cast_exact,
+    divide_by_zero_code,
+    exact_parts,
+    fraction_of,
+    reciprocal_lut,
+    reciprocal_value,
     reg_raw,
+    restoring_value,
 )
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
@@ -53,12 +53,12 @@ class _Ctx(SignalLog):
     config: P2Config
 
     def sig(self, raw: int, name: str) -> _Sig:
-        return _Sig(raw, _apy(raw, self.config.fmt(name).frac))
+        return _Sig(raw, apy_value(raw, self.config.fmt(name).frac))
 
     def cast(self, v: APyFixed | int, name: str, *, log: bool = True) -> _Sig:
-        n, f = (v, 0) if isinstance(v, int) else _exact(v)
+        n, f = (v, 0) if isinstance(v, int) else exact_parts(v)
         if log:
-            self.log(name, _fraction(n, f))
+            self.log(name, fraction_of(n, f))
         raw, acted = cast_exact(n, f, self.config.fmt(name))
         self.overflows[name] += acted
         return self.sig(raw, name)
@@ -69,14 +69,14 @@ class _Ctx(SignalLog):
         fmt, fd = cfg.fmt("p2_r"), cfg.fmt("p2_den").frac
         if den.raw == 0:  # not a cast: nothing logged, one overflow
             self.overflows["p2_r"] += 1
-            return self.sig(_div_zero(1, fmt), "p2_r")
+            return self.sig(divide_by_zero_code(1, fmt), "p2_r")
         self.log("p2_r", Fraction(math.ldexp(1.0 / float(den.raw), fd)))
         if cfg.divider == "restoring":
-            m, f = _restoring_value(1, 0, den.raw, fd, fmt)
+            m, f = restoring_value(1, 0, den.raw, fd, fmt)
         else:
-            lut = _recip_lut(cfg.recip_lut_bits, cfg.recip_bits)
-            m, f = _reciprocal_value(1, 0, den.raw, fd, lut, cfg.recip_lut_bits, cfg.recip_bits)
-        return self.cast(_apy(m, f), "p2_r", log=False)
+            lut = reciprocal_lut(cfg.recip_lut_bits, cfg.recip_bits)
+            m, f = reciprocal_value(1, 0, den.raw, fd, lut, cfg.recip_lut_bits, cfg.recip_bits)
+        return self.cast(apy_value(m, f), "p2_r", log=False)
 
 
 def oracle_p2(
@@ -103,7 +103,7 @@ def oracle_p2(
     S_END = ctx.sig(reg_raw(min(gamma_t, (2**st.word - 1) * 2.0**-st.frac), st), "p2_st")
     TD = math.ceil(Fraction(2) * Fraction(riccati.threshold_e) * Fraction(2) ** fmt("p2_d").frac)
     RMAX = ctx.sig(reg_raw(riccati.range_max, fmt("p2_z")), "p2_z")
-    one = _apy(1, 0)
+    one = apy_value(1, 0)
 
     im1, im2 = np.asarray(image1), np.asarray(image2)
     m, n = im1.shape

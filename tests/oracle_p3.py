@@ -19,14 +19,14 @@ import math
 from fractions import Fraction
 
 import numpy as np
-from oracle_p1 import (
+from oracle_exact import (
     OracleResult,
     SignalLog,
-    _recip_lut,
-    _reciprocal_value,
-    _restoring_value,
     cast_exact,
+    reciprocal_lut,
+    reciprocal_value,
     reg_raw,
+    restoring_value,
 )
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
@@ -67,7 +67,7 @@ def _keys(t: Fraction) -> tuple[Fraction, ...]:
 class _Ctx(SignalLog):
     def __init__(self, config: P3Config) -> None:
         super().__init__(config)
-        self.lut = _recip_lut(config.recip_lut_bits, config.recip_bits)
+        self.lut = reciprocal_lut(config.recip_lut_bits, config.recip_bits)
 
     def val(self, raw: int, name: str) -> Fraction:
         return raw * _scale(self.config.fmt(name).frac)
@@ -84,9 +84,9 @@ class _Ctx(SignalLog):
         cfg, fmt = self.config, self.config.fmt(name)
         self.log(name, Fraction(math.ldexp(float(n) / float(d), fd - fn)))
         if cfg.divider == "restoring":
-            q, f = _restoring_value(n, fn, d, fd, fmt)
+            q, f = restoring_value(n, fn, d, fd, fmt)
         else:
-            q, f = _reciprocal_value(n, fn, d, fd, self.lut, cfg.recip_lut_bits, cfg.recip_bits)
+            q, f = reciprocal_value(n, fn, d, fd, self.lut, cfg.recip_lut_bits, cfg.recip_bits)
         raw, acted = cast_exact(q, f, fmt)
         self.overflows[name] += acted
         return raw, acted

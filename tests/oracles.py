@@ -10,7 +10,8 @@ do not depend on timing, so ``timing`` and ``threads`` are accepted and ignored.
 
 from __future__ import annotations
 
-from oracle_p1 import OracleResult, oracle_p1
+from oracle_exact import OracleResult
+from oracle_p1 import oracle_p1
 from oracle_p2 import oracle_p2
 from oracle_p3 import oracle_p3
 

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import pytest
 from bitexact_cases import assert_bit_exact, lab_crop, p1_case, p3_case
-from oracle_p1 import OracleResult
+from oracle_exact import OracleResult
 from oracles import ORACLES
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera

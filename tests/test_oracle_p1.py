@@ -11,14 +11,14 @@ import math
 
 import numpy as np
 import pytest
-from oracle_p1 import (
+from oracle_exact import (
     cast_exact,
     divide_reciprocal,
     divide_restoring,
-    oracle_p1,
     reg_raw,
     restoring_loop,
 )
+from oracle_p1 import oracle_p1
 
 from rangefx.golden.estimator import EstimatorConfig, estimate_derivatives
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
