@@ -504,11 +504,10 @@ def generate_vectors(
         timing = timing or TimingConfig()
         if isinstance(source, str):
             full = _cases.scene_case(source, seed=seed)
-            if full.mode not in pipe.modes:
-                raise UserError(
-                    f"{pipe.name} models {' and '.join(pipe.modes)} mode only; scene "
-                    f"{source!r} is {full.mode}"
-                )
+            try:
+                pipe.check_mode(full)
+            except ValueError as exc:
+                raise UserError(str(exc)) from None
             case = _cases.crop_case(full, list(crop) if crop is not None else None)
             description = {
                 "source": "scene", "scene": source, "seed": seed,

@@ -381,7 +381,7 @@ def test_other_commands_reject_unused_options_too(capsys, tmp_path):
     assert "--variant does not apply to pipeline p2" in _error(
         capsys, ["vectors", "gen", "--pipeline", "p2", "--variant", "paper", "--out", out]
     )
-    assert "p2 models stereo mode only" in _error(
+    assert "P2 models stereo mode only; case 'runway' is motion" in _error(
         capsys, ["vectors", "gen", "--pipeline", "p2", "--scene", "runway", "--out", out]
     )
     assert "--pole does not apply to pipeline p2" in _error(

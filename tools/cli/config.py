@@ -100,11 +100,10 @@ def cmd_config(args: argparse.Namespace) -> int:
         cases = [scene_case(name) for name in args.scene]
     cases += [real_pair_case(name) for name in args.real or ()]
     for case in cases:
-        if case.mode not in pipeline.modes:
-            raise UserError(
-                f"{pipeline.name} models {' and '.join(pipeline.modes)} mode only; scene "
-                f"{case.name!r} is {case.mode}"
-            )
+        try:
+            pipeline.check_mode(case)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
     proposed, minmax, overflows = propose_from_cases(
         pipeline, config, cases, guard_bits=args.guard_bits
     )
