@@ -68,7 +68,9 @@ clearance holds the start are walls, :func:`escape_walls`; the floor rises to th
 clearance over ``ESCAPE_TIME_S``, points away from the extent are tried first), and
 at its hold point the law decides again: it lands only on a plan that keeps the
 clearance, else it holds. When no manoeuvre keeps its floor the law brakes straight
-ahead to a stop (:func:`plan_braking_stop`) and holds there.
+ahead to a stop (:func:`plan_braking_stop`) and holds there, unless the stop's own path
+and hold point come shorter of the clearance than the candidate least short of its
+floor (:func:`plan_safe_manoeuvre`): then that candidate is flown.
 ``when_blocked="best-effort"`` keeps the old behaviour (land on the plan that keeps the
 full clearance from every extent except those an end point is within the clearance of,
 and from those as much as that end point leaves).
@@ -1040,10 +1042,11 @@ def plan_safe_manoeuvre(
     From such a start, candidates whose straight chord keeps that floor
     (:func:`_chord_clearance`, a geometric test) are solved first, in their order; the
     others after them (elsewhere the order is the least departure first). ``None``
-    when no candidate has such a plan, unless ``closest_if_none``: then the braking
-    stop (:func:`plan_braking_stop`), or if no stop is within the limits the candidate
-    least short of that floor (within the limits first); ``keeps_floor=False`` either
-    way (the caller reports it; never a landing)."""
+    when no candidate has such a plan, unless ``closest_if_none``: then of the braking
+    stop (:func:`plan_braking_stop`) and the candidate least short of that floor
+    (within the limits first), the one whose path and hold point come less short of
+    the clearance (:func:`_stop_margin`; the stop on a tie, the candidate if no stop is
+    within the limits); flagged (the caller reports it; never a landing)."""
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
     # A hold point is a short, open target: a plan that keeps the clearance converges
@@ -1128,14 +1131,15 @@ def plan_braking_stop(
 ) -> SafeManoeuvre | None:
     """The braking stop: decelerate straight ahead, at the present altitude, to a hover
     :data:`STOP_DISTANCE_FACTORS` × the :func:`stopping_distance` ahead (the first whose
-    plan is within the limits; ``None`` if none is). Flown when no safe manoeuvre keeps
+    plan is within the limits; ``None`` if none is). Considered when no safe manoeuvre keeps
     its clearance floor: no plan then certifies the clearance, the distance to an extent
     no longer bounds the distance to the object inside it (a P1 extent runs 86-480 ft
     along its ray), and the least of the map a rotorcraft can cross is the stretch it
     needs to stop. The candidate least short of its floor went further: runway/P1
     stress0-13 passed Vehicle 3 at 18.58 ft climbing over its extent; the stop holds
-    30 ft short of it (issue 39). Planned on the limits alone (its clearance from
-    ``boxes`` is reported, ``keeps_floor=False``)."""
+    30 ft short of it (issue 39). Planned on the limits alone; its path and hold point
+    are then checked against ``boxes`` (:func:`_stop_margin`: ``floor_margin_ft``, and
+    ``keeps_floor`` when that is ``>= 0``)."""
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
     r = np.asarray(r, dtype=np.float64)
