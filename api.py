@@ -63,7 +63,7 @@ from rangefx.tools.report import atomic_output_dir, atomic_write_bytes, atomic_w
 from rangefx.tools.studies import cases as _cases
 from rangefx.tools.studies.banded import plan_bands, run_in_bands
 from rangefx.tools.studies.evaluation import EvalResult
-from rangefx.tools.studies.flights import GuideResult
+from rangefx.tools.studies.flights import DEFAULT_PIPELINE, GuideResult
 from rangefx.tools.studies.runner import (
     check_input_levels,
     golden_case,
@@ -906,7 +906,7 @@ def guide(
     replan_interval: float = 0.5,
     layout_sweep: int | None = None,
     stress: int | None = None,
-    pipeline: str = "p1",
+    pipeline: str = DEFAULT_PIPELINE,
     seed: int = 0,
     jobs: int = 1,
     out: str | Path | None = None,
@@ -932,7 +932,9 @@ def guide(
         instead.
     stress, pipeline, seed
         Fly both laws over this many seeded layouts of the runway scene ranged by
-        ``pipeline``, a true vehicle on or near the nominal path, instead.
+        ``pipeline`` (default P3, which flew them better than P1:
+        :data:`rangefx.tools.studies.flights.DEFAULT_PIPELINE`), a true vehicle on or
+        near the nominal path, instead.
     jobs
         Worker processes of the stress programme (the same rows for any count).
     out

@@ -68,7 +68,9 @@ clearance holds the start are walls, :func:`escape_walls`; the floor rises to th
 clearance over ``ESCAPE_TIME_S``, points away from the extent are tried first), and
 at its hold point the law decides again: it lands only on a plan that keeps the
 clearance, else it holds. When no manoeuvre keeps its floor the law brakes straight
-ahead to a stop (:func:`plan_braking_stop`) and holds there.
+ahead to a stop (:func:`plan_braking_stop`) and holds there, unless the stop's own path
+and hold point come shorter of the clearance than the candidate least short of its
+floor (:func:`plan_safe_manoeuvre`): then that candidate is flown.
 ``when_blocked="best-effort"`` keeps the old behaviour (land on the plan that keeps the
 full clearance from every extent except those an end point is within the clearance of,
 and from those as much as that end point leaves).
@@ -835,8 +837,9 @@ def plan_trajectory(
     )  # fmt: skip
 
 
-#: Top (ft) given to an extent whose clearance holds the start of an escape
-#: (:func:`escape_walls`): far above any flight, so that only its sides count.
+#: Top (ft) given to an extent whose clearance holds the start of an escape, and depth
+#: below the ground of its base (:func:`escape_walls`): far above any flight and far
+#: below the ground, so that only its sides count.
 WALL_TOP_FT: float = 1.0e4
 
 
@@ -849,13 +852,18 @@ def escape_walls(
     whose footprint holds the start is up through its top (a few feet away), and the
     escape plans climbed there -- at most 0.09 g up (the load-factor limit) -- while
     passing a true vehicle inside the extent at 18.7 ft, 3 ft above its roof (runway/P1
-    stress0-10, issue 39; 26.8 ft leaving sideways). The other boxes are returned as
-    they are."""
+    stress0-10, issue 39; 26.8 ft leaving sideways). The wall reaches below the ground
+    too: with its base on the ground, a start inside its footprint 7 ft up is 7 ft from
+    the bottom face, the floor of every escape began there (-7.7 ft, rising to the
+    clearance in :data:`ESCAPE_TIME_S`), no escape could reach its sides in time and
+    the law braked straight ahead along the extent, to a hover 16.5 ft from the
+    vehicle inside it (runway-p1 shifted by (-79.935, 376.446) ft, issue 39). The other
+    boxes are returned as they are."""
     if not boxes:
         return boxes
     d = _clearances(np.asarray(r, dtype=np.float64)[None], boxes)[0]
     return tuple(
-        replace(b, top=WALL_TOP_FT) if dk < clearance_ft else b
+        replace(b, top=WALL_TOP_FT, base=-WALL_TOP_FT) if dk < clearance_ft else b
         for b, dk in zip(boxes, d, strict=True)
     )
 
@@ -1034,10 +1042,11 @@ def plan_safe_manoeuvre(
     From such a start, candidates whose straight chord keeps that floor
     (:func:`_chord_clearance`, a geometric test) are solved first, in their order; the
     others after them (elsewhere the order is the least departure first). ``None``
-    when no candidate has such a plan, unless ``closest_if_none``: then the braking
-    stop (:func:`plan_braking_stop`), or if no stop is within the limits the candidate
-    least short of that floor (within the limits first); ``keeps_floor=False`` either
-    way (the caller reports it; never a landing)."""
+    when no candidate has such a plan, unless ``closest_if_none``: then of the braking
+    stop (:func:`plan_braking_stop`) and the candidate least short of that floor
+    (within the limits first), the one whose path and hold point come less short of
+    the clearance (:func:`_stop_margin`; the stop on a tie, the candidate if no stop is
+    within the limits); flagged (the caller reports it; never a landing)."""
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
     # A hold point is a short, open target: a plan that keeps the clearance converges
@@ -1081,10 +1090,21 @@ def plan_safe_manoeuvre(
             if closest is None or key > (closest.plan.limits_ok, closest.plan.floor_margin_ft):
                 closest = SafeManoeuvre(kind, goal, plan, t0, tried, keeps_floor=False)
     if closest is not None:
+        # Of the braking stop and the candidate least short of its floor, the one whose
+        # path and hold point come less short of the clearance (as far as the start
+        # leaves it: :func:`_stop_margin`), the stop on a tie. Braking straight ahead
+        # along a long P1 extent that holds the start ends inside it, where a vehicle
+        # may stand: runway-p1 shifted by (-79.935, 376.446) ft held 16.5 ft from one
+        # (margin -24.3 ft; a turn-away to a hold point clear of every extent, -20.2 ft).
         stop = plan_braking_stop(
             r, v, field, boxes, hold_speed=hold_speed, params=params, config=cfg, t0=t0
         )
-        return replace(stop or closest, candidates_tried=tried)
+        pick = closest
+        if stop is not None:
+            near = _stop_margin(closest.plan, r, boxes, cfg.clearance_ft)[0]
+            if stop.keeps_floor or stop.plan.floor_margin_ft >= near:
+                pick = stop
+        return replace(pick, candidates_tried=tried)
     return None
 
 
@@ -1111,14 +1131,15 @@ def plan_braking_stop(
 ) -> SafeManoeuvre | None:
     """The braking stop: decelerate straight ahead, at the present altitude, to a hover
     :data:`STOP_DISTANCE_FACTORS` × the :func:`stopping_distance` ahead (the first whose
-    plan is within the limits; ``None`` if none is). Flown when no safe manoeuvre keeps
+    plan is within the limits; ``None`` if none is). Considered when no safe manoeuvre keeps
     its clearance floor: no plan then certifies the clearance, the distance to an extent
     no longer bounds the distance to the object inside it (a P1 extent runs 86-480 ft
     along its ray), and the least of the map a rotorcraft can cross is the stretch it
     needs to stop. The candidate least short of its floor went further: runway/P1
     stress0-13 passed Vehicle 3 at 18.58 ft climbing over its extent; the stop holds
-    30 ft short of it (issue 39). Planned on the limits alone (its clearance from
-    ``boxes`` is reported, ``keeps_floor=False``)."""
+    30 ft short of it (issue 39). Planned on the limits alone; its path and hold point
+    are then checked against ``boxes`` (:func:`_stop_margin`: ``floor_margin_ft``, and
+    ``keeps_floor`` when that is ``>= 0``)."""
     params = params or VehicleParams()
     cfg = config or AvoidConfig()
     r = np.asarray(r, dtype=np.float64)
@@ -1136,17 +1157,30 @@ def plan_braking_stop(
         )  # fmt: skip
         if not plan.limits_ok:
             continue
-        if boxes:
-            tau = np.linspace(0.0, plan.t_go, 65)
-            clear = float(_clearances(plan.evaluate(tau)[0], boxes).min())
-        else:
-            clear = math.inf
+        margin, clear = _stop_margin(plan, r, boxes, cfg.clearance_ft)
         plan = replace(
-            plan, feasible=False, meets_floor=False, min_clearance_ft=clear,
-            floor_margin_ft=clear - cfg.clearance_ft,
+            plan, feasible=False, meets_floor=margin >= 0.0, min_clearance_ft=clear,
+            floor_margin_ft=margin,
         )  # fmt: skip
-        return SafeManoeuvre("stop", goal, plan, t0, k, keeps_floor=False)
+        return SafeManoeuvre("stop", goal, plan, t0, k, keeps_floor=margin >= 0.0)
     return None
+
+
+def _stop_margin(
+    plan: AvoidPlan, r: np.ndarray, boxes: tuple[ObstacleBox, ...], clearance_ft: float
+) -> tuple[float, float]:
+    """``(margin, smallest clearance)`` of a braking stop's plan from ``r``: the margin is
+    the least, over the extents, of its path's distance beyond the floor of an escape
+    from ``r`` (the clearance, or what ``r`` leaves of it less 10 %: the stop may not go
+    deeper than it starts) and of its hold point's beyond the full clearance (it hovers
+    there). ``>= 0``: the stop keeps the clearance as far as the start allows."""
+    if not boxes:
+        return math.inf, math.inf
+    path = plan.evaluate(np.linspace(0.0, plan.t_go, 65))[0]
+    d = _clearances(path, boxes)  # (samples, boxes)
+    floor = np.minimum(_escape_floor(_clearances(r[None], boxes)[0]), clearance_ft)
+    margin = min(float((d - floor).min()), float(d[-1].min()) - clearance_ft)
+    return margin, float(d.min())
 
 
 def _decide(

@@ -93,7 +93,10 @@ class ObstacleBox:
 
     ``centre`` is the horizontal centre ``(x, y)``; ``heading`` the direction of the
     box's ``u`` axis (rad, from ``x`` towards ``y``); ``half_u``, ``half_v`` the half
-    sizes along ``u`` and the perpendicular ``v``; ``top`` the height of the top face.
+    sizes along ``u`` and the perpendicular ``v``; ``top`` the height of the top face;
+    ``base`` that of the bottom face (0, the ground, for every extent and object; an
+    escape wall of the avoiding law reaches below it, so that from inside the nearest
+    way out is a side or the top, never the ground).
     """
 
     name: str
@@ -103,15 +106,16 @@ class ObstacleBox:
     half_v: float
     top: float
     n_points: int = 0
+    base: float = 0.0
 
     def __post_init__(self) -> None:
-        vals = (*self.centre, self.heading, self.half_u, self.half_v, self.top)
+        vals = (*self.centre, self.heading, self.half_u, self.half_v, self.top, self.base)
         if not all(math.isfinite(v) for v in vals):
             raise ValueError(f"obstacle box {self.name!r} has a non-finite field: {vals}")
-        if self.half_u < 0 or self.half_v < 0 or self.top <= 0:
+        if self.half_u < 0 or self.half_v < 0 or self.top <= max(self.base, 0.0):
             raise ValueError(
-                f"obstacle box {self.name!r} needs half sizes >= 0 and top > 0, "
-                f"got {self.half_u!r}, {self.half_v!r}, {self.top!r}"
+                f"obstacle box {self.name!r} needs half sizes >= 0 and top > max(base, 0), "
+                f"got {self.half_u!r}, {self.half_v!r}, {self.top!r} (base {self.base!r})"
             )
 
     @property
@@ -146,7 +150,7 @@ class ObstacleBox:
                 xy = np.asarray(self.centre) + np.array([su * self.half_u, sv * self.half_v]) @ (
                     self.axes
                 )
-                for z in (0.0, self.top):
+                for z in (self.base, self.top):
                     out.append([xy[0], xy[1], z])
         return np.asarray(out)
 
@@ -178,18 +182,20 @@ class BoxSet:
         self.centres = np.array([b.centre for b in self.boxes], dtype=np.float64).reshape(-1, 2)
         self.axes = np.array([b.axes for b in self.boxes], dtype=np.float64).reshape(-1, 2, 2)
         self.half = np.array(
-            [(b.half_u, b.half_v, 0.5 * b.top) for b in self.boxes], dtype=np.float64
+            [(b.half_u, b.half_v, 0.5 * (b.top - b.base)) for b in self.boxes], dtype=np.float64
         ).reshape(-1, 3)
+        self.mid_z = np.array([0.5 * (b.top + b.base) for b in self.boxes]).reshape(-1, 1)
 
     def __len__(self) -> int:
         return len(self.boxes)
 
     def _relative(self, p: np.ndarray) -> np.ndarray:
-        """Point minus box centre in each box's frame ``(u, v, z - top/2)``: (..., k, 3)."""
+        """Point minus box centre in each box's frame ``(u, v, z - (top + base)/2)``:
+        (..., k, 3)."""
         p = np.asarray(p, dtype=np.float64)
         d = p[..., None, :2] - self.centres  # (..., k, 2)
         uv = np.einsum("...kd,kjd->...kj", d, self.axes)
-        return np.concatenate([uv, p[..., None, 2:3] - self.half[:, 2:3]], axis=-1)
+        return np.concatenate([uv, p[..., None, 2:3] - self.mid_z], axis=-1)
 
     def signed_distance(self, p: np.ndarray) -> np.ndarray:
         """:meth:`ObstacleBox.signed_distance` to every box, shape (..., k)."""

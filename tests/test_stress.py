@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -19,7 +20,10 @@ from rangefx.guidance.avoid import (
     STOP_DISTANCE_FACTORS,
     AvoidConfig,
     InfeasibleClearanceWarning,
+    escape_walls,
     manoeuvre_candidates,
+    plan_braking_stop,
+    plan_safe_manoeuvre,
     simulate_avoid,
     stopping_distance,
 )
@@ -292,15 +296,16 @@ def test_an_escape_from_inside_an_extent_leaves_it_sideways_not_over_its_top():
 
 
 def test_when_no_manoeuvre_keeps_its_floor_the_law_brakes_to_a_stop():
-    # runway/P1 stress0-13 in miniature: the start inside a false ground strip's
-    # clearance (along the track), a wide extent 40 ft ahead that no manoeuvre keeps
-    # 20 ft from, a truck inside it. The law brakes straight ahead to a hover (the least
-    # of the map it can cross) and holds, >= 20 ft from the truck; the candidate least
-    # short of its floor (the rule before) turned through the extent 12.6 ft from it.
-    strip = _box(60.0, 0.0, half_u=80.0, half_v=1.5, top=2.0)
-    wide = _box(100.0, 0.0, half_u=60.0, half_v=100.0, top=12.0)
-    truck = _box(50.0, -40.0, half_u=10.0, half_v=4.0, top=8.0)
-    res, notes = _fly((strip, wide))
+    # runway/P1 stress0-13 in kind: no manoeuvre keeps its floor (the start flies down a
+    # corridor between two extents 15 ft to either side, a third across it 64 ft ahead);
+    # the braking stop holds 10 ft short of the one ahead and never comes closer to any,
+    # every candidate comes closer (through a side or over the one ahead): the law
+    # brakes straight ahead to a hover and says so (stress0-13: 21.4 ft from Vehicle 3;
+    # the candidate least short of its floor climbed over its extent 18.58 ft from it).
+    left = _box(100.0, 65.0, half_u=200.0, half_v=50.0, top=12.0)
+    right = _box(100.0, -65.0, half_u=200.0, half_v=50.0, top=12.0)
+    front = _box(94.0, 0.0, half_u=30.0, half_v=15.0, top=12.0)
+    res, notes = _fly((left, right, front))
     ex = res.extras
     assert ex["outcome"] == "hover" and ex["manoeuvre"]["kind"] == "stop"
     assert ex["manoeuvre"]["keeps_clearance_floor"] is False
@@ -309,7 +314,45 @@ def test_when_no_manoeuvre_keeps_its_floor_the_law_brakes_to_a_stop():
     speed = float(np.linalg.norm(BC.v0))
     assert hold == pytest.approx([1.25 * stopping_distance(speed, FAST), 0.0, 10.0])
     assert np.abs(res.positions[:, 1]).max() < 1.0  # straight ahead
-    assert _dist(res.positions, (truck,)).min() >= 20.0
+    assert _dist(res.positions, (front,)).min() >= 9.0  # short of the extent ahead
+    assert _dist(res.positions, (left, right)).min() >= 14.0  # no nearer the sides
+
+
+def test_a_stop_that_would_hold_inside_an_extent_gives_way_to_a_turn_away():
+    # runway-p1 shifted by (-79.935, 376.446) ft in kind: braking straight ahead ends
+    # inside an extent (a wide one 40 ft ahead; the vehicle it holds may stand anywhere
+    # in it: there the stop held 16.5 ft from one). The stop's path and hold point are
+    # checked against the extents; a turn-away to a hold point clear of every extent
+    # comes less short of the clearance and is taken instead.
+    strip = _box(60.0, 0.0, half_u=80.0, half_v=1.5, top=2.0)
+    wide = _box(100.0, 0.0, half_u=60.0, half_v=100.0, top=12.0)
+    boxes = (strip, wide)
+    stop = plan_braking_stop(BC.r0, BC.v0, _field(boxes), boxes, config=FAST)
+    assert stop is not None and not stop.keeps_floor
+    assert float(wide.signed_distance(stop.goal.rf[None])[0]) < 0  # it would hold inside
+    fast = replace(FAST, maxiter=10)  # the candidates' solves: a few iterations will do
+    man = plan_safe_manoeuvre(BC.r0, BC.v0, _field(boxes), boxes, config=fast, closest_if_none=True)
+    assert man.kind in ("turn-away", "climb") and not man.keeps_floor
+    assert _dist(man.goal.rf[None], boxes)[0] >= FAST.clearance_ft
+    tau = np.linspace(0.0, 1.0, 65)
+    path = man.plan.evaluate(tau * man.plan.t_go)[0]
+    braking = stop.plan.evaluate(tau * stop.plan.t_go)[0]
+    # it comes no deeper into the extent than its face; the stop goes 2 ft in and stays
+    assert _dist(path, (wide,)).min() > -0.5 and _dist(braking[-1:], (wide,))[0] < -1.5
+
+
+def test_an_escape_wall_is_left_by_a_side_never_through_the_ground():
+    # Made a wall for an escape, an extent's inside distance is the depth to its nearest
+    # side: a start 7 ft up and 10 ft from the nearest side is 10 ft deep, not 7 ft from
+    # the bottom face (with that floor no escape of the shifted runway-p1 layout could
+    # reach the side in time, and the law braked along the extent).
+    extent = _box(0.0, 0.0, half_u=100.0, half_v=20.0, top=11.0)
+    start = np.array([0.0, 10.0, 7.0])
+    assert float(extent.signed_distance(start[None])[0]) == pytest.approx(-4.0)  # its top
+    (wall,) = escape_walls((extent,), start, 20.0)
+    assert float(wall.signed_distance(start[None])[0]) == pytest.approx(-10.0)
+    assert float(wall.signed_distance(np.array([[0.0, 10.0, 0.5]]))[0]) == pytest.approx(-10.0)
+    assert float(wall.signed_distance(np.array([[0.0, 25.0, 0.5]]))[0]) == pytest.approx(5.0)
 
 
 def test_a_landing_from_the_hold_point_that_reaches_zero_airspeed_holds_not_crashes(monkeypatch):

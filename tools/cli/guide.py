@@ -8,7 +8,8 @@ set chosen with ``--obstacles``:
   four parked vehicles (:func:`rangefx.guidance.obstacles.synthetic_runway_obstacles`);
 * ``runway``: the ``runway`` scene ranged by the golden ``g4_consistent`` method;
 * ``runway-p1``: end to end — the same scene through the bit-accurate P1 pipeline in
-  motion mode (one stream, frame store, rotation on).
+  motion mode (one stream, frame store, rotation on);
+* ``runway-p3``: end to end through P3 on the runway's stereo pair.
 
 ``--law avoid`` (default) keeps ``--clearance`` ft from every extracted obstacle extent
 (:mod:`rangefx.guidance.avoid`); ``--law report`` flies the report's law (eqs 20-69).
@@ -16,8 +17,9 @@ With ``--law avoid`` the report's law is also flown on the same obstacles and it
 figures are given under ``report_law``. ``--layout-sweep N`` flies the avoiding law over
 the ±10 ft shift grid and ``N`` seeded random layouts of the synthetic set instead.
 ``--stress N [--pipeline NAME] [--seed S]`` flies both laws over ``N`` seeded layouts of
-the ``runway`` scene ranged by the pipeline, each moved so that a true vehicle stands on
-or near the nominal path (:mod:`rangefx.guidance.stress`), and writes ``stress.json``
+the ``runway`` scene ranged by the pipeline (default P3: it flew them better than P1),
+each moved so that a true vehicle stands on or near the nominal path
+(:mod:`rangefx.guidance.stress`), and writes ``stress.json``
 and ``stress_worst.png``; each finished layout is appended to ``stress_layouts.jsonl`` in
 ``--out`` at once, and a re-run of the same command flies only the layouts not yet
 there. When no path to the touch-down keeps the clearance the
@@ -39,7 +41,7 @@ import sys
 
 from rangefx.rtl_model.registry import PIPELINES
 
-from ..studies.flights import stress_table
+from ..studies.flights import DEFAULT_PIPELINE, stress_table
 from .options import out_path
 
 __all__ = ["add_parser", "cmd_guide"]
@@ -179,8 +181,9 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--pipeline",
         choices=tuple(PIPELINES),
-        default="p1",
-        help="--stress: the bit-accurate pipeline that ranges the runway scene (default p1)",
+        default=DEFAULT_PIPELINE,
+        help="--stress: the bit-accurate pipeline that ranges the runway scene (default "
+        f"{DEFAULT_PIPELINE}: it flew the stress programme better than p1)",
     )
     p.add_argument("--seed", type=int, default=0, help="--stress: layout seed (default 0)")
     p.add_argument(

@@ -42,6 +42,7 @@ from ..interrupts import set_stop_line
 from ..report import atomic_output_dir, atomic_write_text, json_safe
 
 __all__ = [
+    "DEFAULT_PIPELINE",
     "OBSTACLE_SETS",
     "PROGRAMMES",
     "STRESS_JOURNAL",
@@ -54,6 +55,13 @@ __all__ = [
 
 #: Obstacle sets of a single flight.
 OBSTACLE_SETS = ("synthetic", "runway", *(f"runway-{name}" for name in PIPELINES))
+#: The pipeline whose range map the end-to-end chain flies by default (the stress
+#: programme's ``--pipeline``, the demo's end-to-end flight): P3 on the runway's stereo
+#: pair. On ``rangefx guide --stress 20`` (issue 39) it flew better than P1 on the motion
+#: pair -- more landings, the same 0 collisions and 0 crashes -- from shorter extents
+#: along the viewing rays (docs/guidance.md has the figures). ``runway-p1`` stays
+#: available.
+DEFAULT_PIPELINE = "p3"
 #: The programmes :func:`guide_flight` flies.
 PROGRAMMES = ("flight", "layout-sweep", "stress")
 #: The stress programme's journal in its output directory: one JSON line per finished
@@ -146,7 +154,8 @@ def guide_flight(
     obstacles: str = "synthetic", *, law: str = "avoid", clearance_ft: float = 20.0,
     shift: Sequence[float] = (0.0, 0.0, 0.0), guidance_interval: float = 0.1,
     replan_interval: float = 0.5, layout_sweep: int | None = None, stress: int | None = None,
-    pipeline: str = "p1", seed: int = 0, jobs: int = 1, out: str | Path | None = None,
+    pipeline: str = DEFAULT_PIPELINE, seed: int = 0, jobs: int = 1,
+    out: str | Path | None = None,
 ) -> GuideResult:
     """:func:`rangefx.api.guide` (its parameters and errors are documented there): one
     flight of ``law`` on ``obstacles``, the layout sweep, or the stress programme (with
