@@ -236,6 +236,14 @@ class MultiscaleConfig:
         if md is not None and not (isinstance(md, (int, float)) and math.isfinite(md) and md > 0):
             raise ValueError(f"max_disparity must be a positive number of px or None, not {md!r}")
 
+    @property
+    def vertical_form(self) -> str:
+        """``"off"``, ``"window"`` (the 2x2 system in the window, ``v`` discarded) or
+        ``"box"`` (``v`` from the box, ``vertical_radius`` > 0): the vertical term in use."""
+        if not self.vertical:
+            return "off"
+        return "box" if self.vertical_radius > 0 else "window"
+
     def with_(self, **changes) -> MultiscaleConfig:
         return replace(self, **changes)
 
@@ -409,8 +417,7 @@ def disparity_g6(
         tuple(normalise_image(e, config.normalise, config.normalise_radius) for e in p) for p in pyr
     ]
     limit = config.disparity_limit
-    box = config.vertical and config.vertical_radius > 0
-    window2 = config.vertical and not box
+    box, window2 = config.vertical_form == "box", config.vertical_form == "window"
     rbox = np.ones(2 * config.vertical_radius + 1)  # the box form's sums
     u = np.zeros(pyr[-1][0].shape)
     for level in range(len(pyr) - 1, -1, -1):

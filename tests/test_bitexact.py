@@ -221,6 +221,9 @@ P3_DESIGNS = (
     {"normalise_radius": 1, "radius": 2, "sigma": 1.0, "levels": 3},
     {"vertical": True, "radius": 2, "sigma": 1.0, "levels": 3, "warps": 2},
     {"vertical": True, "radius": 1, "sigma": 0.8, "levels": 2, "normalise": "none"},
+    {"vertical": True, "vertical_radius": 2, "radius": 2, "sigma": 1.0, "levels": 3},
+    {"vertical": True, "vertical_radius": 5, "radius": 1, "sigma": 0.8, "levels": 2,
+     "normalise": "none", "warps": 3},
 )  # fmt: skip
 
 
