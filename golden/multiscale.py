@@ -193,15 +193,15 @@ class MultiscaleConfig:
     warps: int = 2
     sigma: float = 2.0
     radius: int = 4
-    threshold_g: float = 1.0
+    threshold_g: float = 0.5
     threshold_r: float = 25.0
     coarse_px: float = 1.0
     max_disparity: float | None = None
     coarse_lag: int = 0
     normalise: str = "local_mean"
     normalise_radius: int = 4
-    vertical: bool = False
-    vertical_radius: int = 0
+    vertical: bool = True
+    vertical_radius: int = 8
 
     def __post_init__(self) -> None:
         if self.levels is not None:
@@ -398,8 +398,8 @@ def disparity_g6(
     ``det{k}``, ``nu{k}`` (``ν_u``) and, after the last, ``nv`` (``ν_v``); in the box
     form (``vertical_radius`` > 0) instead ``ay``, per warp ``wy{k}``, ``gy{k}``, the box
     sums ``bgg{k}``, ``bge{k}``, ``byy{k}``, ``bgy{k}``, ``bye{k}``, ``bdet{k}``,
-    ``bnv{k}``, ``v{k}`` (line ``y``'s own) and ``ev{k}`` (``e + gy v`` with the late
-    ``v``; ``rge{k}`` .. ``see{k}`` are then on it).
+    ``bnv{k}``, ``v{k}`` (those line ``y`` uses: the box ``vertical_radius`` lines up)
+    and ``ev{k}`` (``e + gy v``; ``rge{k}`` .. ``see{k}`` are then on it).
     """
     config = config or MultiscaleConfig()
     e1 = validate_image(image1, "image1")
@@ -479,7 +479,10 @@ def disparity_g6(
                     stage.update(wy=wy, gy=gy, syy=syy, sgy=sgy, sye=sye, det=det, nu=nu)
                     stage.update({f"r{p}": v for p, v in vrows.items()})
                 elif box:
-                    stage.update(wy=wy, gy=gy, bdet=bdet, bnv=bnv, v=v, ev=ev, **bsum)
+                    # the box's values as line y uses them: the box rv lines up
+                    lag = np.maximum(np.arange(v.shape[0]) - config.vertical_radius, 0)
+                    boxed = {"bdet": bdet, "bnv": bnv, "v": v, **bsum}
+                    stage.update(wy=wy, gy=gy, ev=ev, **{k: q[lag] for k, q in boxed.items()})
                 traced.update({f"{name}{k}": v for name, v in stage.items()})
     resid = np.sqrt(np.maximum(see - fit, 0.0))
     grad_rms = np.sqrt(sgg)

@@ -252,15 +252,15 @@ def oracle_p3(
                 yv = [[ctx.val(c, "p3_gy") for c in row] for row in GY]
             box = {}
             if form == "box":  # v from the box's 2x2 system, rv lines late; e + gy v
-                rv = config.vertical_radius
+                vr = config.vertical_radius
                 bprod = {"gg": (gv, gv), "ge": (gv, ev), "yy": (yv, yv), "gy": (gv, yv),
                          "ye": (yv, ev)}  # fmt: skip
                 B = {}
                 for q, (p1, p2) in bprod.items():
                     box[f"b{q}"] = [[ctx.cast(sum(p1[_clip(y + i, h)][_clip(x + j, w)]
                                                   * p2[_clip(y + i, h)][_clip(x + j, w)]
-                                                  for i in range(-rv, rv + 1)
-                                                  for j in range(-rv, rv + 1)), f"p3_b{q}")
+                                                  for i in range(-vr, vr + 1)
+                                                  for j in range(-vr, vr + 1)), f"p3_b{q}")
                                      for x in range(w)] for y in range(h)]  # fmt: skip
                     B[q] = [[ctx.val(c, f"p3_b{q}") for c in row] for row in box[f"b{q}"]]
                 box["bdet"] = [[ctx.cast(B["gg"][y][x] * B["yy"][y][x] - B["gy"][y][x] ** 2,
@@ -279,7 +279,7 @@ def oracle_p3(
                         vrow.append(ctx.divide(num, f_bnv, den, f_bdet, "p3_v")[0])
                     V.append(vrow)
                 box["v"] = V
-                box["ev"] = [[ctx.cast(ev[y][x] + yv[y][x] * ctx.val(V[max(y - rv, 0)][x], "p3_v"),
+                box["ev"] = [[ctx.cast(ev[y][x] + yv[y][x] * ctx.val(V[max(y - vr, 0)][x], "p3_v"),
                                        "p3_ev") for x in range(w)] for y in range(h)]  # fmt: skip
                 evv = [[ctx.val(c, "p3_ev") for c in row] for row in box["ev"]]
                 products["ge"] = [[gv[y][x] * evv[y][x] for x in range(w)] for y in range(h)]
@@ -325,6 +325,9 @@ def oracle_p3(
                 DU.append(drow)
             if record:
                 arrays = {"warp": W, "wx": WX, "g": G, "err": E, **out, "du": DU, "u": u}
+                if form == "box":  # the box's taps of line y: the box rv lines up
+                    box = {k: [q[max(y - vr, 0)] for y in range(h)] if k != "ev" else q
+                           for k, q in box.items()}  # fmt: skip
                 if form != "off":
                     arrays.update(wy=WY, gy=GY, **box)
                 more = {"off": (), "window": _VERTICAL_TAPS, "box": _BOX_TAPS}[form]

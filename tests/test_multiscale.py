@@ -181,7 +181,7 @@ def test_streaming_schedule_by_hand():
     level waits 4 + 2 λ_{l+1} lines for the coarse estimate, then adds k r. The
     normalisation (R = 4) runs beside that wait: only the coarsest level's R lines add
     latency; it holds 2 R lines per camera and level, and the delay lines R fewer."""
-    cfg = MultiscaleConfig(levels=4, max_disparity=8.0, normalise="none")
+    cfg = MultiscaleConfig(levels=4, max_disparity=8.0, normalise="none", vertical=False)
     s = streaming_schedule(cfg, 512)
     lam = [lv["latency_lines"] for lv in s["levels"]]
     delay = [lv["delay_lines"] for lv in s["levels"]]
@@ -286,8 +286,9 @@ def test_eval_peers_need_the_middlebury_protocol(capsys):
 
 def test_coarse_lag_trades_delay_lines_for_a_stale_coarse_estimate():
     lagged = streaming_schedule(
-        MultiscaleConfig(levels=4, max_disparity=8.0, coarse_lag=8, normalise="none"), 512, 512
-    )
+        MultiscaleConfig(levels=4, max_disparity=8.0, coarse_lag=8, normalise="none",
+                         vertical=False), 512, 512,
+    )  # fmt: skip
     assert [lv["delay_lines"] for lv in lagged["levels"]] == [84, 36, 12, 0]
     assert lagged["latency_lines"] == 92
     e1 = np.tile(np.arange(40.0), (40, 1)) ** 2 % 97
@@ -459,13 +460,15 @@ def test_gain_or_offset_between_the_cameras_moves_g6_mae_by_at_most_10_percent(p
 
 
 def test_the_vertical_term_tolerates_a_pixel_of_misalignment():
-    """``vertical`` (G6 only): a 1 px vertical shift of the right image at 1/8 keeps the
-    MAE <= 0.6 px where the 1-D fit errs by > 1 px."""
+    """The window form of ``vertical`` (``vertical_radius`` 0, ``threshold_g`` 1): a 1 px
+    vertical shift of the right image at 1/8 keeps the MAE <= 0.6 px where the 1-D fit
+    errs by > 1 px."""
     data = perturb_right(load_motorcycle(8), Perturbation(vshift=1.0))
     baseline = abs(float(data.motion.camera_displacement[1]))
     mae = {}
     for vertical in (False, True):
-        out = disparity_g6(data.image1, data.image2, MultiscaleConfig(vertical=vertical))
+        cfg = MultiscaleConfig(vertical=vertical, vertical_radius=0, threshold_g=1.0)
+        out = disparity_g6(data.image1, data.image2, cfg)
         d, v = out["disparity"], out["valid"]
         f_px = data.camera.f_px
         m = middlebury_metrics(
@@ -513,7 +516,7 @@ def test_the_box_form_estimates_a_global_vertical_shift():
 def test_the_box_form_schedule():
     """The box form keeps a stage's r + 1 lines and holds five row sums of 2 rv lines down
     the columns in place of the window form's three of 2 r."""
-    cfg = MultiscaleConfig(levels=1, warps=2, radius=4, max_disparity=8.0, vertical=True)
+    cfg = MultiscaleConfig(levels=1, warps=2, radius=4, max_disparity=8.0, vertical_radius=0)
     window = streaming_schedule(cfg, 100)
     box = streaming_schedule(cfg.with_(vertical_radius=8), 100)
     assert box["latency_lines"] == window["latency_lines"]

@@ -65,15 +65,16 @@ def test_default_on_lab_meets_the_issue_targets():
 @pytest.mark.parametrize("factor", [4, 8, 16, 19])
 def test_no_overflow_on_the_motorcycle_pair(factor):
     """The factors ``rangefx eval`` scores, as shipped (the limit from the width) and
-    with the search range as a user's max_disparity, the vertical term off (the default)
-    and on: 0 overflows, P3 within 0.5 % of G6."""
+    with the search range as a user's max_disparity, the vertical term's box form (the
+    default), its window form and off: 0 overflows, P3 within 0.5 % of G6."""
     case = real_pair_case("motorcycle", factor)
     md = float(search_range(load_motorcycle(factor)))
     configs = (
         P3.default_config(),
         P3.default_config(max_disparity=md),
-        P3.default_config(vertical=True),
-        P3.default_config(vertical=True, max_disparity=md),
+        P3.default_config(vertical_radius=0),
+        P3.default_config(vertical_radius=0, max_disparity=md),
+        P3.default_config(vertical=False),
     )
     for config in configs:
         result = P3.run(case, config, taps=False)
@@ -106,9 +107,10 @@ def test_line_buffers_and_latency_follow_the_streaming_schedule():
     case = scene_case("lab")
     result = P3.run(case, taps=False)
     # 512 px wide: limit 64 px, 5 levels (the auto depth's cap), each coarser level
-    # doubling the delay; the coarsest level's normalisation adds R = 4 of its lines
+    # doubling the delay; the coarsest level's normalisation adds R = 4 of its lines; the
+    # vertical term one line a warp stage at every level (2 + 4 + 8 + 16 + 32 = 62)
     assert result.schedule["levels"] == 5
-    assert result.schedule["latency_lines"] == sched["latency_lines"] == 308 + 16 * 4
+    assert result.schedule["latency_lines"] == sched["latency_lines"] == 308 + 16 * 4 + 62
     assert result.line_buffer_bits == cost.line_buffer_bits
     lines = (result.out_cycles - result.in_cycles) // n  # no blanking: n clocks per line
     assert lines.min() == sched["latency_lines"]
@@ -192,13 +194,13 @@ def test_oracle_and_model_agree_on_negative_fraction_bits(seed, quant):
 )
 def test_no_overflow_when_the_cameras_differ(perturb):
     """1/4, the right image as a real rig's (``rangefx eval --perturb``): the shipped
-    formats still give 0 overflows with the vertical term off and on (a gain of 0.9
-    drives |du| to 34.8 px)."""
+    formats still give 0 overflows with the vertical term off, in its window form and in
+    its box form (the default; a gain of 0.9 drives |du| to 34.8 px)."""
     case = real_pair_case("motorcycle", 4)
     data = perturb_right(load_motorcycle(4), Perturbation(**perturb))
     image2 = np.clip(np.rint(data.image2), 0, 255).astype(np.int64)
-    for vertical in (False, True):
-        config = P3.default_config(vertical=vertical)
+    for design in ({"vertical": False}, {"vertical_radius": 0}, {}):
+        config = P3.default_config(**design)
         result = P3.run(replace(case, image2=image2), config, taps=False)
         assert result.overflow_total == 0, {k: v for k, v in result.overflows.items() if v}
 
@@ -233,7 +235,7 @@ def test_vertical_term_is_bit_exact_against_the_oracle(seed, kind, design):
     """The 2x2 normal equations (``vertical``): every tap, the outputs, every overflow
     count and min/max as the oracle's exact arithmetic gives them, with taps and without
     (the same outputs, counts and log)."""
-    config = P3.default_config(vertical=True, **design)
+    config = P3.default_config(vertical=True, vertical_radius=0, **design)
     case = p3_case(seed, kind)
     ref = ORACLES["p3"].run(case, config)
     result = P3.run(case, config, taps=True)
@@ -256,7 +258,7 @@ def test_vertical_term_is_bit_exact_over_formats(seed, quant, overflow, drop):
     """Property: the vertical signals in any modes, narrowed by 0..12 integer bits and
     -2..3 fraction bits (so that some overflow, wrap or saturate), model == oracle bit for
     bit."""
-    base = P3.default_config(vertical=True, radius=2, sigma=1.0, levels=2)
+    base = P3.default_config(vertical=True, vertical_radius=0, radius=2, sigma=1.0, levels=2)
     formats = dict(base.formats)
     for name, (d_int, d_frac) in zip(VERTICAL_SIGNALS, drop, strict=True):
         f = formats[name]
@@ -272,7 +274,7 @@ def test_vertical_term_schedule_and_cost():
     """Each warp stage takes one more line (the column differences need line y + 1), the
     output leaves the schedule's latency after its input, and the vertical term's line
     buffers, registers and multipliers are counted."""
-    off, on = P3.default_config(vertical=False), P3.default_config(vertical=True)
+    off, on = P3.default_config(vertical=False), P3.default_config(vertical_radius=0)
     m, n = 512, 512
     s_off = streaming_schedule(off.multiscale(), n, m)
     s_on = streaming_schedule(on.multiscale(), n, m)
@@ -299,7 +301,8 @@ def test_vertical_term_meets_the_misalignment_target():
         image2=np.clip(np.rint(shifted.image2), 0, 255).astype(np.int64),
     )
     for vertical in (False, True):
-        result = P3.run(case, P3.default_config(vertical=vertical), taps=False)
+        config = P3.default_config(vertical=vertical, vertical_radius=0, threshold_g=1.0)
+        result = P3.run(case, config, taps=False)
         assert result.overflow_total == 0
         disparity = disparity_from_range(result.range * 1e3, shifted)  # m -> the pair's mm
         figures[vertical] = middlebury_metrics(
@@ -314,7 +317,7 @@ def test_vertical_term_meets_the_misalignment_target():
     "design",
     [
         {},
-        {"vertical": True, "radius": 2, "sigma": 1.0},
+        {"vertical": True, "vertical_radius": 0, "radius": 2, "sigma": 1.0},
         {"divider": "restoring", "warps": 3},
         {"vertical": True, "vertical_radius": 3, "radius": 2, "sigma": 1.0},
     ],
@@ -352,7 +355,8 @@ def test_windows_wider_than_the_unrolled_radius_are_bit_exact(vertical):
     wider window takes the tap-at-a-time loops: every tap, count and min/max as the
     oracle's."""
     radius = p3_model.UNROLLED_RADIUS + 2
-    config = P3.default_config(radius=radius, sigma=2.5, levels=2, vertical=vertical)
+    config = P3.default_config(radius=radius, sigma=2.5, levels=2, vertical=vertical,
+                               vertical_radius=0)  # fmt: skip
     for seed, kind in ((3, "lab"), (4, "random")):
         case = p3_case(seed, kind)
         assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))
@@ -422,7 +426,7 @@ def test_box_form_schedule_and_cost():
     ready with line ``y``'s ``gy``), the output leaves the schedule's latency after its
     input, and its five exact box row sums of ``2 rv`` lines, registers and multipliers
     are counted."""
-    window = P3.default_config(vertical=True)
+    window = P3.default_config(vertical=True, vertical_radius=0)
     box = window.with_(vertical_radius=8)
     m, n = 512, 512
     s_window = streaming_schedule(window.multiscale(), n, m)

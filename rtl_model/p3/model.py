@@ -114,8 +114,9 @@ N_SITES = S_NV + 1
 WARP_TAPS = ("warp", "wx", "g", "err", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
 #: The vertical term's taps of one warp stage (after :data:`WARP_TAPS`).
 VERTICAL_TAPS = ("wy", "gy", "ryy", "rgy", "rye", "syy", "sgy", "sye", "det", "nu")
-#: The box form's taps of one warp stage (after :data:`WARP_TAPS`; ``v`` of the stage's
-#: own line, ``ev`` with the late ``v``).
+#: The box form's taps of one warp stage (after :data:`WARP_TAPS`); the box's (sums,
+#: ``bdet``, ``bnv``, ``v``) of line ``y`` are those line ``y`` uses, of the box centred
+#: ``vertical_radius`` lines up (top lines: line 0's).
 BOX_TAPS = ("wy", "gy", "bgg", "bge", "byy", "bgy", "bye", "bdet", "bnv", "v", "ev")
 N_STAGE_TAPS = len(WARP_TAPS)
 #: The five box sums, in the order of :data:`BOX_TAPS` (signals, cast sites).
@@ -488,7 +489,8 @@ def _stage_box_columns(
     every line are there: the five box sums (``2 rv + 1`` lines, replicated borders)
     cast into ``p3_bgg`` .. ``p3_bye``, ``bdet = bgg byy - bgy²`` and ``bnv = bgg bye -
     bgy bge`` exact then cast, and the divider ``v = -bnv / bdet`` where ``bdet > 0``
-    (else fed 0 / 1) into ``v``. ``bsums``, ``bdet``, ``bnv`` with no lines are not kept."""
+    (else fed 0 / 1) into ``v``. The column sums run down the band's lines (one line in,
+    one out: the same exact sums). ``bsums``, ``bdet``, ``bnv`` with no lines are not kept."""
     m, n = brows.shape[1], brows.shape[2]
     f_g, f_gy, f_e = fm[G, 1], fm[GY, 1], fm[E, 1]
     f_in = (2 * f_g, f_g + f_e, 2 * f_gy, f_g + f_gy, f_gy + f_e)
@@ -502,16 +504,21 @@ def _stage_box_columns(
     flags = np.empty(n, dtype=np.bool_)
     lines = np.empty((7, n), dtype=np.int64)  # the sums, bdet, bnv when not kept
     keep = bsums.shape[1] > 0
+    cols = np.zeros((5, n), dtype=np.int64)  # the running column sums (exact)
     for y in range(y0, y1):
         for j in range(5):
-            for x in range(n):
-                acc[x] = 0
-            for k in range(-rv, rv + 1):
-                src = brows[j, min(max(y + k, 0), m - 1)]
+            col = cols[j]
+            if y == y0:  # the band's first line: the whole box
+                for k in range(-rv, rv + 1):
+                    src = brows[j, min(max(y + k, 0), m - 1)]
+                    for x in range(n):
+                        col[x] += src[x]
+            else:  # then one line in, one out
+                add, drop = brows[j, min(y + rv, m - 1)], brows[j, max(y - rv - 1, 0)]
                 for x in range(n):
-                    acc[x] += src[x]
+                    col[x] += add[x] - drop[x]
             out = bsums[j, y] if keep else lines[j]
-            _cast_logged_row(acc, f_in[j], _BOX_SIGNALS[j], base + _BOX_SITES[j], fm, st, ov,
+            _cast_logged_row(col, f_in[j], _BOX_SIGNALS[j], base + _BOX_SITES[j], fm, st, ov,
                              out)  # fmt: skip
         if keep:
             gg, ge, yy, gy, ye = bsums[0, y], bsums[1, y], bsums[2, y], bsums[3, y], bsums[4, y]
@@ -935,12 +942,11 @@ def tap_offsets(config: P3Config, shape: tuple[int, int]) -> dict[str, tuple[int
     # vertical: the column differences need line y + 1 (of E1, then of W), so ay, wy and
     # gy leave a line later, and g and e wait that line in line buffers: the window's
     # six products start together, one line later, and every stage takes r + 1 lines
-    # the box form: the box sums of line y are complete rv lines after gy's line, and v of
-    # line y - rv is ready as line y's gy is; e + gy v then feeds the 1-D window's
+    # the box form: the box centred on line y - rv (its sums, bdet, bnv, v: the taps of
+    # line y) is complete with line y's gy; e + gy v then feeds the 1-D window's
     # products, which start with it (g and e waiting the box's cycles in a short delay)
     v = int(bool(config.vertical))
     form = config.vertical_form
-    rv = config.vertical_radius
     if v:
         out["ay"] = (d + 1, i0 + lat["derivative"])
     names = ("rgg", "rge", "ree") + (("ryy", "rgy", "rye") if form == "window" else ())
@@ -955,14 +961,14 @@ def tap_offsets(config: P3Config, shape: tuple[int, int]) -> dict[str, tuple[int
         if v:
             out[f"wy{k}"] = (lines + 1, c + lat["warp"] + lat["derivative"])
             out[f"gy{k}"] = (lines + 1, start)
-        if form == "box":
+        if form == "box":  # the box's taps of line y: the box centred rv lines up
             cb = start + lat["products"] + lat["box_row"] + lat["box_column"]
             for t in ("bgg", "bge", "byy", "bgy", "bye"):
-                out[f"{t}{k}"] = (lines + 1 + rv, cb)
+                out[f"{t}{k}"] = (lines + 1, cb)
             cb += lat["normal_equations"]
-            out[f"bdet{k}"] = out[f"bnv{k}"] = (lines + 1 + rv, cb)
+            out[f"bdet{k}"] = out[f"bnv{k}"] = (lines + 1, cb)
             cb += lat["v_divider"]
-            out[f"v{k}"] = (lines + 1 + rv, cb)
+            out[f"v{k}"] = (lines + 1, cb)
             start = cb + lat["correction"]
             out[f"ev{k}"] = (lines + 1, start)
         row = start + lat["products"] + lat["window_row"]
@@ -1188,7 +1194,9 @@ def _run_level(
         for j, arr in enumerate((wp, wx, g, e, rgg, rge, ree, *sums[:3], du, u)):
             taps[t0 + j] = arr
         more = (wy, gy, ryy, rgy, rye, *sums[3:]) if vertical else ()
-        more = (wy, gy, *bsums, bdet, bnv, v, ev) if box else more
+        if box:  # the box's taps as line y uses them: the box centred rv lines up
+            late = np.maximum(np.arange(h) - config.vertical_radius, 0)
+            more = (wy, gy, *(p[late] for p in (*bsums, bdet, bnv, v)), ev)
         for j, arr in enumerate(more):
             taps[t0 + N_STAGE_TAPS + j] = arr
     return sums
