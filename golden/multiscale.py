@@ -70,6 +70,13 @@ difference for a disparity). Two options, each a config field:
   (the discarded ``v``'s numerator), and a pixel needs ``det > 0`` (the determinant
   test). The central difference down the columns needs line ``y + 1`` of E1 and of W:
   each warp stage takes one more line (:func:`streaming_schedule`). P3 builds it.
+  With ``vertical_radius`` ``rv`` > 0 (the box form) ``v`` is not fitted with ``u`` in
+  the window: a rig's misalignment is smooth across the image, so each warp stage
+  solves the 2x2 system over a ``(2 rv + 1)²`` box of plain sums, ``v = -ν_v / det``
+  (``ν_v = Σg² Σgy e - Σg gy Σge``, ``det = Σg² Σgy² - (Σg gy)²``, 0 where ``det ≤ 0``),
+  taken ``rv`` lines late (``v`` of line ``y - rv`` corrects line ``y``; top lines
+  replicate), and ``u`` comes from the 1-D fit (eq 10) on ``e + gy v``, whose residual
+  is the validity test (no determinant test). P3 builds it too.
 
 The motion form (obstacle eq 28) is not built: there the disparity direction is radial
 from the focus of expansion and differs per pixel, so the warp is a 2-D resampling along
@@ -168,8 +175,13 @@ class MultiscaleConfig:
     normalise_radius
         ``R``: the normalisation's box is ``(2 R + 1)²`` px; also its latency in lines.
     vertical
-        Keep the vertical term of eq 6: a 2x2 normal system per window, ``v`` discarded
-        (module docstring, "Real rigs").
+        Keep the vertical term of eq 6 (module docstring, "Real rigs"): with
+        ``vertical_radius`` 0 a 2x2 normal system per window, ``v`` discarded (the
+        window form); above 0 ``v`` from the 2x2 system over a box, ``u`` from the 1-D
+        fit on ``e + g_y v`` (the box form).
+    vertical_radius
+        ``rv`` of the box form: ``v`` from the ``(2 rv + 1)²`` box, taken ``rv`` lines
+        late; 0 = the window form. Read only with ``vertical``.
     coarse_lag
         Lines (of the finer level) by which the up-sampled coarse estimate reaches each
         finer level late: fine line ``y`` starts from the coarse estimate of line
@@ -181,14 +193,15 @@ class MultiscaleConfig:
     warps: int = 2
     sigma: float = 2.0
     radius: int = 4
-    threshold_g: float = 1.0
+    threshold_g: float = 0.5
     threshold_r: float = 25.0
     coarse_px: float = 1.0
     max_disparity: float | None = None
     coarse_lag: int = 0
     normalise: str = "local_mean"
     normalise_radius: int = 4
-    vertical: bool = False
+    vertical: bool = True
+    vertical_radius: int = 8
 
     def __post_init__(self) -> None:
         if self.levels is not None:
@@ -200,6 +213,7 @@ class MultiscaleConfig:
             ("radius", 1, 16),
             ("coarse_lag", 0, 1024),
             ("normalise_radius", 1, 16),
+            ("vertical_radius", 0, 32),
         ):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
@@ -221,6 +235,14 @@ class MultiscaleConfig:
         md = self.max_disparity
         if md is not None and not (isinstance(md, (int, float)) and math.isfinite(md) and md > 0):
             raise ValueError(f"max_disparity must be a positive number of px or None, not {md!r}")
+
+    @property
+    def vertical_form(self) -> str:
+        """``"off"``, ``"window"`` (the 2x2 system in the window, ``v`` discarded) or
+        ``"box"`` (``v`` from the box, ``vertical_radius`` > 0): the vertical term in use."""
+        if not self.vertical:
+            return "off"
+        return "box" if self.vertical_radius > 0 else "window"
 
     def with_(self, **changes) -> MultiscaleConfig:
         return replace(self, **changes)
@@ -373,7 +395,11 @@ def disparity_g6(
     ``rge{k}``, ``ree{k}``, the window sums ``sgg{k}``, ``sge{k}``, ``see{k}``, ``du{k}``
     and the updated ``u{k}``; with ``vertical`` also ``ay`` (``E1y``), per warp ``wy{k}``,
     ``gy{k}``, ``ryy{k}``, ``rgy{k}``, ``rye{k}``, ``syy{k}``, ``sgy{k}``, ``sye{k}``,
-    ``det{k}``, ``nu{k}`` (``ν_u``) and, after the last, ``nv`` (``ν_v``).
+    ``det{k}``, ``nu{k}`` (``ν_u``) and, after the last, ``nv`` (``ν_v``); in the box
+    form (``vertical_radius`` > 0) instead ``ay``, per warp ``wy{k}``, ``gy{k}``, the box
+    sums ``bgg{k}``, ``bge{k}``, ``byy{k}``, ``bgy{k}``, ``bye{k}``, ``bdet{k}``,
+    ``bnv{k}``, ``v{k}`` (those line ``y`` uses: the box ``vertical_radius`` lines up)
+    and ``ev{k}`` (``e + gy v``; ``rge{k}`` .. ``see{k}`` are then on it).
     """
     config = config or MultiscaleConfig()
     e1 = validate_image(image1, "image1")
@@ -391,6 +417,8 @@ def disparity_g6(
         tuple(normalise_image(e, config.normalise, config.normalise_radius) for e in p) for p in pyr
     ]
     limit = config.disparity_limit
+    box, window2 = config.vertical_form == "box", config.vertical_form == "window"
+    rbox = np.ones(2 * config.vertical_radius + 1)  # the box form's sums
     u = np.zeros(pyr[-1][0].shape)
     for level in range(len(pyr) - 1, -1, -1):
         a, b = pyr[level]
@@ -412,9 +440,22 @@ def disparity_g6(
             wx = _filt(wimg, _CENTRAL, 1)
             g = 0.5 * (ax + wx)  # eq 6: the mean gradient of the two images
             e = a - wimg  # c1 of eq 10, about the current estimate
-            rows = {"gg": _filt(g * g, w, 1), "ge": _filt(g * e, w, 1), "ee": _filt(e * e, w, 1)}
+            ev = e
+            if box:  # v from the 2x2 system over the box, rv lines late; e corrected by it
+                wy = _filt(wimg, _CENTRAL, 0)
+                gy = 0.5 * (ay + wy)
+                bsum = {p: _filt(_filt(q, rbox, 1), rbox, 0) for p, q in (
+                    ("bgg", g * g), ("bge", g * e), ("byy", gy * gy), ("bgy", g * gy),
+                    ("bye", gy * e))}  # fmt: skip
+                bdet = bsum["bgg"] * bsum["byy"] - bsum["bgy"] * bsum["bgy"]
+                bnv = bsum["bgg"] * bsum["bye"] - bsum["bgy"] * bsum["bge"]
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    v = np.where(bdet > 0, -bnv / bdet, 0.0)
+                late = v[np.maximum(np.arange(v.shape[0]) - config.vertical_radius, 0)]
+                ev = e + gy * late
+            rows = {"gg": _filt(g * g, w, 1), "ge": _filt(g * ev, w, 1), "ee": _filt(ev * ev, w, 1)}
             sgg, sge, see = (_filt(rows[p], w, 0) for p in ("gg", "ge", "ee"))
-            if config.vertical:  # the 2x2 system in (u, v); v discarded
+            if window2:  # the 2x2 system in (u, v); v discarded
                 wy = _filt(wimg, _CENTRAL, 0)
                 gy = 0.5 * (ay + wy)
                 vrows = {"yy": _filt(gy * gy, w, 1), "gy": _filt(g * gy, w, 1)}
@@ -434,15 +475,20 @@ def disparity_g6(
             if traced is not None:
                 stage = {"warp": wimg, "wx": wx, "g": g, "err": e, "sgg": sgg, "sge": sge}
                 stage.update(see=see, du=du, u=u, **{f"r{p}": v for p, v in rows.items()})
-                if config.vertical:
+                if window2:
                     stage.update(wy=wy, gy=gy, syy=syy, sgy=sgy, sye=sye, det=det, nu=nu)
                     stage.update({f"r{p}": v for p, v in vrows.items()})
+                elif box:
+                    # the box's values as line y uses them: the box rv lines up
+                    lag = np.maximum(np.arange(v.shape[0]) - config.vertical_radius, 0)
+                    boxed = {"bdet": bdet, "bnv": bnv, "v": v, **bsum}
+                    stage.update(wy=wy, gy=gy, ev=ev, **{k: q[lag] for k, q in boxed.items()})
                 traced.update({f"{name}{k}": v for name, v in stage.items()})
     resid = np.sqrt(np.maximum(see - fit, 0.0))
     grad_rms = np.sqrt(sgg)
     _, inside = warp_rows(pyr[0][1], u)
-    solved = det > 0 if config.vertical else True  # the determinant test
-    if trace and config.vertical:
+    solved = det > 0 if window2 else True  # the determinant test
+    if trace and window2:
         traced["nv"] = nv
     valid = (
         solved
@@ -541,7 +587,11 @@ def streaming_schedule(config: MultiscaleConfig, width: int, height: int | None 
       of E1 per level and 2 lines of W per warp stage; ``g`` and ``e`` wait one line for
       ``gy`` (1 line each per stage); the three more windowed products (``gy²``,
       ``g gy``, ``gy e``) sum down the columns through ``2 r`` lines each; a warp stage's
-      latency is ``r + 1`` lines and E1, E2 and ``u`` wait that long.
+      latency is ``r + 1`` lines and E1, E2 and ``u`` wait that long. The box form
+      (``vertical_radius`` ``rv`` > 0) sums five products (``g²``, ``g e``, ``gy²``,
+      ``g gy``, ``gy e``) down the columns through ``2 rv`` lines each instead; ``v`` of
+      the box centred ``rv`` lines up is ready as line ``y``'s ``gy`` is, so ``e + gy v``
+      and the 1-D window's three products start then: the same ``r + 1`` lines a stage.
 
     Returns per level ``width``, ``latency_lines`` (from the level's input line to its
     output line, in its own lines), ``delay_lines`` (the wait for the coarse estimate)
@@ -557,6 +607,10 @@ def streaming_schedule(config: MultiscaleConfig, width: int, height: int | None 
     config = config.resolve(width)
     r, k = config.radius, config.warps
     v = int(bool(config.vertical))  # the line below the centre, for the column differences
+    rv = config.vertical_radius
+    # lines of row sums down the columns: the window form's three of 2 r, the box form's five
+    # of 2 rv
+    vsums = 5 * 2 * rv if rv else 3 * 2 * r
     rn = 0 if config.normalise == "none" else config.normalise_radius
     built = config.levels if height is None else pyramid_levels(config, (height, width))
     levels = []
@@ -575,7 +629,7 @@ def streaming_schedule(config: MultiscaleConfig, width: int, height: int | None 
             "vertical_e1": v * 2 * n_l,
             "vertical_warp": v * k * 2 * n_l,
             "vertical_align": v * k * 2 * n_l,
-            "vertical_products": v * k * 3 * 2 * r * n_l,
+            "vertical_products": v * k * vsums * n_l,
             "expand": 0 if lam_coarse is None else -(-width // 2 ** (level + 1)),
             "coarse_delay": 2 * max(delay - rn, 0) * n_l,
         }

@@ -9,8 +9,10 @@ fraction ``x - u``, the normalisation as the box sum at every level); every cast
 through the apytypes-based :func:`oracle_p1.cast_exact`, the dividers are the P1
 oracle's bit-level restoring loop or LUT + Newton reciprocal, the Keys ROM is built
 from the exact cubic; the vertical term (``vertical``) as the page's 2x2 normal
-equations, the determinant and the two numerators written out. Python loops per pixel:
-tiny images only.
+equations, the determinant and the two numerators written out; its box form
+(``vertical_radius`` rv > 0) as the page's box sums over the whole ``(2 rv + 1)²`` box at
+once, ``v`` by the divider, taken from the line ``rv`` up, and the 1-D fit on ``e + gy v``.
+Python loops per pixel: tiny images only.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ __all__ = ["oracle_p3"]
 _BINOM = (1, 4, 6, 4, 1)
 _WARP_TAPS = ("warp", "wx", "g", "err", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
 _VERTICAL_TAPS = ("wy", "gy", "ryy", "rgy", "rye", "syy", "sgy", "sye", "det", "nu")
+_BOX_TAPS = ("wy", "gy", "bgg", "bge", "byy", "bgy", "bye", "bdet", "bnv", "v", "ev")
 
 
 def _scale(f: int) -> Fraction:
@@ -203,8 +206,9 @@ def oracle_p3(
         if record:
             taps["ax"] = np.array([[int(v / grad_lsb) for v in row] for row in ax])
             taps["u_start"] = np.array(u)
-        vertical = bool(config.vertical)
-        if vertical:  # E1y: central difference down the columns
+        form = config.vertical_form
+        vertical = form == "window"  # the 2x2 system in the window
+        if form != "off":  # E1y: central difference down the columns
             ay = [[ctx.val(ctx.cast((a[_clip(y + 1, h)][x] - a[_clip(y - 1, h)][x]) / 2,
                                     "p3_grad"), "p3_grad") for x in range(w)]
                   for y in range(h)]  # fmt: skip
@@ -239,13 +243,48 @@ def oracle_p3(
                 "ge": [[gv[y][x] * ev[y][x] for x in range(w)] for y in range(h)],
                 "ee": [[ev[y][x] * ev[y][x] for x in range(w)] for y in range(h)],
             }
-            if vertical:  # Wy, gy = (E1y + Wy) / 2 and the three more products
+            if form != "off":  # Wy, gy = (E1y + Wy) / 2
                 wv = [[ctx.val(c, "p3_warp") for c in row] for row in W]
                 WY = [[ctx.cast((wv[_clip(y + 1, h)][x] - wv[_clip(y - 1, h)][x]) / 2, "p3_grad")
                        for x in range(w)] for y in range(h)]  # fmt: skip
                 GY = [[ctx.cast((ay[y][x] + ctx.val(WY[y][x], "p3_grad")) / 2, "p3_gy")
                        for x in range(w)] for y in range(h)]  # fmt: skip
                 yv = [[ctx.val(c, "p3_gy") for c in row] for row in GY]
+            box = {}
+            if form == "box":  # v from the box's 2x2 system, rv lines late; e + gy v
+                vr = config.vertical_radius
+                bprod = {"gg": (gv, gv), "ge": (gv, ev), "yy": (yv, yv), "gy": (gv, yv),
+                         "ye": (yv, ev)}  # fmt: skip
+                B = {}
+                for q, (p1, p2) in bprod.items():
+                    box[f"b{q}"] = [[ctx.cast(sum(p1[_clip(y + i, h)][_clip(x + j, w)]
+                                                  * p2[_clip(y + i, h)][_clip(x + j, w)]
+                                                  for i in range(-vr, vr + 1)
+                                                  for j in range(-vr, vr + 1)), f"p3_b{q}")
+                                     for x in range(w)] for y in range(h)]  # fmt: skip
+                    B[q] = [[ctx.val(c, f"p3_b{q}") for c in row] for row in box[f"b{q}"]]
+                box["bdet"] = [[ctx.cast(B["gg"][y][x] * B["yy"][y][x] - B["gy"][y][x] ** 2,
+                                         "p3_bdet") for x in range(w)]
+                               for y in range(h)]  # fmt: skip
+                box["bnv"] = [[ctx.cast(B["gg"][y][x] * B["ye"][y][x]
+                                        - B["gy"][y][x] * B["ge"][y][x], "p3_bnv")
+                               for x in range(w)] for y in range(h)]  # fmt: skip
+                f_bnv, f_bdet = fmt("p3_bnv").frac, fmt("p3_bdet").frac
+                V = []
+                for y in range(h):
+                    vrow = []
+                    for x in range(w):
+                        dd, nn = box["bdet"][y][x], box["bnv"][y][x]
+                        num, den = (-nn, dd) if dd > 0 else (0, 1)
+                        vrow.append(ctx.divide(num, f_bnv, den, f_bdet, "p3_v")[0])
+                    V.append(vrow)
+                box["v"] = V
+                box["ev"] = [[ctx.cast(ev[y][x] + yv[y][x] * ctx.val(V[max(y - vr, 0)][x], "p3_v"),
+                                       "p3_ev") for x in range(w)] for y in range(h)]  # fmt: skip
+                evv = [[ctx.val(c, "p3_ev") for c in row] for row in box["ev"]]
+                products["ge"] = [[gv[y][x] * evv[y][x] for x in range(w)] for y in range(h)]
+                products["ee"] = [[evv[y][x] * evv[y][x] for x in range(w)] for y in range(h)]
+            if vertical:  # the three more products of the window's 2x2 system
                 products["yy"] = [[yv[y][x] * yv[y][x] for x in range(w)] for y in range(h)]
                 products["gy"] = [[gv[y][x] * yv[y][x] for x in range(w)] for y in range(h)]
                 products["ye"] = [[yv[y][x] * ev[y][x] for x in range(w)] for y in range(h)]
@@ -286,14 +325,18 @@ def oracle_p3(
                 DU.append(drow)
             if record:
                 arrays = {"warp": W, "wx": WX, "g": G, "err": E, **out, "du": DU, "u": u}
-                if vertical:
-                    arrays.update(wy=WY, gy=GY)
-                for t in _WARP_TAPS + (_VERTICAL_TAPS if vertical else ()):
+                if form == "box":  # the box's taps of line y: the box rv lines up
+                    box = {k: [q[max(y - vr, 0)] for y in range(h)] if k != "ev" else q
+                           for k, q in box.items()}  # fmt: skip
+                if form != "off":
+                    arrays.update(wy=WY, gy=GY, **box)
+                more = {"off": (), "window": _VERTICAL_TAPS, "box": _BOX_TAPS}[form]
+                for t in _WARP_TAPS + more:
                     taps[f"{t}{k}"] = np.array(arrays[t], dtype=np.int64)
             sums = out
     # level 0: residual and gradient tests, inside, range
     assert sums is not None
-    vertical = bool(config.vertical)
+    vertical = config.vertical_form == "window"
     names = (
         ("nv", "res", "rthr", "valid", "range") if vertical else ("res", "rthr", "valid", "range")
     )

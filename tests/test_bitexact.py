@@ -219,8 +219,13 @@ P3_DESIGNS = (
      "coarse_lag": 2, "normalise_radius": 2},
     {"normalise": "none", "radius": 2, "sigma": 1.0, "levels": 2},
     {"normalise_radius": 1, "radius": 2, "sigma": 1.0, "levels": 3},
-    {"vertical": True, "radius": 2, "sigma": 1.0, "levels": 3, "warps": 2},
-    {"vertical": True, "radius": 1, "sigma": 0.8, "levels": 2, "normalise": "none"},
+    {"vertical": True, "vertical_radius": 0, "radius": 2, "sigma": 1.0, "levels": 3, "warps": 2},
+    {"vertical": True, "vertical_radius": 0, "radius": 1, "sigma": 0.8, "levels": 2,
+     "normalise": "none"},
+    {"vertical": False, "radius": 2, "sigma": 1.0, "levels": 2},
+    {"vertical": True, "vertical_radius": 2, "radius": 2, "sigma": 1.0, "levels": 3},
+    {"vertical": True, "vertical_radius": 5, "radius": 1, "sigma": 0.8, "levels": 2,
+     "normalise": "none", "warps": 3},
 )  # fmt: skip
 
 

@@ -181,7 +181,7 @@ def test_streaming_schedule_by_hand():
     level waits 4 + 2 λ_{l+1} lines for the coarse estimate, then adds k r. The
     normalisation (R = 4) runs beside that wait: only the coarsest level's R lines add
     latency; it holds 2 R lines per camera and level, and the delay lines R fewer."""
-    cfg = MultiscaleConfig(levels=4, max_disparity=8.0, normalise="none")
+    cfg = MultiscaleConfig(levels=4, max_disparity=8.0, normalise="none", vertical=False)
     s = streaming_schedule(cfg, 512)
     lam = [lv["latency_lines"] for lv in s["levels"]]
     delay = [lv["delay_lines"] for lv in s["levels"]]
@@ -286,8 +286,9 @@ def test_eval_peers_need_the_middlebury_protocol(capsys):
 
 def test_coarse_lag_trades_delay_lines_for_a_stale_coarse_estimate():
     lagged = streaming_schedule(
-        MultiscaleConfig(levels=4, max_disparity=8.0, coarse_lag=8, normalise="none"), 512, 512
-    )
+        MultiscaleConfig(levels=4, max_disparity=8.0, coarse_lag=8, normalise="none",
+                         vertical=False), 512, 512,
+    )  # fmt: skip
     assert [lv["delay_lines"] for lv in lagged["levels"]] == [84, 36, 12, 0]
     assert lagged["latency_lines"] == 92
     e1 = np.tile(np.arange(40.0), (40, 1)) ** 2 % 97
@@ -459,13 +460,15 @@ def test_gain_or_offset_between_the_cameras_moves_g6_mae_by_at_most_10_percent(p
 
 
 def test_the_vertical_term_tolerates_a_pixel_of_misalignment():
-    """``vertical`` (G6 only): a 1 px vertical shift of the right image at 1/8 keeps the
-    MAE <= 0.6 px where the 1-D fit errs by > 1 px."""
+    """The window form of ``vertical`` (``vertical_radius`` 0, ``threshold_g`` 1): a 1 px
+    vertical shift of the right image at 1/8 keeps the MAE <= 0.6 px where the 1-D fit
+    errs by > 1 px."""
     data = perturb_right(load_motorcycle(8), Perturbation(vshift=1.0))
     baseline = abs(float(data.motion.camera_displacement[1]))
     mae = {}
     for vertical in (False, True):
-        out = disparity_g6(data.image1, data.image2, MultiscaleConfig(vertical=vertical))
+        cfg = MultiscaleConfig(vertical=vertical, vertical_radius=0, threshold_g=1.0)
+        out = disparity_g6(data.image1, data.image2, cfg)
         d, v = out["disparity"], out["valid"]
         f_px = data.camera.f_px
         m = middlebury_metrics(
@@ -473,3 +476,49 @@ def test_the_vertical_term_tolerates_a_pixel_of_misalignment():
         )
         mae[vertical] = m["mae_px"]
     assert mae[False] > 1.0 and mae[True] <= 0.6
+
+
+BOX = {"vertical": True, "vertical_radius": 8, "threshold_r": 25.0, "threshold_g": 0.5}
+
+
+@pytest.mark.parametrize("vshift", [1.0, -1.0])
+def test_the_box_form_of_the_vertical_term_meets_the_target_both_ways(vshift):
+    """``vertical_radius`` 8 (``v`` from the 17 x 17 box, ``u`` from the 1-D fit on ``e +
+    gy v``): a 1 px vertical shift of the right image at 1/8, down or up, keeps density
+    >= 0.75 and MAE <= 0.6 px (the window form misses the MAE shifted up)."""
+    data = perturb_right(load_motorcycle(8), Perturbation(vshift=vshift))
+    out = disparity_g6(data.image1, data.image2, MultiscaleConfig(**BOX))
+    baseline = abs(float(data.motion.camera_displacement[1]))
+    m = middlebury_metrics(out["disparity"], out["valid"], data.disparity, data.metric_depth,
+                           data.doffs_px, data.camera.f_px, baseline)  # fmt: skip
+    assert m["density"] >= 0.75 and m["mae_px"] <= 0.6
+
+
+def test_the_box_form_estimates_a_global_vertical_shift():
+    """On a smooth random texture shifted 2 px along the rows and 0.4 px down the columns,
+    the box form's ``v`` (level 0, last warp) is the vertical shift in the middle of the
+    image and the disparity the horizontal one; without ``v`` the disparity errs more."""
+    rng = np.random.default_rng(3)
+    from scipy.ndimage import gaussian_filter, shift
+
+    big = gaussian_filter(rng.uniform(0, 255, (96, 128)), 2.0) * 4 - 380
+    e1 = big
+    e2 = shift(big, (-0.4, -2.0), order=3, mode="nearest")  # E2(x - 2, y + 0.4) = E1
+    cfg = MultiscaleConfig(levels=2, normalise="none", max_disparity=8.0, **BOX)
+    out = disparity_g6(e1, e2, cfg, trace=True)
+    mid = (slice(30, 66), slice(30, 100))
+    assert abs(np.median(out[f"v{cfg.warps - 1}"][mid]) - 0.4) < 0.05
+    err_box = np.abs(out["disparity"][mid] - 2.0).mean()
+    plain = disparity_g6(e1, e2, cfg.with_(vertical=False))["disparity"][mid]
+    assert err_box < 0.05 < np.abs(plain - 2.0).mean()
+
+
+def test_the_box_form_schedule():
+    """The box form keeps a stage's r + 1 lines and holds five row sums of 2 rv lines down
+    the columns in place of the window form's three of 2 r."""
+    cfg = MultiscaleConfig(levels=1, warps=2, radius=4, max_disparity=8.0, vertical_radius=0)
+    window = streaming_schedule(cfg, 100)
+    box = streaming_schedule(cfg.with_(vertical_radius=8), 100)
+    assert box["latency_lines"] == window["latency_lines"]
+    words = lambda s: s["levels"][0]["buffer_words"]["vertical_products"]  # noqa: E731
+    assert words(window) == 2 * 3 * 8 * 100 and words(box) == 2 * 5 * 16 * 100

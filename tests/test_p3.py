@@ -29,6 +29,7 @@ from rangefx.golden.realdata import (
     search_range,
 )
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
+from rangefx.rtl_model.p3 import cost as p3_model_cost
 from rangefx.rtl_model.p3 import model as p3_model
 from rangefx.rtl_model.p3.model import buffer_bits, keys_exact, keys_rom, keys_weights
 from rangefx.rtl_model.pipeline import Case
@@ -64,15 +65,16 @@ def test_default_on_lab_meets_the_issue_targets():
 @pytest.mark.parametrize("factor", [4, 8, 16, 19])
 def test_no_overflow_on_the_motorcycle_pair(factor):
     """The factors ``rangefx eval`` scores, as shipped (the limit from the width) and
-    with the search range as a user's max_disparity, the vertical term off (the default)
-    and on: 0 overflows, P3 within 0.5 % of G6."""
+    with the search range as a user's max_disparity, the vertical term's box form (the
+    default), its window form and off: 0 overflows, P3 within 0.5 % of G6."""
     case = real_pair_case("motorcycle", factor)
     md = float(search_range(load_motorcycle(factor)))
     configs = (
         P3.default_config(),
         P3.default_config(max_disparity=md),
-        P3.default_config(vertical=True),
-        P3.default_config(vertical=True, max_disparity=md),
+        P3.default_config(vertical_radius=0),
+        P3.default_config(vertical_radius=0, max_disparity=md),
+        P3.default_config(vertical=False),
     )
     for config in configs:
         result = P3.run(case, config, taps=False)
@@ -105,9 +107,10 @@ def test_line_buffers_and_latency_follow_the_streaming_schedule():
     case = scene_case("lab")
     result = P3.run(case, taps=False)
     # 512 px wide: limit 64 px, 5 levels (the auto depth's cap), each coarser level
-    # doubling the delay; the coarsest level's normalisation adds R = 4 of its lines
+    # doubling the delay; the coarsest level's normalisation adds R = 4 of its lines; the
+    # vertical term one line a warp stage at every level (2 + 4 + 8 + 16 + 32 = 62)
     assert result.schedule["levels"] == 5
-    assert result.schedule["latency_lines"] == sched["latency_lines"] == 308 + 16 * 4
+    assert result.schedule["latency_lines"] == sched["latency_lines"] == 308 + 16 * 4 + 62
     assert result.line_buffer_bits == cost.line_buffer_bits
     lines = (result.out_cycles - result.in_cycles) // n  # no blanking: n clocks per line
     assert lines.min() == sched["latency_lines"]
@@ -191,13 +194,13 @@ def test_oracle_and_model_agree_on_negative_fraction_bits(seed, quant):
 )
 def test_no_overflow_when_the_cameras_differ(perturb):
     """1/4, the right image as a real rig's (``rangefx eval --perturb``): the shipped
-    formats still give 0 overflows with the vertical term off and on (a gain of 0.9
-    drives |du| to 34.8 px)."""
+    formats still give 0 overflows with the vertical term off, in its window form and in
+    its box form (the default; a gain of 0.9 drives |du| to 34.8 px)."""
     case = real_pair_case("motorcycle", 4)
     data = perturb_right(load_motorcycle(4), Perturbation(**perturb))
     image2 = np.clip(np.rint(data.image2), 0, 255).astype(np.int64)
-    for vertical in (False, True):
-        config = P3.default_config(vertical=vertical)
+    for design in ({"vertical": False}, {"vertical_radius": 0}, {}):
+        config = P3.default_config(**design)
         result = P3.run(replace(case, image2=image2), config, taps=False)
         assert result.overflow_total == 0, {k: v for k, v in result.overflows.items() if v}
 
@@ -232,7 +235,7 @@ def test_vertical_term_is_bit_exact_against_the_oracle(seed, kind, design):
     """The 2x2 normal equations (``vertical``): every tap, the outputs, every overflow
     count and min/max as the oracle's exact arithmetic gives them, with taps and without
     (the same outputs, counts and log)."""
-    config = P3.default_config(vertical=True, **design)
+    config = P3.default_config(vertical=True, vertical_radius=0, **design)
     case = p3_case(seed, kind)
     ref = ORACLES["p3"].run(case, config)
     result = P3.run(case, config, taps=True)
@@ -255,7 +258,7 @@ def test_vertical_term_is_bit_exact_over_formats(seed, quant, overflow, drop):
     """Property: the vertical signals in any modes, narrowed by 0..12 integer bits and
     -2..3 fraction bits (so that some overflow, wrap or saturate), model == oracle bit for
     bit."""
-    base = P3.default_config(vertical=True, radius=2, sigma=1.0, levels=2)
+    base = P3.default_config(vertical=True, vertical_radius=0, radius=2, sigma=1.0, levels=2)
     formats = dict(base.formats)
     for name, (d_int, d_frac) in zip(VERTICAL_SIGNALS, drop, strict=True):
         f = formats[name]
@@ -271,7 +274,7 @@ def test_vertical_term_schedule_and_cost():
     """Each warp stage takes one more line (the column differences need line y + 1), the
     output leaves the schedule's latency after its input, and the vertical term's line
     buffers, registers and multipliers are counted."""
-    off, on = P3.default_config(vertical=False), P3.default_config(vertical=True)
+    off, on = P3.default_config(vertical=False), P3.default_config(vertical_radius=0)
     m, n = 512, 512
     s_off = streaming_schedule(off.multiscale(), n, m)
     s_on = streaming_schedule(on.multiscale(), n, m)
@@ -298,7 +301,8 @@ def test_vertical_term_meets_the_misalignment_target():
         image2=np.clip(np.rint(shifted.image2), 0, 255).astype(np.int64),
     )
     for vertical in (False, True):
-        result = P3.run(case, P3.default_config(vertical=vertical), taps=False)
+        config = P3.default_config(vertical=vertical, vertical_radius=0, threshold_g=1.0)
+        result = P3.run(case, config, taps=False)
         assert result.overflow_total == 0
         disparity = disparity_from_range(result.range * 1e3, shifted)  # m -> the pair's mm
         figures[vertical] = middlebury_metrics(
@@ -311,7 +315,12 @@ def test_vertical_term_meets_the_misalignment_target():
 
 @pytest.mark.parametrize(
     "design",
-    [{}, {"vertical": True, "radius": 2, "sigma": 1.0}, {"divider": "restoring", "warps": 3}],
+    [
+        {},
+        {"vertical": True, "vertical_radius": 0, "radius": 2, "sigma": 1.0},
+        {"divider": "restoring", "warps": 3},
+        {"vertical": True, "vertical_radius": 3, "radius": 2, "sigma": 1.0},
+    ],
 )
 def test_two_bands_of_lines_give_the_one_thread_result(design):
     """On two threads each level of ``BAND_PIXELS`` or more runs its line work in two
@@ -346,7 +355,114 @@ def test_windows_wider_than_the_unrolled_radius_are_bit_exact(vertical):
     wider window takes the tap-at-a-time loops: every tap, count and min/max as the
     oracle's."""
     radius = p3_model.UNROLLED_RADIUS + 2
-    config = P3.default_config(radius=radius, sigma=2.5, levels=2, vertical=vertical)
+    config = P3.default_config(radius=radius, sigma=2.5, levels=2, vertical=vertical,
+                               vertical_radius=0)  # fmt: skip
     for seed, kind in ((3, "lab"), (4, "random")):
         case = p3_case(seed, kind)
         assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))
+
+
+# -- the box form of the vertical term (issue 38) ------------------------------------------
+BOX_SIGNALS = (
+    "p3_gy", "p3_bgg", "p3_bge", "p3_byy", "p3_bgy", "p3_bye", "p3_bdet", "p3_bnv", "p3_v",
+    "p3_ev", "p3_rge", "p3_ree",
+)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("seed", "kind", "design"),
+    [
+        (1, "random", {"vertical_radius": 2}),
+        (2, "lab", {"vertical_radius": 3, "radius": 2, "sigma": 1.0, "divider": "restoring"}),
+        (3, "random", {"vertical_radius": 1, "warps": 3, "coarse_lag": 1, "normalise": "none"}),
+        (4, "lab", {"vertical_radius": 8, "radius": 1, "sigma": 0.8, "levels": 3, "warps": 1}),
+    ],
+)
+def test_box_form_is_bit_exact_against_the_oracle(seed, kind, design):
+    """The box form (``vertical_radius`` > 0: ``v`` from the box's 2x2 system, ``rv`` lines
+    late, the 1-D fit on ``e + gy v``): every tap, the outputs, every overflow count and
+    min/max as the oracle's exact arithmetic gives them, with taps and without, on one
+    thread and on two."""
+    config = P3.default_config(vertical=True, **{"levels": 2, **design})
+    case = p3_case(seed, kind)
+    ref = ORACLES["p3"].run(case, config)
+    result = P3.run(case, config, taps=True, threads=1)
+    assert_bit_exact(result, ref)
+    assert {"ay", "gy0", "bgg0", "bdet0", "bnv0", "v0", "ev0"} <= set(result.taps)
+    assert "nv" not in result.taps and "det0" not in result.taps
+    for threads in (1, 2):
+        fast = P3.run(case, config, taps=False, threads=threads)
+        assert np.array_equal(fast.range_raw, ref.range_raw)
+        assert np.array_equal(fast.valid, ref.valid)
+        assert dict(fast.overflows) == ref.overflows and dict(fast.minmax) == ref.minmax
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    seed=st.integers(0, 2**16),
+    quant=st.sampled_from([Quant.RND, Quant.TRN]),
+    overflow=st.sampled_from([Overflow.SAT, Overflow.WRAP]),
+    drop=st.lists(st.tuples(st.integers(0, 12), st.integers(-2, 3)), min_size=12, max_size=12),
+    rv=st.integers(1, 4),
+)
+def test_box_form_is_bit_exact_over_formats(seed, quant, overflow, drop, rv):
+    """Property: the box form's signals in any modes, narrowed by 0..12 integer bits and
+    -2..3 fraction bits (so that some overflow, wrap or saturate), model == oracle bit for
+    bit."""
+    base = P3.default_config(vertical=True, vertical_radius=rv, radius=2, sigma=1.0, levels=2)
+    formats = dict(base.formats)
+    for name, (d_int, d_frac) in zip(BOX_SIGNALS, drop, strict=True):
+        f = formats[name]
+        ovf = Overflow.SAT if name in base.QUOTIENTS else overflow
+        word = max(2, f.word - d_int - d_frac)
+        formats[name] = FixedFormat(f.signed, word, f.frac - d_frac, quant, ovf)
+    config = base.with_(formats=formats)
+    case = p3_case(seed % 7, "random" if seed % 2 else "lab")
+    assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))
+
+
+def test_box_form_schedule_and_cost():
+    """The box form keeps the window form's lines a stage (``v`` of the line ``rv`` up is
+    ready with line ``y``'s ``gy``), the output leaves the schedule's latency after its
+    input, and its five exact box row sums of ``2 rv`` lines, registers and multipliers
+    are counted."""
+    window = P3.default_config(vertical=True, vertical_radius=0)
+    box = window.with_(vertical_radius=8)
+    m, n = 512, 512
+    s_window = streaming_schedule(window.multiscale(), n, m)
+    s_box = streaming_schedule(box.multiscale(), n, m)
+    assert s_box["latency_lines"] == s_window["latency_lines"]
+    bits = buffer_bits(box, (m, n))["vertical"]
+    assert bits > buffer_bits(window, (m, n))["vertical"]
+    c_box = P3.cost(box, (m, n))
+    assert c_box.line_buffer_bits == sum(buffer_bits(box, (m, n)).values())
+    assert c_box.dsp > P3.cost(P3.default_config(vertical=False), (m, n)).dsp
+    names = {mul.name for mul in p3_model_cost.multipliers(box, (m, n))}
+    assert {"bdet: bgg * byy", "ev: gy * v"} <= names and "det: sgg * syy" not in names
+    result = P3.run(scene_case("lab"), box, taps=False)
+    assert result.schedule["latency_lines"] == s_box["latency_lines"]
+    lines = (result.out_cycles - result.in_cycles) // n
+    assert lines.min() == s_box["latency_lines"]
+
+
+@pytest.mark.parametrize("vshift", [1.0, -1.0])
+def test_box_form_meets_the_misalignment_target(vshift):
+    """1/8, the right image 1 px lower or higher (``rangefx eval --perturb vshift=±1``):
+    the box form (``rv`` 8, ``threshold_r`` 25, ``threshold_g`` 0.5) keeps density >= 0.75
+    and MAE <= 0.6 px in P3, with 0 overflows."""
+    data = load_motorcycle(8)
+    shifted = perturb_right(data, Perturbation(vshift=vshift))
+    case = replace(
+        real_pair_case("motorcycle", 8),
+        image2=np.clip(np.rint(shifted.image2), 0, 255).astype(np.int64),
+    )
+    config = P3.default_config(vertical=True, vertical_radius=8, threshold_r=25.0,
+                               threshold_g=0.5)  # fmt: skip
+    result = P3.run(case, config, taps=False)
+    assert result.overflow_total == 0
+    disparity = disparity_from_range(result.range * 1e3, shifted)  # m -> the pair's mm
+    m = middlebury_metrics(
+        disparity, result.valid, shifted.disparity, shifted.metric_depth,
+        shifted.doffs_px, shifted.camera.f_px, abs(shifted.motion.camera_displacement[1]),
+    )  # fmt: skip
+    assert m["density"] >= 0.75 and m["mae_px"] <= 0.6, m

@@ -197,8 +197,13 @@ def test_cost_counts_the_models_buffers(name, shape):
 
 @pytest.mark.parametrize("name", NAMES)
 def test_golden_taps_are_close_to_the_fixed_point_taps(name):
-    p, res = PIPELINES[name], run(name)
-    ref = p.golden(lab_crop(), res.config, taps=True)
+    """Every tap within 1 % of its golden's largest value (median), on a 40 x 40 crop:
+    taller than P3's 17-line box (on 12 lines the box counts the edge lines up to 9 times
+    and its sums' rounding noise reaches 1.5 %)."""
+    case = crop_case(scene_case("lab"), [240, 280, 100, 140])
+    p = PIPELINES[name]
+    res = p.run(case, timing=TIMING, taps=True)
+    ref = p.golden(case, res.config, taps=True)
     assert ref.taps, "a pipeline offers golden taps"
     table = {t.name: t for t in p.tap_table(res.config)}
     for tap, g in ref.taps.items():

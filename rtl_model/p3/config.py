@@ -39,6 +39,15 @@ _SIGNAL_TABLE: tuple[tuple[str, str], ...] = (
     ("p3_g", "g = (E1x + Wx) / 2, the eq 6 mean gradient"),
     ("p3_gy", "vertical: gy = (E1y + Wy) / 2, the mean gradient down the columns"),
     ("p3_e", "e = E1 - W, c1 of eq 10 about the current estimate"),
+    ("p3_bgg", "box form: sum of g^2 over the (2 rv + 1)^2 box"),
+    ("p3_bge", "box form: sum of g e over the box"),
+    ("p3_byy", "box form: sum of gy^2 over the box"),
+    ("p3_bgy", "box form: sum of g gy over the box"),
+    ("p3_bye", "box form: sum of gy e over the box"),
+    ("p3_bdet", "box form: bdet = bgg byy - bgy^2, the box's 2x2 determinant"),
+    ("p3_bnv", "box form: bnv = bgg bye - bgy bge, v's numerator"),
+    ("p3_v", "box form: v = -bnv / bdet (divider quotient; 0 where bdet <= 0)"),
+    ("p3_ev", "box form: e + gy v, with v of the line rv lines up (the 1-D fit's e)"),
     ("p3_win", "register: Gaussian window taps w_0..w_r (symmetric)"),
     ("p3_rgg", "row pass of the window on g^2"),
     ("p3_rge", "row pass of the window on g e"),
@@ -85,6 +94,7 @@ MULTISCALE_FIELDS: tuple[str, ...] = (
     "normalise",
     "normalise_radius",
     "vertical",
+    "vertical_radius",
 )
 #: The normalisations P3 builds (G6's ``"zncc"`` needs a square root and a divider per
 #: pixel and camera: golden only).
@@ -114,9 +124,12 @@ class P3Config(WordLengthConfig):
         G6's photometric normalisation, one of :data:`P3_NORMALISATIONS` (``"none"``:
         the warps read the pyramid's ``p3_pix`` / ``p3_pyr``; ``"local_mean"``: each
         level's ``p3_norm``), and its box radius.
-    vertical
-        G6's vertical term: the window's 2x2 normal equations in (u, v), ``v`` estimated
-        and discarded (``p3_gy`` .. ``p3_nv``; the determinant test for validity).
+    vertical, vertical_radius
+        G6's vertical term: with ``vertical_radius`` 0 the window's 2x2 normal equations
+        in (u, v), ``v`` estimated and discarded (``p3_gy`` .. ``p3_nv``; the determinant
+        test for validity); above 0 the box form, ``v`` from the 2x2 system over the
+        ``(2 rv + 1)²`` box (``p3_bgg`` .. ``p3_v``), ``rv`` lines late, and the 1-D fit on
+        ``p3_ev`` (:attr:`vertical_form`).
     keys_bits
         Fraction bits of the warp's position ``x - u`` (rounded to them) that index the
         Keys weight ROM (``2**keys_bits`` rows of 4 weights).
@@ -127,7 +140,7 @@ class P3Config(WordLengthConfig):
     PIPELINE: ClassVar[str] = "p3"
     SIGNAL_TABLE: ClassVar[tuple[tuple[str, str], ...]] = _SIGNAL_TABLE
     HOST_REGISTERS: ClassVar[tuple[str, ...]] = ("p3_nbox", "p3_win", "p3_tr2", "p3_fb")
-    QUOTIENTS: ClassVar[tuple[str, ...]] = ("p3_du", "p3_range")
+    QUOTIENTS: ClassVar[tuple[str, ...]] = ("p3_du", "p3_v", "p3_range")
     DOC: ClassVar[str] = "docs/multiscale.md"
 
     levels: int = 0
@@ -142,6 +155,7 @@ class P3Config(WordLengthConfig):
     normalise: str = _G6.normalise
     normalise_radius: int = _G6.normalise_radius
     vertical: bool = _G6.vertical
+    vertical_radius: int = _G6.vertical_radius
     keys_bits: int = 8
     divider: str = "reciprocal"
     recip_lut_bits: int = 8
@@ -190,6 +204,11 @@ class P3Config(WordLengthConfig):
             md = float(self.max_disparity)
             yield "max_disparity", f"max_disparity = {md!r} (u_max)", md, "p3_u"
 
+    @property
+    def vertical_form(self) -> str:
+        """G6's :attr:`~rangefx.golden.multiscale.MultiscaleConfig.vertical_form`."""
+        return self.multiscale().vertical_form
+
     def multiscale(self) -> MultiscaleConfig:
         """The golden G6 settings of this config."""
         kw = {k: getattr(self, k) for k in MULTISCALE_FIELDS}
@@ -223,7 +242,11 @@ class P3Config(WordLengthConfig):
         yield "p3_u", ((f["p3_u"],),) * 4, 1  # the expand
         yield "p3_res", ((f["p3_see"], f["p3_sgg"]), (f["p3_sge"], f["p3_sge"])), 0
         yield "p3_res", ((f["p3_tr2"], f["p3_sgg"]),), 0
-        if not self.vertical:
+        form = self.vertical_form
+        if form == "off":
+            return
+        if form == "box":
+            yield from self._box_intermediates(level)
             return
         yield "p3_grad", ((level,), (level,), (f["p3_warp"],), (f["p3_warp"],)), 1
         yield "p3_gy", ((f["p3_grad"],), (f["p3_grad"],)), 1
@@ -243,10 +266,33 @@ class P3Config(WordLengthConfig):
         yield "p3_res", ((see, det), (sge, nu), (sye, nv)), 0
         yield "p3_res", ((f["p3_tr2"], det),), 0
 
+    def _box_intermediates(self, level: FixedFormat) -> Iterable[tuple[str, Terms, int]]:
+        """The box form's exact sums: ``gy``, the five box sums, ``bdet``, ``bnv``,
+        ``e + gy v`` and the 1-D window's row passes on it."""
+        f = self.formats
+        yield "p3_grad", ((level,), (level,), (f["p3_warp"],), (f["p3_warp"],)), 1
+        yield "p3_gy", ((f["p3_grad"],), (f["p3_grad"],)), 1
+        g, gy, e = f["p3_g"], f["p3_gy"], f["p3_e"]
+        box = (2 * self.vertical_radius + 1) ** 2
+        for name, p, q in (("p3_bgg", g, g), ("p3_bge", g, e), ("p3_byy", gy, gy),
+                           ("p3_bgy", g, gy), ("p3_bye", gy, e)):  # fmt: skip
+            yield name, ((p, q),) * box, 0
+        bgg, bge, byy, bgy, bye = (f[s] for s in ("p3_bgg", "p3_bge", "p3_byy", "p3_bgy", "p3_bye"))
+        yield "p3_bdet", ((bgg, byy), (bgy, bgy)), 0
+        yield "p3_bnv", ((bgg, bye), (bgy, bge)), 0
+        yield "p3_ev", ((e,), (gy, f["p3_v"])), 0
+        taps, win, ev = 2 * self.radius + 1, f["p3_win"], f["p3_ev"]
+        yield "p3_rge", ((win, g, ev),) * taps, 0
+        yield "p3_ree", ((win, ev, ev),) * taps, 0
+
     def divider_intermediates(self) -> Iterable[tuple[str, int, str]]:
         f = self.formats
-        du = ("p3_du", "p3_nu", "p3_det") if self.vertical else ("p3_du", "p3_sge", "p3_sgg")
-        for out, num, den in (du, ("p3_range", "p3_fb", "p3_u")):
+        window = self.vertical_form == "window"
+        du = ("p3_du", "p3_nu", "p3_det") if window else ("p3_du", "p3_sge", "p3_sgg")
+        quotients = [du, ("p3_range", "p3_fb", "p3_u")]
+        if self.vertical_form == "box":
+            quotients.append(("p3_v", "p3_bnv", "p3_bdet"))
+        for out, num, den in quotients:
             n, d, q = f[num], f[den], f[out]
             if self.divider == "restoring":
                 need = signed_bits(n) + max(0, q.frac + 1 + d.frac - n.frac) + 1

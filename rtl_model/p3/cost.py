@@ -19,9 +19,11 @@ Buffers
     Every line buffer of the streaming schedule
     (:func:`~rangefx.rtl_model.p3.model.buffer_bits`): the normalisation's ``2 R`` lines
     per stream and level, the reduce's 4 lines per image, the E2 warp rows, the window's
-    ``2 r`` lines of row sums and ``r`` lines of E1, E2 and ``u``, the expand's coarse
-    line, the coarse-to-fine delay lines (raw pixels, normalised as they leave). RAMB18:
-    each buffer one memory of (lines x width) words.
+    ``2 r`` lines of row sums and ``r`` lines of E1, E2 and ``u`` (the box form: its five
+    exact row sums through ``2 rv`` lines,
+    :func:`~rangefx.rtl_model.p3.model.box_row_bits`), the expand's coarse line, the
+    coarse-to-fine delay lines (raw pixels, normalised as they leave). RAMB18: each
+    buffer one memory of (lines x width) words.
 DSP slices
     Per stream and level the normalisation's ``1/box`` times the box sum; per warp
     stage: the warp's 4 products, ``g^2``, ``g e``, ``e^2``, the window's ``r + 1``
@@ -30,7 +32,9 @@ DSP slices
     range divider's. With ``vertical`` per warp stage ``gy²``, ``g gy``, ``gy e``, their
     row and column passes, two products each for ``det`` and ``nu``; at level 0 two
     for ``nv`` and ``Σe² det``, ``Σge nu``, ``Σye nv``, ``T_r^2 det`` in place of the
-    1-D residual's three.
+    1-D residual's three; the box form per warp stage ``gy²``, ``g gy``, ``gy e``
+    (the box sums are adders), two products each for ``bdet`` and ``bnv``, ``gy v`` and
+    the ``v`` divider's, and the 1-D residual's three at level 0.
 """
 
 from __future__ import annotations
@@ -42,7 +46,7 @@ from rangefx.golden.multiscale import streaming_schedule
 from ..cost import CostReport, Multiplier, bram18_blocks, reciprocal_multipliers
 from ..cost import operand_bits as _bits
 from .config import P3Config
-from .model import buffer_bits, level_shapes
+from .model import box_row_bits, buffer_bits, level_shapes
 
 __all__ = ["config_cost", "multipliers", "register_bits"]
 
@@ -72,7 +76,15 @@ def register_bits(config: P3Config, shape: tuple[int, int]) -> int:
     per_stage += taps * products
     per_stage += sum(f[s] for s in ("p3_rgg", "p3_rge", "p3_ree", "p3_sgg", "p3_sge", "p3_see"))
     total += stages * per_stage
-    if config.vertical:
+    if config.vertical_form == "box":  # ay; per stage Wy, gy, the box, bdet, bnv, v, ev
+        total += levels * f["p3_grad"]
+        vstage = f["p3_grad"] + f["p3_gy"] + f["p3_bdet"] + f["p3_bnv"] + f["p3_v"] + f["p3_ev"]
+        vstage += sum(f[s] for s in ("p3_bgg", "p3_bge", "p3_byy", "p3_bgy", "p3_bye"))
+        # the row pass's 2 rv + 1 tap shift registers of the five exact products
+        prod = 2 * f["p3_g"] + f["p3_g"] + f["p3_e"] + 2 * f["p3_gy"] + f["p3_g"] + f["p3_gy"]
+        vstage += (2 * config.vertical_radius + 1) * (prod + f["p3_gy"] + f["p3_e"])
+        total += stages * vstage
+    elif config.vertical:
         total += levels * f["p3_grad"] + f["p3_nv"]
         vstage = f["p3_grad"] + f["p3_gy"] + f["p3_det"] + f["p3_nu"]
         gy = f["p3_gy"]
@@ -108,7 +120,23 @@ def multipliers(config: P3Config, shape: tuple[int, int]) -> list[Multiplier]:
     ]
     b = {s: _bits(f[s]) for s in ("p3_sgg", "p3_sge", "p3_see", "p3_syy", "p3_sgy", "p3_sye",
                                   "p3_det", "p3_nu", "p3_nv", "p3_tr2")}  # fmt: skip
-    if config.vertical:
+    if config.vertical_form == "box":
+        gy, bx = _bits(f["p3_gy"]), {s: _bits(f[s]) for s in ("p3_bgg", "p3_bge", "p3_byy",
+                                                               "p3_bgy", "p3_bye")}  # fmt: skip
+        muls += [
+            Multiplier("gy^2", gy, gy, stages),
+            Multiplier("g gy", g, gy, stages),
+            Multiplier("gy e", gy, e, stages),
+            Multiplier("bdet: bgg * byy", bx["p3_bgg"], bx["p3_byy"], stages),
+            Multiplier("bdet: bgy^2", bx["p3_bgy"], bx["p3_bgy"], stages),
+            Multiplier("bnv: bgg * bye", bx["p3_bgg"], bx["p3_bye"], stages),
+            Multiplier("bnv: bgy * bge", bx["p3_bgy"], bx["p3_bge"], stages),
+            Multiplier("ev: gy * v", gy, _bits(f["p3_v"]), stages),
+            Multiplier("res: see * sgg", b["p3_see"], b["p3_sgg"]),
+            Multiplier("res: sge^2", b["p3_sge"], b["p3_sge"]),
+            Multiplier("rthr: T_r^2 * sgg", b["p3_tr2"], b["p3_sgg"]),
+        ]
+    elif config.vertical:
         gy = _bits(f["p3_gy"])
         muls += [
             Multiplier("gy^2", gy, gy, stages),
@@ -142,8 +170,11 @@ def multipliers(config: P3Config, shape: tuple[int, int]) -> list[Multiplier]:
         levels = len(level_shapes(config, shape))
         muls.append(Multiplier("normalise: 1/box * box sum", _bits(f["p3_nbox"]), box, 2 * levels))
     if config.divider == "reciprocal":
-        num = b["p3_nu"] if config.vertical else b["p3_sge"]
+        num = b["p3_nu"] if config.vertical_form == "window" else b["p3_sge"]
         muls += reciprocal_multipliers(config.recip_bits, "divider du", num, stages)
+        if config.vertical_form == "box":
+            bnv = _bits(f["p3_bnv"])
+            muls += reciprocal_multipliers(config.recip_bits, "divider v", bnv, stages)
         muls += reciprocal_multipliers(config.recip_bits, "divider range", _bits(f["p3_fb"]), 1)
     return muls
 
@@ -173,13 +204,16 @@ def config_cost(config: P3Config, shape: tuple[int, int], mode: str = "stereo") 
         v = int(bool(config.vertical))
         bram += config.warps * bram18_blocks(n_l, 2 * r * rows)
         bram += config.warps * bram18_blocks(n_l, (r + v) * (2 * pix + u))
-        if v:  # E1's and W's column-difference lines, g and e waiting for gy, 3 row sums
+        if v:  # E1's and W's column-difference lines, g and e waiting for gy, the row sums
             vrows = f["p3_ryy"].word + f["p3_rgy"].word + f["p3_rye"].word
+            if config.vertical_form == "box":  # five exact box row sums of 2 rv lines
+                vrows = box_row_bits(config)
             bram += bram18_blocks(n_l, 2 * pix)
             bram += config.warps * bram18_blocks(
                 n_l, 2 * f["p3_warp"].word + f["p3_g"].word + f["p3_e"].word
             )
-            bram += config.warps * bram18_blocks(n_l, 2 * r * vrows)
+            lines = 2 * config.vertical_radius if config.vertical_form == "box" else 2 * r
+            bram += config.warps * bram18_blocks(n_l, lines * vrows)
         if lv["delay_lines"]:
             if lv["buffer_words"]["coarse_delay"]:  # raw pixels: normalised as they leave
                 bram += 2 * bram18_blocks(lv["buffer_words"]["coarse_delay"] // 2, raw)

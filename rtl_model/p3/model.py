@@ -51,11 +51,13 @@ _I, _R, _P = KERNEL_INT, KERNEL_ROW, KERNEL_PLANE
 
 __all__ = [
     "BAND_PIXELS",
+    "BOX_TAPS",
     "N_SITES",
     "UNROLLED_RADIUS",
     "VERTICAL_TAPS",
     "WARP_TAPS",
     "P3Registers",
+    "box_row_bits",
     "buffer_bits",
     "keys_exact",
     "keys_rom",
@@ -81,6 +83,10 @@ RYY, RGY, RYE, SYY, SGY, SYE, DET, NU, NV = (
     _SIG[s] for s in ("p3_ryy", "p3_rgy", "p3_rye", "p3_syy", "p3_sgy", "p3_sye", "p3_det",
                       "p3_nu", "p3_nv")
 )  # fmt: skip
+BGG, BGE, BYY, BGY, BYE, BDET, BNV, V, EV = (
+    _SIG[s] for s in ("p3_bgg", "p3_bge", "p3_byy", "p3_bgy", "p3_bye", "p3_bdet", "p3_bnv",
+                      "p3_v", "p3_ev")
+)  # fmt: skip
 RGG, RGE, REE, SGG, SGE, SEE, DU, U, RES, TR2, FB, RANGE = (
     _SIG[s] for s in ("p3_rgg", "p3_rge", "p3_ree", "p3_sgg", "p3_sge", "p3_see", "p3_du",
                       "p3_u", "p3_res", "p3_tr2", "p3_fb", "p3_range")
@@ -94,11 +100,12 @@ S_NORM = ((7, 8), (9, 10))
 #: Per-level sites: base + offset, base ``S_LEVEL`` at level 0, ``S_LEVEL + N_LEVEL_SITES``
 #: at the coarser levels (the pixels the warps read at ``p3_pix``'s / ``p3_pyr``'s
 #: fraction bits, or at ``p3_norm``'s at every level when normalising); ``L_AY`` on are
-#: the vertical term's.
+#: the vertical term's, ``L_BGG`` on its box form's.
 S_LEVEL = 11
 L_AX, L_WARP, L_WX, L_G, L_E, L_RGG, L_RGE, L_REE, L_SGG, L_SGE, L_SEE, L_U = range(12)
 L_AY, L_WY, L_GY, L_RYY, L_RGY, L_RYE, L_SYY, L_SGY, L_SYE, L_DET, L_NU = range(12, 23)
-N_LEVEL_SITES = 23
+L_BGG, L_BGE, L_BYY, L_BGY, L_BYE, L_BDET, L_BNV, L_EV = range(23, 31)
+N_LEVEL_SITES = 31
 #: The vertical residual's ``nv`` (level 0, once).
 S_NV = S_LEVEL + 2 * N_LEVEL_SITES
 N_SITES = S_NV + 1
@@ -107,7 +114,14 @@ N_SITES = S_NV + 1
 WARP_TAPS = ("warp", "wx", "g", "err", "rgg", "rge", "ree", "sgg", "sge", "see", "du", "u")
 #: The vertical term's taps of one warp stage (after :data:`WARP_TAPS`).
 VERTICAL_TAPS = ("wy", "gy", "ryy", "rgy", "rye", "syy", "sgy", "sye", "det", "nu")
-N_STAGE_TAPS, N_STAGE_TAPS_V = len(WARP_TAPS), len(WARP_TAPS) + len(VERTICAL_TAPS)
+#: The box form's taps of one warp stage (after :data:`WARP_TAPS`); the box's (sums,
+#: ``bdet``, ``bnv``, ``v``) of line ``y`` are those line ``y`` uses, of the box centred
+#: ``vertical_radius`` lines up (top lines: line 0's).
+BOX_TAPS = ("wy", "gy", "bgg", "bge", "byy", "bgy", "bye", "bdet", "bnv", "v", "ev")
+N_STAGE_TAPS = len(WARP_TAPS)
+#: The five box sums, in the order of :data:`BOX_TAPS` (signals, cast sites).
+_BOX_SIGNALS = np.array([BGG, BGE, BYY, BGY, BYE], dtype=np.int64)
+_BOX_SITES = np.array([L_BGG, L_BGE, L_BYY, L_BGY, L_BYE], dtype=np.int64)
 #: Window sums a level leaves for the output stage (:func:`_final_kernel`), in this order.
 N_SUMS = 8
 #: The 5-tap binomial of the reduce (weights / 16 per pass).
@@ -115,14 +129,19 @@ _BINOM = np.array([1, 4, 6, 4, 1], dtype=np.int64)
 _KEYS_A = -0.5
 
 
+def _stage_taps(config: P3Config) -> tuple[str, ...]:
+    """The tap base names of one warp stage."""
+    form = config.vertical_form
+    return WARP_TAPS + {"off": (), "window": VERTICAL_TAPS, "box": BOX_TAPS}[form]
+
+
 def tap_names(config: P3Config) -> tuple[str, ...]:
     """Every tap of a run with taps, in pipeline order (all at level 0)."""
     v = bool(config.vertical)
-    stage = WARP_TAPS + (VERTICAL_TAPS if v else ())
-    warps = tuple(f"{t}{k}" for k in range(config.warps) for t in stage)
+    warps = tuple(f"{t}{k}" for k in range(config.warps) for t in _stage_taps(config))
     head = ("ax", "u_start", "ay") if v else ("ax", "u_start")
-    tail = ("nv", "res", "rthr", "valid", "range") if v else ("res", "rthr", "valid", "range")
-    return (*head, *warps, *tail)
+    tail = ("res", "rthr", "valid", "range")
+    return (*head, *warps, *(("nv", *tail) if config.vertical_form == "window" else tail))
 
 
 # --------------------------------------------------------------------------------------
@@ -348,7 +367,7 @@ def _column_difference_line(p, y, f_p, s, site, fm, st, ov, row, out):
 @njit(cache=True, nogil=True)
 def _stage_rows(
     a, b, u, ax, f_l, rom, keys_bits, win, base, first, fm, st, ov, w, wx, g, e, rgg, rge,
-    ree, y0, y1,
+    ree, y0, y1, fit_e,
 ):  # fmt: skip
     """Lines ``y0 <= y < y1`` of one warp stage's line work on E1 ``a``, E2 ``b`` (``f_l``
     fraction bits) at the estimate ``u``: (the level's ``first`` stage: E1's central
@@ -357,7 +376,9 @@ def _stage_rows(
     products (formed as the row pass reads them: no product plane). Each line needs only
     its own line of every input: two bands of lines run on two threads. ``w``, ``wx``,
     ``g``, ``e`` are planes to keep (taps, the vertical term) or, with no lines, not kept:
-    each line then lives in a line buffer (four planes fewer written per stage)."""
+    each line then lives in a line buffer (four planes fewer written per stage). Without
+    ``fit_e`` (the box form) the row passes on ``g e`` and ``e²`` are left to
+    :func:`_stage_rows_corrected`."""
     n = a.shape[1]
     f_u, f_grad, f_warp, f_keys = fm[U, 1], fm[GRAD, 1], fm[WARP, 1], fm[KEYS, 1]
     f_g, f_e = fm[G, 1], fm[E, 1]
@@ -409,8 +430,142 @@ def _stage_rows(
         _cast_logged_row(row, f_grad + 1, G, base + L_G, fm, st, ov, gl)
         _cast_logged_row(row2, fe, E, base + L_E, fm, st, ov, el)
         _window_row(gl, gl, f_wgg, win, RGG, base + L_RGG, fm, st, ov, pad, row, rgg[y])
-        _window_row(gl, el, f_wge, win, RGE, base + L_RGE, fm, st, ov, pad, row, rge[y])
-        _window_row(el, el, f_wee, win, REE, base + L_REE, fm, st, ov, pad, row, ree[y])
+        if fit_e:
+            _window_row(gl, el, f_wge, win, RGE, base + L_RGE, fm, st, ov, pad, row, rge[y])
+            _window_row(el, el, f_wee, win, REE, base + L_REE, fm, st, ov, pad, row, ree[y])
+
+
+@njit(cache=True, nogil=True)
+def _gy_line(a, w, ay, y, f_l, base, first, fm, st, ov, row, wyl, gyl):
+    """Line ``y`` of ``gy = (E1y + Wy) / 2`` (the level's ``first`` stage: E1's column
+    difference ``ay`` too) into ``gyl``, ``Wy`` into ``wyl``: the column differences read
+    lines ``y ± 1`` of E1 ``a`` and W ``w``."""
+    n = a.shape[1]
+    if first:
+        _column_difference_line(a, y, f_l, GRAD, base + L_AY, fm, st, ov, row, ay[y])
+    _column_difference_line(w, y, fm[WARP, 1], GRAD, base + L_WY, fm, st, ov, row, wyl)
+    ayl = ay[y]
+    for x in range(n):
+        row[x] = ayl[x] + wyl[x]
+    _cast_logged_row(row, fm[GRAD, 1] + 1, GY, base + L_GY, fm, st, ov, gyl)
+
+
+@njit(cache=True, nogil=True)
+def _stage_rows_box(a, w, g, e, ay, f_l, rv, base, first, fm, st, ov, wy, gy, brows, y0, y1):
+    """Lines ``y0 <= y < y1`` of the box form's line work, once :func:`_stage_rows` has
+    written every line of ``w``, ``g``, ``e``: ``Wy``, ``gy`` (:func:`_gy_line`) and the
+    box's row pass on the five products ``g²``, ``g e``, ``gy²``, ``g gy``, ``gy e``:
+    plain running sums of ``2 rv + 1`` taps (replicated borders), exact (no cast: the
+    line buffers hold the exact sums), into ``brows``."""
+    n = a.shape[1]
+    row = np.empty(n, dtype=np.int64)
+    prod = np.empty((5, n), dtype=np.int64)
+    for y in range(y0, y1):
+        gl, el, yl = g[y], e[y], gy[y]
+        _gy_line(a, w, ay, y, f_l, base, first, fm, st, ov, row, wy[y], yl)
+        for x in range(n):
+            prod[0, x] = gl[x] * gl[x]
+            prod[1, x] = gl[x] * el[x]
+            prod[2, x] = yl[x] * yl[x]
+            prod[3, x] = gl[x] * yl[x]
+            prod[4, x] = yl[x] * el[x]
+        for j in range(5):
+            p, out = prod[j], brows[j, y]
+            acc = np.int64(0)
+            for k in range(-rv, rv + 1):
+                acc += p[min(max(k, 0), n - 1)]
+            out[0] = acc
+            for x in range(1, n):
+                acc += p[min(x + rv, n - 1)] - p[max(x - rv - 1, 0)]
+                out[x] = acc
+
+
+@njit(cache=True, nogil=True)
+def _stage_box_columns(
+    brows, rv, base, kind, lanes, lut, r_bits, log, modes, fm, st, dst, ov, bsums, bdet, bnv,
+    v, y0, y1,
+):  # fmt: skip
+    """Lines ``y0 <= y < y1`` of the box form's column work, once the box row sums of
+    every line are there: the five box sums (``2 rv + 1`` lines, replicated borders)
+    cast into ``p3_bgg`` .. ``p3_bye``, ``bdet = bgg byy - bgy²`` and ``bnv = bgg bye -
+    bgy bge`` exact then cast, and the divider ``v = -bnv / bdet`` where ``bdet > 0``
+    (else fed 0 / 1) into ``v``. The column sums run down the band's lines (one line in,
+    one out: the same exact sums). ``bsums``, ``bdet``, ``bnv`` with no lines are not kept."""
+    m, n = brows.shape[1], brows.shape[2]
+    f_g, f_gy, f_e = fm[G, 1], fm[GY, 1], fm[E, 1]
+    f_in = (2 * f_g, f_g + f_e, 2 * f_gy, f_g + f_gy, f_gy + f_e)
+    f_gg, f_ge, f_yy, f_gy2, f_ye = fm[BGG, 1], fm[BGE, 1], fm[BYY, 1], fm[BGY, 1], fm[BYE, 1]
+    fd = max(f_gg + f_yy, 2 * f_gy2)
+    fn = max(f_gg + f_ye, f_gy2 + f_ge)
+    acc = np.empty(n, dtype=np.int64)
+    row = np.empty(n, dtype=np.int64)
+    num = np.empty(n, dtype=np.int64)
+    den = np.empty(n, dtype=np.int64)
+    flags = np.empty(n, dtype=np.bool_)
+    lines = np.empty((7, n), dtype=np.int64)  # the sums, bdet, bnv when not kept
+    keep = bsums.shape[1] > 0
+    cols = np.zeros((5, n), dtype=np.int64)  # the running column sums (exact)
+    for y in range(y0, y1):
+        for j in range(5):
+            col = cols[j]
+            if y == y0:  # the band's first line: the whole box
+                for k in range(-rv, rv + 1):
+                    src = brows[j, min(max(y + k, 0), m - 1)]
+                    for x in range(n):
+                        col[x] += src[x]
+            else:  # then one line in, one out
+                add, drop = brows[j, min(y + rv, m - 1)], brows[j, max(y - rv - 1, 0)]
+                for x in range(n):
+                    col[x] += add[x] - drop[x]
+            out = bsums[j, y] if keep else lines[j]
+            _cast_logged_row(col, f_in[j], _BOX_SIGNALS[j], base + _BOX_SITES[j], fm, st, ov,
+                             out)  # fmt: skip
+        if keep:
+            gg, ge, yy, gy, ye = bsums[0, y], bsums[1, y], bsums[2, y], bsums[3, y], bsums[4, y]
+            dl, nl = bdet[y], bnv[y]
+        else:
+            gg, ge, yy, gy, ye = lines[0], lines[1], lines[2], lines[3], lines[4]
+            dl, nl = lines[5], lines[6]
+        for x in range(n):
+            acc[x] = _at(gg[x] * yy[x], f_gg + f_yy, fd) - _at(gy[x] * gy[x], 2 * f_gy2, fd)
+            row[x] = _at(gg[x] * ye[x], f_gg + f_ye, fn) - _at(gy[x] * ge[x], f_gy2 + f_ge, fn)
+        _cast_logged_row(acc, fd, BDET, base + L_BDET, fm, st, ov, dl)
+        _cast_logged_row(row, fn, BNV, base + L_BNV, fm, st, ov, nl)
+        for x in range(n):
+            solved = dl[x] > 0  # a singular box: the divider is fed 0 / 1, v = 0
+            num[x] = -nl[x] if solved else np.int64(0)
+            den[x] = dl[x] if solved else np.int64(1)
+        if lanes:
+            divide_row_lanes(num, fm[BNV, 1], den, fm[BDET, 1], V, lut, r_bits, fm, dst, ov,
+                             v[y], flags, log, modes)  # fmt: skip
+        else:
+            _divide_row(num, fm[BNV, 1], den, fm[BDET, 1], V, kind, lut, r_bits, fm, dst, ov,
+                        v[y], flags)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, st, ov, ev, rge, ree, y0, y1):
+    """Lines ``y0 <= y < y1`` of the box form's correction, once ``v`` of every line is
+    there: ``e + gy v`` with ``v`` of line ``y - rv`` (top lines: line 0's) cast into
+    ``p3_ev`` and the window's row pass on ``g ev`` and ``ev²`` into ``rge``, ``ree`` (in
+    place of :func:`_stage_rows`' on ``e``). ``ev`` with no lines is not kept."""
+    n = g.shape[1]
+    f_g, f_gy, f_e, f_v, f_ev = fm[G, 1], fm[GY, 1], fm[E, 1], fm[V, 1], fm[EV, 1]
+    fc = max(f_e, f_gy + f_v)
+    row = np.empty(n, dtype=np.int64)
+    line = np.empty(n, dtype=np.int64)
+    r = win.shape[0] - 1
+    pad = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
+    keep = ev.shape[0] > 0
+    f_wge, f_wee = fm[WIN, 1] + f_g + f_ev, fm[WIN, 1] + 2 * f_ev
+    for y in range(y0, y1):
+        el, yl, vl = e[y], gy[y], v[max(y - rv, 0)]
+        for x in range(n):
+            row[x] = _at(el[x], f_e, fc) + _at(yl[x] * vl[x], f_gy + f_v, fc)
+        evl = ev[y] if keep else line
+        _cast_logged_row(row, fc, EV, base + L_EV, fm, st, ov, evl)
+        _window_row(g[y], evl, f_wge, win, RGE, base + L_RGE, fm, st, ov, pad, row, rge[y])
+        _window_row(evl, evl, f_wee, win, REE, base + L_REE, fm, st, ov, pad, row, ree[y])
 
 
 @njit(cache=True, nogil=True)
@@ -422,21 +577,15 @@ def _stage_rows_vertical(
     level's ``first`` stage: E1's column difference ``ay``,) ``Wy``, ``gy`` and the
     window's row pass on ``gy²``, ``g gy``, ``gy e``."""
     n = a.shape[1]
-    f_grad, f_warp, f_g, f_gy, f_e = fm[GRAD, 1], fm[WARP, 1], fm[G, 1], fm[GY, 1], fm[E, 1]
+    f_g, f_gy, f_e = fm[G, 1], fm[GY, 1], fm[E, 1]
     row = np.empty(n, dtype=np.int64)
     r = win.shape[0] - 1
     pad = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
     f_wyy, f_wgy = fm[WIN, 1] + 2 * f_gy, fm[WIN, 1] + f_g + f_gy
     f_wye = fm[WIN, 1] + f_gy + f_e
     for y in range(y0, y1):
-        if first:
-            _column_difference_line(a, y, f_l, GRAD, base + L_AY, fm, st, ov, row, ay[y])
-        _column_difference_line(w, y, f_warp, GRAD, base + L_WY, fm, st, ov, row, wy[y])
-        ayl, wyl = ay[y], wy[y]
-        for x in range(n):
-            row[x] = ayl[x] + wyl[x]
+        _gy_line(a, w, ay, y, f_l, base, first, fm, st, ov, row, wy[y], gy[y])
         gl, el, yl = g[y], e[y], gy[y]
-        _cast_logged_row(row, f_grad + 1, GY, base + L_GY, fm, st, ov, yl)
         _window_row(yl, yl, f_wyy, win, RYY, base + L_RYY, fm, st, ov, pad, row, ryy[y])
         _window_row(gl, yl, f_wgy, win, RGY, base + L_RGY, fm, st, ov, pad, row, rgy[y])
         _window_row(yl, el, f_wye, win, RYE, base + L_RYE, fm, st, ov, pad, row, rye[y])
@@ -736,6 +885,8 @@ def stage_latencies(config: P3Config) -> dict[str, int]:
     output (the line latencies are in :func:`p3_schedule`)."""
     div = runtime.divider_latency(config.divider, config.formats["p3_du"].word)
     rdiv = runtime.divider_latency(config.divider, config.formats["p3_range"].word)
+    box = config.vertical_form == "box"
+    vdiv = runtime.divider_latency(config.divider, config.formats["p3_v"].word) if box else 0
     return {
         "input": 1,
         # R pixels ahead for the box, the running sums' add, the subtraction + cast
@@ -745,8 +896,14 @@ def stage_latencies(config: P3Config) -> dict[str, int]:
         "products": 1,
         "window_row": config.radius + 1,
         "window_column": 1,
-        # vertical: det and nu, two products and a difference each, then the cast
+        # the box form: rv pixels ahead and the running sum's add; the column sum + cast
+        "box_row": config.vertical_radius + 1 if box else 0,
+        "box_column": 1 if box else 0,
+        # vertical: det and nu (the box form: bdet and bnv), two products and a
+        # difference each, then the cast
         "normal_equations": 2 if config.vertical else 0,
+        "v_divider": vdiv,
+        "correction": 1 if box else 0,  # the box form: e + gy v, one product and an add
         "du_divider": div,
         "update": 1,
         "residual": 2,
@@ -759,9 +916,13 @@ def _warp_cycles(config: P3Config) -> int:
     """Cycles from ``u_k`` of a pixel to ``u_k+1`` of the same pixel (one warp stage's
     pixel latency; its line latency is the window radius)."""
     lat = stage_latencies(config)
+    # the box form: its sums, bdet and bnv, v and e + gy v before the 1-D window's products
+    box = (lat["products"] + lat["box_row"] + lat["box_column"] + lat["v_divider"]
+           + lat["correction"]) if config.vertical_form == "box" else 0  # fmt: skip
     return (
         lat["warp"] + lat["derivative"] + 1 + lat["products"] + lat["window_row"]
         + lat["window_column"] + lat["normal_equations"] + lat["du_divider"] + lat["update"]
+        + box
     )  # fmt: skip
 
 
@@ -781,32 +942,48 @@ def tap_offsets(config: P3Config, shape: tuple[int, int]) -> dict[str, tuple[int
     # vertical: the column differences need line y + 1 (of E1, then of W), so ay, wy and
     # gy leave a line later, and g and e wait that line in line buffers: the window's
     # six products start together, one line later, and every stage takes r + 1 lines
+    # the box form: the box centred on line y - rv (its sums, bdet, bnv, v: the taps of
+    # line y) is complete with line y's gy; e + gy v then feeds the 1-D window's
+    # products, which start with it (g and e waiting the box's cycles in a short delay)
     v = int(bool(config.vertical))
+    form = config.vertical_form
     if v:
         out["ay"] = (d + 1, i0 + lat["derivative"])
-    row = lat["warp"] + lat["derivative"] + 1 + lat["products"] + lat["window_row"]
-    names = ("rgg", "rge", "ree", "ryy", "rgy", "rye") if v else ("rgg", "rge", "ree")
+    names = ("rgg", "rge", "ree") + (("ryy", "rgy", "rye") if form == "window" else ())
+    ne_u = lat["normal_equations"] if form == "window" else 0  # det and nu before du
     for k in range(config.warps):
         lines, c = d + k * (r + v), i0 + k * p
         out[f"warp{k}"] = (lines, c + lat["warp"])
         out[f"err{k}"] = (lines, c + lat["warp"] + 1)
         out[f"wx{k}"] = (lines, c + lat["warp"] + lat["derivative"])
         out[f"g{k}"] = (lines, c + lat["warp"] + lat["derivative"] + 1)
+        start = c + lat["warp"] + lat["derivative"] + 1  # the products' inputs
         if v:
             out[f"wy{k}"] = (lines + 1, c + lat["warp"] + lat["derivative"])
-            out[f"gy{k}"] = (lines + 1, c + lat["warp"] + lat["derivative"] + 1)
+            out[f"gy{k}"] = (lines + 1, start)
+        if form == "box":  # the box's taps of line y: the box centred rv lines up
+            cb = start + lat["products"] + lat["box_row"] + lat["box_column"]
+            for t in ("bgg", "bge", "byy", "bgy", "bye"):
+                out[f"{t}{k}"] = (lines + 1, cb)
+            cb += lat["normal_equations"]
+            out[f"bdet{k}"] = out[f"bnv{k}"] = (lines + 1, cb)
+            cb += lat["v_divider"]
+            out[f"v{k}"] = (lines + 1, cb)
+            start = cb + lat["correction"]
+            out[f"ev{k}"] = (lines + 1, start)
+        row = start + lat["products"] + lat["window_row"]
         for t in names:
-            out[f"{t}{k}"] = (lines + v, c + row)
-        col = c + row + lat["window_column"]
+            out[f"{t}{k}"] = (lines + v, row)
+        col = row + lat["window_column"]
         for t in names:
             out[f"s{t[1:]}{k}"] = (lines + v + r, col)
-        if v:
+        if form == "window":
             out[f"det{k}"] = out[f"nu{k}"] = (lines + v + r, col + lat["normal_equations"])
-        div = col + lat["normal_equations"] + lat["du_divider"]
+        div = col + ne_u + lat["du_divider"]
         out[f"du{k}"] = (lines + v + r, div)
         out[f"u{k}"] = (lines + v + r, c + p)
     lines, c = d + config.warps * (r + v), i0 + config.warps * p
-    if v:  # nv from the last stage's sums, then the 2x2 fit's residual
+    if form == "window":  # nv from the last stage's sums, then the 2x2 fit's residual
         out["nv"] = (lines, c + lat["normal_equations"])
         c += lat["normal_equations"]
     out["res"] = out["rthr"] = (lines, c + lat["residual"])
@@ -847,6 +1024,15 @@ def tap_cycles(tap: str, config: P3Config, in_cycles: np.ndarray, hblank: int) -
     return out
 
 
+def box_row_bits(config: P3Config) -> int:
+    """Bits of the box form's five exact row sums at one pixel: each product's two words
+    plus ``ceil(log2(2 rv + 1))`` for the sum (the line buffers down the columns)."""
+    f = {k: v.word for k, v in config.formats.items()}
+    grow = math.ceil(math.log2(2 * config.vertical_radius + 1))
+    g, gy, e = f["p3_g"], f["p3_gy"], f["p3_e"]
+    return 2 * g + (g + e) + 2 * gy + (g + gy) + (gy + e) + 5 * grow
+
+
 def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     """Line-buffer bits of every buffer of the streaming schedule, by kind: the words of
     :func:`~rangefx.golden.multiscale.streaming_schedule` times their formats
@@ -855,7 +1041,8 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     parent's word + 4; warp row: what the warp reads, ``p3_norm`` when normalising, else
     the level's pixel word; window products: the three row-sum words; window align: E1,
     E2 (as the warp row) and u; expand: u; vertical: E1's two lines (as the warp row),
-    W's two lines, one line each of ``g`` and ``e``, the three more row-sum words)."""
+    W's two lines, one line each of ``g`` and ``e``, the three more row-sum words; the box
+    form: the five box row sums, exact: both factors' words plus ``ceil(log2(2 rv + 1))``)."""
     m, n = shape
     f = config.formats
     sched = streaming_schedule(config.multiscale(), n, m)
@@ -872,6 +1059,9 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     # vertical: E1's and W's lines for the column differences, g's and e's wait for gy,
     # the three more row sums down the columns
     vrows = f["p3_ryy"].word + f["p3_rgy"].word + f["p3_rye"].word
+    if config.vertical_form == "box":  # the five exact box row sums (2 rv lines each)
+        vrows = box_row_bits(config)
+    per_row = 5 if config.vertical_form == "box" else 3
 
     for lv in sched["levels"]:
         level, words = lv["level"], lv["buffer_words"]
@@ -886,7 +1076,7 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
             words["vertical_e1"] * warped(level)
             + words["vertical_warp"] * f["p3_warp"].word
             + words["vertical_align"] // 2 * (f["p3_g"].word + f["p3_e"].word)
-            + words["vertical_products"] // 3 * vrows
+            + words["vertical_products"] // per_row * vrows
         )
     return out
 
@@ -929,31 +1119,53 @@ def _run_level(
     :data:`VERTICAL_TAPS`) copied into it. The planes are the calling thread's
     :func:`~rangefx.rtl_model.runtime.scratch` buffers ``key.*``."""
     h, w = a.shape
-    kind, lut, lanes = divider
-    vertical = bool(config.vertical)
-    mv = h if vertical else 0  # the vertical term's planes: empty when it is off
+    kind, lut, lanes, lanes_v = divider
+    form = config.vertical_form
+    vertical, box = form == "window", form == "box"  # the 2x2 system in the window; the box
+    mv = h if form != "off" else 0  # the vertical term's planes: empty when it is off
     plane = lambda name, lines=h: runtime.scratch(f"{key}.{name}", (lines, w))  # noqa: E731
     ax, rgg, rge, ree = (plane(k) for k in ("ax", "rgg", "rge", "ree"))
     # W, Wx, g, e as planes only for the taps and the vertical term, du for the taps, the
     # window sums for the taps and the last stage of level 0 (else line buffers)
-    mk = h if vertical or taps is not None else 0
+    mk = h if form != "off" or taps is not None else 0
     wp, wx, g, e = (plane(k, mk) for k in ("w", "wx", "g", "e"))
     du = plane("du", h if taps is not None else 0)
     sums = runtime.scratch(f"{key}.sums", (N_SUMS, h, w))
     no_sums = np.empty((N_SUMS, 0, w), dtype=np.int64)
-    ay, wy, gy, ryy, rgy, rye = (plane(k, mv) for k in ("ay", "wy", "gy", "ryy", "rgy", "rye"))
+    ay, wy, gy = (plane(k, mv) for k in ("ay", "wy", "gy"))
+    ryy, rgy, rye = (plane(k, h if vertical else 0) for k in ("ryy", "rgy", "rye"))
+    # the box form: the five box row sums (exact), v; the box sums, bdet, bnv, ev kept for
+    # the taps only
+    mb, mt = (h if box else 0), (h if box and taps is not None else 0)
+    brows = runtime.scratch(f"{key}.brows", (5, mb, w))
+    bsums = runtime.scratch(f"{key}.bsums", (5, mt, w))
+    v, bdet, bnv, ev = plane("v", mb), plane("bdet", mt), plane("bnv", mt), plane("ev", mt)
     if taps is not None:
         taps[1] = u
 
     def rows(first: bool, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int
              ) -> None:  # fmt: skip
         _stage_rows(a, b, u, ax, f_l, rom, config.keys_bits, win, base, first, fm, st, ov, wp,
-                    wx, g, e, rgg, rge, ree, y0, y1)  # fmt: skip
+                    wx, g, e, rgg, rge, ree, y0, y1, not box)  # fmt: skip
 
     def rows_vertical(first: bool, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
                       y1: int) -> None:  # fmt: skip
         _stage_rows_vertical(a, wp, g, e, ay, f_l, win, base, first, fm, st, ov, wy, gy, ryy,
                              rgy, rye, y0, y1)  # fmt: skip
+
+    def rows_box(first: bool, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
+                 y1: int) -> None:  # fmt: skip
+        _stage_rows_box(a, wp, g, e, ay, f_l, config.vertical_radius, base, first, fm, st, ov,
+                        wy, gy, brows, y0, y1)  # fmt: skip
+
+    def box_columns(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
+        _stage_box_columns(brows, config.vertical_radius, base, kind, lanes_v, lut,
+                           config.recip_bits, log, modes, fm, st, dst, ov, bsums, bdet, bnv, v,
+                           y0, y1)  # fmt: skip
+
+    def corrected(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
+        _stage_rows_corrected(g, e, gy, v, config.vertical_radius, win, base, fm, st, ov, ev,
+                              rge, ree, y0, y1)  # fmt: skip
 
     def columns(out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
                 y1: int) -> None:  # fmt: skip
@@ -966,20 +1178,27 @@ def _run_level(
         _in_bands(functools.partial(rows, first), h, w, stats)
         if vertical:
             _in_bands(functools.partial(rows_vertical, first), h, w, stats)
+        elif box:
+            _in_bands(functools.partial(rows_box, first), h, w, stats)
+            _in_bands(box_columns, h, w, stats)
+            _in_bands(corrected, h, w, stats)
         kept = taps is not None or (final and k == config.warps - 1)
         _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
         if taps is None:
             continue
         if first:
             taps[0] = ax
-            if vertical:
+            if form != "off":
                 taps[2] = ay
-        t0 = 3 + k * N_STAGE_TAPS_V if vertical else 2 + k * N_STAGE_TAPS
+        t0 = (3 if form != "off" else 2) + k * len(_stage_taps(config))
         for j, arr in enumerate((wp, wx, g, e, rgg, rge, ree, *sums[:3], du, u)):
             taps[t0 + j] = arr
-        if vertical:
-            for j, arr in enumerate((wy, gy, ryy, rgy, rye, *sums[3:])):
-                taps[t0 + N_STAGE_TAPS + j] = arr
+        more = (wy, gy, ryy, rgy, rye, *sums[3:]) if vertical else ()
+        if box:  # the box's taps as line y uses them: the box centred rv lines up
+            late = np.maximum(np.arange(h) - config.vertical_radius, 0)
+            more = (wy, gy, *(p[late] for p in (*bsums, bdet, bnv, v)), ev)
+        for j, arr in enumerate(more):
+            taps[t0 + N_STAGE_TAPS + j] = arr
     return sums
 
 
@@ -1044,7 +1263,8 @@ def run_p3(
     names = tap_names(config)
     tp = np.zeros((len(names), m, n) if taps else (len(names), 1, 1), dtype=np.int64)
     u = np.zeros(shapes[-1], dtype=np.int64)
-    vertical = bool(config.vertical)
+    form = config.vertical_form
+    vertical = form == "window"  # the 2x2 system in the window (the box form: the 1-D fit)
     modes = cast_modes(fm)
     # the reciprocal divider in SIMD lanes where its operands fit (divide_lanes_fit)
     reciprocal = kind == DIV_RECIPROCAL
@@ -1053,6 +1273,8 @@ def run_p3(
                                                config.recip_bits, fm)  # fmt: skip
     lanes_z = reciprocal and divide_lanes_fit(fm[FB, 1], fm[U, 1], fm[U, 0], RANGE,
                                               config.recip_bits, fm)  # fmt: skip
+    lanes_v = form == "box" and reciprocal and divide_lanes_fit(
+        fm[BNV, 1], fm[BDET, 1], fm[BDET, 0], V, config.recip_bits, fm)  # fmt: skip
     # fraction bits of the pixels the warps read at level 0 and at the coarser levels
     f_level = (fm[NORM, 1],) * 2 if normalise else (f_pix, f_pyr)
     for level in range(len(shapes) - 1, -1, -1):
@@ -1065,7 +1287,7 @@ def run_p3(
         want = taps and level == 0
         sums = _run_level(
             config, p1[level], p2[level], u, f_level[level > 0], regs.umax[level], rom,
-            regs.window, S_LEVEL + (N_LEVEL_SITES if level else 0), (kind, lut, lanes_du),
+            regs.window, S_LEVEL + (N_LEVEL_SITES if level else 0), (kind, lut, lanes_du, lanes_v),
             log, modes, fm, band_stats, f"p3.{level}", tp if want else None, level == 0,
         )  # fmt: skip
     out_range = np.empty((m, n), dtype=np.int64)

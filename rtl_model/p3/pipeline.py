@@ -43,7 +43,7 @@ class P3Pipeline(Pipeline):
     search_range_field: ClassVar[str | None] = "max_disparity"
     run_model = staticmethod(model.run_p3)
     sweep_examples: ClassVar[tuple[str, ...]] = ("tools/studies/sweeps/p3_lab.toml",)
-    run_bytes_per_pixel: ClassVar[int | None] = 371  # measured 323, with 15 % headroom
+    run_bytes_per_pixel: ClassVar[int | None] = 742  # measured 645, with 15 % headroom
 
     @property
     def signal_groups(self) -> dict[str, tuple[str, ...]]:

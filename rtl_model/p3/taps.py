@@ -15,7 +15,7 @@ from types import MappingProxyType
 
 from ..pipeline import VALID_FORMAT, TapSpec
 from .config import P3Config
-from .model import VERTICAL_TAPS, WARP_TAPS, tap_names
+from .model import BOX_TAPS, VERTICAL_TAPS, WARP_TAPS, tap_names
 
 __all__ = ["TAP_SIGNALS", "TAP_STAGE", "tap_table"]
 
@@ -48,6 +48,15 @@ TAP_SIGNALS: Mapping[str, str] = MappingProxyType(
         "det": "p3_det",
         "nu": "p3_nu",
         "nv": "p3_nv",
+        "bgg": "p3_bgg",
+        "bge": "p3_bge",
+        "byy": "p3_byy",
+        "bgy": "p3_bgy",
+        "bye": "p3_bye",
+        "bdet": "p3_bdet",
+        "bnv": "p3_bnv",
+        "v": "p3_v",
+        "ev": "p3_ev",
         "du": "p3_du",
         "u": "p3_u",
         "res": "p3_res",
@@ -75,6 +84,11 @@ TAP_STAGE: Mapping[str, str | None] = MappingProxyType(
         "det": "normal_equations",
         "nu": "normal_equations",
         "nv": "normal_equations",
+        **dict.fromkeys(("bgg", "bge", "byy", "bgy", "bye"), "box_column"),
+        "bdet": "normal_equations",
+        "bnv": "normal_equations",
+        "v": "v_divider",
+        "ev": "correction",
         "du": "du_divider",
         "u": "update",
         "res": "residual",
@@ -89,7 +103,7 @@ def base_name(tap: str) -> str:
     """``warp1`` -> ``warp``; ``e1.pix_in`` -> ``pix_in``; others unchanged."""
     tap = tap.rpartition(".")[2]
     stem = tap.rstrip("0123456789")
-    return stem if stem in WARP_TAPS or stem in VERTICAL_TAPS else tap
+    return stem if stem in WARP_TAPS or stem in VERTICAL_TAPS or stem in BOX_TAPS else tap
 
 
 def tap_table(config: P3Config) -> tuple[TapSpec, ...]:

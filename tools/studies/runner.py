@@ -82,8 +82,8 @@ def check_input_levels(
 #: bytes per pixel, each pipeline's its own :attr:`Pipeline.run_bytes_per_pixel`. Fitted
 #: to ``/usr/bin/time -f %M rangefx run --pipeline P --left L.npy --right R.npy`` at
 #: 512x512 and 2048x2048 (random 8-bit pair, AMD EPYC, warm kernel cache): base ~200 MB;
-#: golden 195, P1 316, P2 176, P3 323 B a pixel; the figures are those with 15 % of
-#: headroom, so the estimate is 14-21 % above the measured peak at both sizes
+#: golden 195, P1 316, P2 176, P3 645 B a pixel; the figures are those with 15 % of
+#: headroom, so the estimate is 13-21 % above the measured peak at both sizes
 #: (docs/guarantees.md).
 RUN_BASE_BYTES = 220 * 2**20
 #: A golden method alone, bytes a pixel (``rangefx run --method``).
