@@ -311,8 +311,9 @@ def test_vertical_term_meets_the_misalignment_target():
 
 @pytest.mark.parametrize(
     "design",
-    [{}, {"vertical": True, "radius": 2, "sigma": 1.0}, {"divider": "restoring", "warps": 3}],
-)
+    [{}, {"vertical": True, "radius": 2, "sigma": 1.0}, {"divider": "restoring", "warps": 3},
+     {"radius": 6, "sigma": 2.5}],
+)  # fmt: skip
 def test_two_bands_of_lines_give_the_one_thread_result(design):
     """On two threads each level of ``BAND_PIXELS`` or more runs its line work in two
     bands of lines, each with its own log: every tap, the outputs, every overflow count
@@ -344,9 +345,15 @@ def test_two_bands_of_lines_give_the_one_thread_result(design):
 def test_windows_wider_than_the_unrolled_radius_are_bit_exact(vertical):
     """Up to ``UNROLLED_RADIUS`` the window's passes run one unrolled sum per pixel; a
     wider window takes the tap-at-a-time loops: every tap, count and min/max as the
-    oracle's."""
+    oracle's, and without taps (the fused stage's ring of row sums, two bands) the
+    outputs, counts and min/max."""
     radius = p3_model.UNROLLED_RADIUS + 2
     config = P3.default_config(radius=radius, sigma=2.5, levels=2, vertical=vertical)
     for seed, kind in ((3, "lab"), (4, "random")):
         case = p3_case(seed, kind)
-        assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))
+        ref = ORACLES["p3"].run(case, config)
+        assert_bit_exact(P3.run(case, config, taps=True), ref)
+        res = P3.run(case, config, taps=False, threads=2)
+        assert np.array_equal(res.range_raw, ref.range_raw)
+        assert np.array_equal(res.valid, ref.valid)
+        assert (dict(res.overflows), dict(res.minmax)) == (ref.overflows, ref.minmax)
