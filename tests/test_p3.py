@@ -341,6 +341,36 @@ def test_two_bands_of_lines_give_the_one_thread_result(design):
     assert one.overflows["p3_g"] > 0 and one.overflows["p3_du"] > 0
 
 
+def test_two_bands_of_the_fused_stage_have_their_own_rings(monkeypatch):
+    """Without the vertical term and taps a warp stage is one pass down the lines with
+    the row sums in a ring of lines (``_stage_fused``); on two threads the two bands run
+    at once, so each must fill a ring of its own: with one ring shared, each band
+    overwrote the other's lines and the 512 x 512 lab frame's ranges differed from the
+    one-thread run's and from run to run (issue 38). Which lines get overwritten depends
+    on how the threads interleave, so the rings are checked directly (no band pair may
+    share memory) besides the frame's outputs, run several times."""
+    real, calls = p3_model._stage_fused, []
+
+    def spy(*args):
+        calls.append(args[-6:])  # rgg, rge, ree, sums, y0, y1
+        real(*args)
+
+    monkeypatch.setattr(p3_model, "_stage_fused", spy)
+    case = scene_case("lab")
+    one = P3.run(case, taps=False, threads=1)
+    for _ in range(4):
+        two = P3.run(case, taps=False, threads=2)
+        assert np.array_equal(two.range_raw, one.range_raw)
+        assert np.array_equal(two.valid, one.valid)
+        assert (dict(two.overflows), dict(two.minmax)) == (dict(one.overflows), dict(one.minmax))
+    firsts = [c for c in calls if c[4] == 0]
+    pairs = [(a, b) for b in calls if b[4] > 0 for a in firsts if a[5] == b[4]]
+    assert len(pairs) >= 4 * P3.default_config().warps
+    for a, b in pairs:
+        for ring_a, ring_b in zip(a[:3], b[:3], strict=True):
+            assert not np.shares_memory(ring_a, ring_b)
+
+
 @pytest.mark.parametrize("vertical", [False, True])
 def test_windows_wider_than_the_unrolled_radius_are_bit_exact(vertical):
     """Up to ``UNROLLED_RADIUS`` the window's passes run one unrolled sum per pixel; a

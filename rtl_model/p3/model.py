@@ -556,8 +556,9 @@ def _stage_fused(
     taps, as :func:`_stage_rows` then :func:`_stage_columns` over every line give them,
     in one pass down the lines: the line work of :data:`FUSED_CHUNK` lines, ``radius``
     lines ahead, then the column work of a chunk, the row sums in a ring of lines
-    (``rgg``, ``rge``, ``ree``: ``2 radius + FUSED_CHUNK`` lines each) instead of three
-    planes written, then read back ``2 radius + 1`` times. A band's column work needs
+    (``rgg``, ``rge``, ``ree``: ``2 radius + FUSED_CHUNK`` lines each, this band's own:
+    the other band fills its ring at the same time) instead of three planes written,
+    then read back ``2 radius + 1`` times. A band's column work needs
     the row sums of ``radius`` lines of the other band: their line work runs here too,
     logged nowhere (the other band logs them) and at the estimate before the stage
     (``uh``: the lines ``uh_off ..`` of ``u`` copied before the bands start, since the
@@ -1009,8 +1010,11 @@ def _run_level(
     mv = h if vertical else 0  # the vertical term's planes: empty when it is off
     plane = lambda name, lines=h: runtime.scratch(f"{key}.{name}", (lines, w))  # noqa: E731
     ax = plane("ax")
-    ring = 2 * config.radius + FUSED_CHUNK if fused else h
-    rgg, rge, ree = (plane(k, ring) for k in ("rgg", "rge", "ree"))
+    # the row sums: planes, or (fused) each band's own ring of lines, the scratch of the
+    # thread that runs it (a ring shared by the two bands was a race: each overwrote the
+    # other's lines, issue 38)
+    rgg, rge, ree = (plane(k, 0 if fused else h) for k in ("rgg", "rge", "ree"))
+    ring = (2 * config.radius + FUSED_CHUNK, w)
     # W, Wx, g, e as planes only for the taps and the vertical term, du for the taps, the
     # window sums for the taps and the last stage of level 0 (else line buffers)
     mk = h if vertical or taps is not None else 0
@@ -1042,6 +1046,7 @@ def _run_level(
 
     def stage(out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
               y1: int) -> None:  # fmt: skip
+        rgg, rge, ree = (runtime.scratch(f"{key}.ring.{k}", ring) for k in ("rgg", "rge", "ree"))
         _stage_fused(a, b, u, uh, uh_off, ax, f_l, rom, config.keys_bits, win, umax, base,
                      kind, lanes, lut, config.recip_bits, log, modes, fm, st, dst, ov, rgg,
                      rge, ree, out, y0, y1)  # fmt: skip
