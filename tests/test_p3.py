@@ -363,6 +363,9 @@ def test_two_bands_of_the_fused_stage_have_their_own_rings(monkeypatch):
         assert np.array_equal(two.range_raw, one.range_raw)
         assert np.array_equal(two.valid, one.valid)
         assert (dict(two.overflows), dict(two.minmax)) == (dict(one.overflows), dict(one.minmax))
+        assert np.array_equal(two.range, one.range)
+        assert np.array_equal(two.in_cycles, one.in_cycles)
+        assert np.array_equal(two.out_cycles, one.out_cycles)
     firsts = [c for c in calls if c[4] == 0]
     pairs = [(a, b) for b in calls if b[4] > 0 for a in firsts if a[5] == b[4]]
     assert len(pairs) >= 4 * P3.default_config().warps

@@ -44,7 +44,7 @@ from ..kernels import divide_lanes_fit, divide_row_lanes
 from ..kernels import divide_row as _divide_row
 from ..pipeline import Case, PipelineResult, build_result
 from ..runtime import DIV_RECIPROCAL, KERNEL_INT, KERNEL_PLANE, KERNEL_ROW
-from ..stream import input_cycles
+from ..stream import input_cycles, line_cycles
 from .config import P3_SIGNALS, P3Config
 
 # argument types of the window helpers: an explicit signature, so that the constant signal
@@ -900,23 +900,31 @@ def p3_schedule(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     }
 
 
-def tap_cycles(tap: str, config: P3Config, in_cycles: np.ndarray, hblank: int) -> np.ndarray:
+def tap_cycles(
+    tap: str, config: P3Config, in_cycles: np.ndarray, hblank: int,
+    rows: tuple[int, int] | None = None, out: np.ndarray | None = None,
+) -> np.ndarray:  # fmt: skip
     """Cycle of every sample of ``tap`` (shape (m, n)): :func:`tap_offsets` on the input
     beats; a line past the frame's last is a flush line (the vertical filters replicate
-    the last line), one every ``n + hblank`` clocks after the frame's last beat."""
+    the last line), one every ``n + hblank`` clocks after the frame's last beat.
+    ``rows`` ``(j0, j1)``: only lines ``j0 <= j < j1``, into ``out`` when given (shape
+    ``(j1 - j0, n)``; a model fills its result band by band)."""
     m, n = in_cycles.shape
+    j0, j1 = rows or (0, m)
+    if out is None:
+        out = np.empty((j1 - j0, n), dtype=np.int64)
     if tap.rpartition(".")[2] == "pix_in":
-        return in_cycles.copy()
+        np.copyto(out, in_cycles[j0:j1])
+        return out
     offsets = tap_offsets(config, (m, n))
     if tap not in offsets:
         raise ValueError(f"unknown P3 tap {tap!r}; taps: {', '.join(offsets)}")
     lines, cycles = offsets[tap]
-    out = np.empty((m, n), dtype=np.int64)
-    k = max(m - lines, 0)  # lines whose source line is inside the frame
-    np.add(in_cycles[m - k :], cycles, out=out[:k])
-    src = np.arange(k, m)[:, None] + lines - m  # flush lines: 0 is the first after the frame
-    out[k:] = (int(in_cycles[m - 1, n - 1]) + hblank + 1 + cycles + src * (n + hblank)
-               + np.arange(n)[None, :])  # fmt: skip
+    k = min(max(m - lines, j0), j1)  # lines j < k: their source line is inside the frame
+    np.add(in_cycles[j0 + lines : k + lines], cycles, out=out[: k - j0])
+    src = np.arange(k, j1)[:, None] + lines - m  # flush lines: 0 is the first after the frame
+    out[k - j0 :] = (int(in_cycles[m - 1, n - 1]) + hblank + 1 + cycles + src * (n + hblank)
+                     + np.arange(n)[None, :])  # fmt: skip
     return out
 
 
@@ -1168,25 +1176,37 @@ def run_p3(
         )  # fmt: skip
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
+    range_float = np.empty((m, n), dtype=np.float64)
+    # the input beats' cycles in closed form band by band, as the output stage (as P1);
+    # with input gaps, the stream's running count once
+    closed = timing.gap_prob == 0
+    in_cycles = np.empty((m, n), dtype=np.int64) if closed else input_cycles((m, n), timing)[-1]
+    out_cycles = np.empty((m, n), dtype=np.int64)
 
     def final(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
         _final_kernel(
             u, sums, vertical, regs.final, kind, lanes_z, lut, config.recip_bits, log, modes,
             fm, st, dst, ov, out_range, out_valid, tp, len(names) - 4, taps, y0, y1,
         )  # fmt: skip
+        config.formats["p3_range"].to_float(out_range[y0:y1], out=range_float[y0:y1])
+        if closed:
+            line_cycles((m, n), timing, 0, y0, y1, in_cycles[y0:y1])
+
+    def stamps(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
+        # after every band's input cycles: a line's output reads a later line's input
+        tap_cycles("range", config, in_cycles, timing.hblank, (y0, y1), out_cycles[y0:y1])
 
     _in_bands(final, m, n, band_stats)
+    _in_bands(stamps, m, n, band_stats)
     overflows, minmax = runtime.SignalStats.merge([s1, s2, *band_stats], P3_SIGNALS)
     overflows["p3_keys"] += rom_overflows  # the ROM is datapath (keys_rom_casts)
     minmax["p3_keys"] = rom_range
     tap_dict = {name: tp[k] for k, name in enumerate(names)} if taps else {}
     if taps and normalise:
         tap_dict.update({"e1.norm": p1[0], "e2.norm": p2[0]})
-    in_cycles = input_cycles((m, n), timing)[-1]
-    out_cycles = tap_cycles("range", config, in_cycles, timing.hblank)
     return build_result(
         "p3", config, timing, "stereo", range_raw=out_range,
-        range_float=config.formats["p3_range"].to_float(out_range), valid=out_valid,
+        range_float=range_float, valid=out_valid,
         taps=tap_dict, stats=(overflows, minmax), log=log, cycles=(in_cycles, out_cycles),
         stage_latency=stage_latencies(config), registers=regs,
         buffers={"line_buffer_bits": sum(buffer_bits(config, (m, n)).values())},
