@@ -317,9 +317,11 @@ def test_vertical_term_meets_the_misalignment_target():
     "design",
     [
         {},
+        {"vertical": False},
         {"vertical": True, "vertical_radius": 0, "radius": 2, "sigma": 1.0},
         {"divider": "restoring", "warps": 3},
         {"vertical": True, "vertical_radius": 3, "radius": 2, "sigma": 1.0},
+        {"vertical": False, "radius": 6, "sigma": 2.5},
     ],
 )
 def test_two_bands_of_lines_give_the_one_thread_result(design):
@@ -349,17 +351,74 @@ def test_two_bands_of_lines_give_the_one_thread_result(design):
     assert one.overflows["p3_g"] > 0 and one.overflows["p3_du"] > 0
 
 
+def _assert_two_threads_give_one_thread_on_lab(config, runs):
+    """The 512 x 512 lab frame without taps on two threads, ``runs`` times: the ranges
+    (raw and float), validity, cycles, counts and min/max of the one-thread run."""
+    case = scene_case("lab")
+    one = P3.run(case, config, taps=False, threads=1)
+    for _ in range(runs):
+        two = P3.run(case, config, taps=False, threads=2)
+        assert np.array_equal(two.range_raw, one.range_raw)
+        assert np.array_equal(two.valid, one.valid)
+        assert (dict(two.overflows), dict(two.minmax)) == (dict(one.overflows), dict(one.minmax))
+        assert np.array_equal(two.range, one.range)
+        assert np.array_equal(two.in_cycles, one.in_cycles)
+        assert np.array_equal(two.out_cycles, one.out_cycles)
+
+
+def test_two_bands_of_the_fused_stage_have_their_own_rings(monkeypatch):
+    """Without the vertical term (``vertical = false``) and taps a warp stage is one pass
+    down the lines with the row sums in a ring of lines (``_stage_fused``); on two
+    threads the two bands run at once, so each must fill a ring of its own: with one
+    ring shared, each band overwrote the other's lines and the 512 x 512 lab frame's
+    ranges differed from the one-thread run's and from run to run (issue 38). Which
+    lines get overwritten depends on how the threads interleave, so the rings are
+    checked directly (no band pair may share memory) besides the frame's outputs, run
+    several times."""
+    real, calls = p3_model._stage_fused, []
+
+    def spy(*args):
+        calls.append(args[-6:])  # rgg, rge, ree, sums, y0, y1
+        real(*args)
+
+    monkeypatch.setattr(p3_model, "_stage_fused", spy)
+    config = P3.default_config(vertical=False)
+    _assert_two_threads_give_one_thread_on_lab(config, runs=4)
+    firsts = [c for c in calls if c[4] == 0]
+    pairs = [(a, b) for b in calls if b[4] > 0 for a in firsts if a[5] == b[4]]
+    assert len(pairs) >= 4 * config.warps
+    for a, b in pairs:
+        for ring_a, ring_b in zip(a[:3], b[:3], strict=True):
+            assert not np.shares_memory(ring_a, ring_b)
+
+
+@pytest.mark.parametrize("design", [{}, {"vertical_radius": 0}])
+def test_two_threads_give_one_thread_on_the_lab_frame_with_the_vertical_term(design):
+    """The box form (the default) and the window form run their stages unfused, in two
+    bands of lines on two threads: the 512 x 512 lab frame's ranges, validity, cycles,
+    counts and min/max equal the one-thread run's, three runs each."""
+    config = P3.default_config(**design)
+    assert config.vertical_form == ("box" if not design else "window")
+    _assert_two_threads_give_one_thread_on_lab(config, runs=3)
+
+
 @pytest.mark.parametrize("vertical", [False, True])
 def test_windows_wider_than_the_unrolled_radius_are_bit_exact(vertical):
     """Up to ``UNROLLED_RADIUS`` the window's passes run one unrolled sum per pixel; a
     wider window takes the tap-at-a-time loops: every tap, count and min/max as the
-    oracle's."""
+    oracle's, and without taps (the fused stage's ring of row sums, two bands) the
+    outputs, counts and min/max."""
     radius = p3_model.UNROLLED_RADIUS + 2
     config = P3.default_config(radius=radius, sigma=2.5, levels=2, vertical=vertical,
                                vertical_radius=0)  # fmt: skip
     for seed, kind in ((3, "lab"), (4, "random")):
         case = p3_case(seed, kind)
-        assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))
+        ref = ORACLES["p3"].run(case, config)
+        assert_bit_exact(P3.run(case, config, taps=True), ref)
+        res = P3.run(case, config, taps=False, threads=2)
+        assert np.array_equal(res.range_raw, ref.range_raw)
+        assert np.array_equal(res.valid, ref.valid)
+        assert (dict(res.overflows), dict(res.minmax)) == (ref.overflows, ref.minmax)
 
 
 # -- the box form of the vertical term (issue 38) ------------------------------------------
