@@ -259,8 +259,14 @@ def test_vertical_term_is_bit_exact_over_formats(seed, quant, overflow, drop):
     -2..3 fraction bits (so that some overflow, wrap or saturate), model == oracle bit for
     bit."""
     base = P3.default_config(vertical=True, vertical_radius=0, radius=2, sigma=1.0, levels=2)
+    _assert_narrowed_bit_exact(base, VERTICAL_SIGNALS, drop, quant, overflow, seed)
+
+
+def _assert_narrowed_bit_exact(base, signals, drop, quant, overflow, seed):
+    """``signals`` of ``base`` narrowed by ``drop``'s (integer, fraction) bits in
+    ``quant``/``overflow`` (the quotients saturate), model == oracle on a seeded case."""
     formats = dict(base.formats)
-    for name, (d_int, d_frac) in zip(VERTICAL_SIGNALS, drop, strict=True):
+    for name, (d_int, d_frac) in zip(signals, drop, strict=True):
         f = formats[name]
         ovf = Overflow.SAT if name in base.QUOTIENTS else overflow
         word = max(2, f.word - d_int - d_frac)
@@ -469,15 +475,7 @@ def test_box_form_is_bit_exact_over_formats(seed, quant, overflow, drop, rv):
     -2..3 fraction bits (so that some overflow, wrap or saturate), model == oracle bit for
     bit."""
     base = P3.default_config(vertical=True, vertical_radius=rv, radius=2, sigma=1.0, levels=2)
-    formats = dict(base.formats)
-    for name, (d_int, d_frac) in zip(BOX_SIGNALS, drop, strict=True):
-        f = formats[name]
-        ovf = Overflow.SAT if name in base.QUOTIENTS else overflow
-        word = max(2, f.word - d_int - d_frac)
-        formats[name] = FixedFormat(f.signed, word, f.frac - d_frac, quant, ovf)
-    config = base.with_(formats=formats)
-    case = p3_case(seed % 7, "random" if seed % 2 else "lab")
-    assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))
+    _assert_narrowed_bit_exact(base, BOX_SIGNALS, drop, quant, overflow, seed)
 
 
 def test_box_form_schedule_and_cost():
