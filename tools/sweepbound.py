@@ -39,11 +39,13 @@ MAX_POINTS = 100_000
 DEFAULT_SIZE = (512, 512)
 #: Seconds of one point per pixel, per pipeline, with the golden, truth, sqnr and overflow
 #: metrics on lab at 256x256 (AMD EPYC, 2 cores): P1 a median of 0.057 s a point on the
-#: idle machine (``rangefx sweep`` of row_state.frac 6..11); P2 and P3 by their ratio to
-#: P1 in one run of ``rangefx sweep --workers 1`` of 6-7 points each on the shared
-#: machine (P1 0.166 s, P2 0.089 s, P3 0.191 s: ratios 0.54 and 1.15). A pipeline not
-#: listed is estimated at the slowest's cost.
-SWEEP_SECONDS_PER_PIXEL: dict[str, float] = {"p1": 0.9e-6, "p2": 0.48e-6, "p3": 1.04e-6}
+#: idle machine (``rangefx sweep`` of row_state.frac 6..11); P2 by its ratio to P1 in one
+#: run of ``rangefx sweep --workers 1`` of 6-7 points each on the shared machine (P1
+#: 0.166 s, P2 0.089 s: 0.54); P3 (the box form of the vertical term, its default) by its
+#: ratio to P1 over seven alternating runs of 6 points each (p3_warp.frac 1..6 against
+#: row_state.frac 6..11, ``--workers 1``, load ~1): median 2.36 (2.08-2.51). A pipeline
+#: not listed is estimated at the slowest's cost.
+SWEEP_SECONDS_PER_PIXEL: dict[str, float] = {"p1": 0.9e-6, "p2": 0.48e-6, "p3": 2.1e-6}
 
 
 def count_points(combine: str, axis_lengths: Iterable[int], scenes: int) -> int:
