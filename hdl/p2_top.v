@@ -13,11 +13,13 @@
 //   r + 13    a^2                             r + 14    cast(a^2)
 //   E = r+15  c = max(cast(a^2), C_MIN)       E + 1     S~_k+1, Q~_k+1 (lane state read)
 //   E + 4     c S~, S~ dG                     E + 5     1 + c S~, Q~ - S~ dG
-//   E + 6     den (divider operand), h        E + 6 + T_DIV  r
-//   E + 9 + T_DIV  r S~, r h                  E + 10 + T_DIV  M + r S~
+//   E + 6     den (divider operand), h        E + 6 + T_DIV  r (the divider's cast)
+//   E + 7 + T_DIV  r registered               E + 10 + T_DIV  r S~, r h
+//   E + 11 + T_DIV  M + r S~
 //   E + T_B   write-back (taps a c den r s h q; S~_k, Q~_k into the lane's state),
-//             T_B = 6 + T_DIV + 5
-//   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, -a
+//             T_B = 6 + T_DIV + 6; sweep-buffer entry D, r, S~_k+1, Q~_k+1, dG
+//   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, |D|
+//   F + 2     |D| >= T_D    F + 3  KA D    F + 4  a = cast(KA D)    F + 5  -a
 //   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w   F + 10  lam (tap)
 //   F + 13    (-a) lam  F + 14 z (tap)  F + 17  a z        F + 18  u + a z, cast into the
 //   lane's e state (T_F = 20: the lane's next e operand is read at its next t + 4)
@@ -79,9 +81,9 @@ module p2_top #(
     // the loop entry E = r + SWEEP_READ: read, D, KA D, cast a, a^2, cast, max(., C_MIN)
     localparam integer SWEEP_READ = LB_READ + 1 + MUL_LAT + 1 + MUL_LAT + 1 + 1;
     // the backward loop: operand register, c S~, + 1, cast (den at E + E_DEN), the
-    // divider, r S~, + M, cast into the lane's state
+    // divider, r registered, r S~, + M, cast into the lane's state
     localparam integer E_DEN = 1 + MUL_LAT + 1 + 1;
-    localparam integer T_B = E_DEN + T_DIV + MUL_LAT + 1 + 1;
+    localparam integer T_B = E_DEN + T_DIV + 1 + MUL_LAT + 1 + 1;
     // the forward loop: u, S~ u, + Q~, cast w, r w, cast lam, (-a) lam, cast z, a z,
     // + u, cast e into the lane's state, the e operand register
     localparam integer T_F = 1 + (MUL_LAT + 2) + (MUL_LAT + 1) * 2 + (MUL_LAT + 2) + 1;
@@ -107,7 +109,8 @@ module p2_top #(
     // the sweep-buffer hold: a sweep starts no earlier than H after the forward start of
     // the group two before (model: (n - 2) P_f - P_b - SWEEP_READ - T_b)
     localparam signed [47:0] HOLD = (WIDTH - 2) * P_F - P_B - SWEEP_READ - T_B;
-    localparam integer SB_W = A_W + R_W + ST_W + Q_W + DG_W + 1;
+    localparam integer DS_W = D_W + 1;                            // D = d_k + d_k+1
+    localparam integer SB_W = DS_W + R_W + ST_W + Q_W + DG_W;
 
     reg [47:0] now;
     always @(posedge clk) now <= rst ? 48'd0 : now + 48'd1;
@@ -380,13 +383,6 @@ module p2_top #(
                + $signed({{2{(D_S != 0) & dk1[D_W-1]}}, dk1});
         dg3 <= $signed({(G_S != 0) & gk1[G_W-1], gk1}) - $signed({(G_S != 0) & gk[G_W-1], gk});
     end
-    // r+4: |D|, r+5: |D| >= T_D
-    reg [D_W+1:0] dabs4;
-    reg thr5;
-    always @(posedge clk) begin
-        dabs4 <= dsum3[D_W+1] ? -dsum3 : dsum3;
-        thr5 <= (dabs4 >= td_raw);
-    end
     // r+3 -> r+6: KA D (fx_mul_pipe); r+7: a = cast(KA D)
     wire signed [KA_W:0] ka_s = {(KA_S != 0) & ka_raw[KA_W-1], ka_raw};
     wire signed [KA_W+D_W+2:0] ka_d;
@@ -413,13 +409,13 @@ module p2_top #(
         cE <= (c11 < cmin_raw) ? cmin_raw : c11;   // unsigned (validated by the config)
     end
     // the values that travel beside the slot to the loop entry E = r + SWEEP_READ
-    localparam integer EW = A_W + DG_W + 3;      // a, dG, |D| >= T_D, ovf a, ovf c
     wire [A_W-1:0] aE;
     wire [DG_W-1:0] dgE;
-    wire thrE, oaE, ocE;
+    wire [DS_W-1:0] dE;
+    wire oaE, ocE;
     fx_delay #(A_W + 1, SWEEP_READ - LB_READ - 5) d_aE (clk, {a7, oa7}, {aE, oaE});
     fx_delay #(DG_W, SWEEP_READ - LB_READ - 1) d_dgE (clk, dg3, dgE);
-    fx_delay #(1, SWEEP_READ - LB_READ - 3) d_thrE (clk, thr5, thrE);
+    fx_delay #(DS_W, SWEEP_READ - LB_READ - 1) d_dE (clk, dsum3[DS_W-1:0], dE);
     fx_delay #(1, SWEEP_READ - LB_READ - 9) d_ocE (clk, oc11, ocE);
     // E: the lane's S~_k+1, Q~_k+1 (its state, written at the write-back) into the
     // operand registers (E+1)
@@ -480,20 +476,24 @@ module p2_top #(
                 .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end
     endgenerate
-    // E+6+T_DIV -> E+9+T_DIV: r S~_k+1, r h (fx_mul_pipe)
-    localparam integer RD = E_DEN + T_DIV;       // r holds at E + RD
+    // E+7+T_DIV: r registered (the divider's output cast apart from the products'
+    // operands); E+7+T_DIV -> E+10+T_DIV: r S~_k+1, r h (fx_mul_pipe)
+    localparam integer RD = E_DEN + T_DIV + 1;   // r registered at E + RD
+    reg [R_W-1:0] r_r;
+    reg ovf_rr;
+    always @(posedge clk) {r_r, ovf_rr} <= {r_q, ovf_rq};
     wire [ST_W-1:0] s_old;
     wire [H_W-1:0] h_d;
     fx_delay #(ST_W, RD - 1) d_sold (clk, s_op1, s_old);
-    fx_delay #(H_W, T_DIV) d_hd (clk, h6, h_d);
-    wire signed [R_W:0] r_s = {(R_S != 0) & r_q[R_W-1], r_q};
+    fx_delay #(H_W, T_DIV + 1) d_hd (clk, h6, h_d);
+    wire signed [R_W:0] r_s = {(R_S != 0) & r_r[R_W-1], r_r};
     wire signed [R_W+ST_W+1:0] rs;
     wire signed [R_W+H_W+1:0] rh;
     wire signed [ST_W:0] s_old_s = {1'b0, s_old};
     wire signed [H_W:0] h_d_s = {(H_S != 0) & h_d[H_W-1], h_d};
     fx_mul_pipe #(R_W + 1, ST_W + 1) m_rs (clk, r_s, s_old_s, rs);
     fx_mul_pipe #(R_W + 1, H_W + 1) m_rh (clk, r_s, h_d_s, rh);
-    // E+10+T_DIV: M + r S~ (one carry chain); r h waits
+    // E+11+T_DIV: M + r S~ (one carry chain); r h waits
     localparam integer SN_W = ((MR_W + 1 + F_S - MR_F > R_W + ST_W + 2 + F_S - R_F - ST_F)
                                ? MR_W + 1 + F_S - MR_F : R_W + ST_W + 2 + F_S - R_F - ST_F) + 2;
     wire signed [SN_W-1:0] m_x = $signed({(MR_S != 0) & m_raw[MR_W-1], m_raw});
@@ -504,7 +504,7 @@ module p2_top #(
         s_x10 <= (m_x <<< (F_S - MR_F)) + (rs_x <<< (F_S - R_F - ST_F));
         rh10 <= rh;
     end
-    // E+11+T_DIV = E+T_B, the write-back: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h)
+    // E+12+T_DIV = E+T_B, the write-back: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h)
     // into the lane's state and the write-back registers (taps a c den r s h q; the
     // lane's first slot, column WIDTH-1: S~_end, Q~ = 0 and the others 0)
     wire [ST_W-1:0] s_n;
@@ -514,10 +514,10 @@ module p2_top #(
         .x(s_x10), .y(s_n), .ovf(ovf_sn));
     fx_cast_sized #(R_W + H_W + 2, R_F + H_F, Q_W, Q_F, Q_S, Q_Q, Q_O) c_q (
         .x(rh10), .y(q_n), .ovf(ovf_qn));
-    // beside the loop: from E (a, c, dG, |D|, ovf a c), E+1 (S~, Q~ operands), E+6 (den,
+    // beside the loop: from E (a, c, dG, D, ovf a c), E+1 (S~, Q~ operands), E+6 (den,
     // h), E+RD (r) to the cycle before the write-back
-    localparam integer SIDE_W = A_W + C_W + DG_W + 3;
-    wire [SIDE_W-1:0] side_E = {aE, cE, dgE, thrE, oaE, ocE};
+    localparam integer SIDE_W = A_W + C_W + DG_W + DS_W + 2;
+    wire [SIDE_W-1:0] side_E = {aE, cE, dgE, dE, oaE, ocE};
     wire [SIDE_W-1:0] side9;
     wire [ST_W+Q_W-1:0] op9;
     wire [DEN_W+H_W+1:0] dh9;
@@ -525,7 +525,7 @@ module p2_top #(
     fx_delay #(SIDE_W, T_B - 1) d_side (clk, side_E, side9);
     fx_delay #(ST_W + Q_W, T_B - 2) d_op (clk, {s_op1, q_op1}, op9);
     fx_delay #(DEN_W + H_W + 2, T_B - 1 - E_DEN) d_dh (clk, {den6, h6, oden6, oh6}, dh9);
-    fx_delay #(R_W + 1, T_B - 1 - RD) d_r (clk, {r_q, ovf_rq}, r9);
+    fx_delay #(R_W + 1, T_B - 1 - RD) d_r (clk, {r_r, ovf_rr}, r9);
     wire [TAGW-1:0] tg9 = `P2_BTAG(WB_T - 1);
     wire first9 = tg9[TAGW-2];
     wire [LW-1:0] lane9 = tg9[XW+1 +: LW];
@@ -541,7 +541,7 @@ module p2_top #(
     reg [ST_W-1:0] wb_sold;
     reg [Q_W-1:0] wb_qold;
     reg [DG_W-1:0] wb_dg;
-    reg wb_thr;
+    reg [DS_W-1:0] wb_dsum;
     reg [6:0] wb_ovf;                // a, c, den, h, r, s, q
     always @(posedge clk) begin
         s_wb <= s_next;
@@ -557,8 +557,8 @@ module p2_top #(
         wb_h <= first9 ? {H_W{1'b0}} : dh9[H_W+1 : 2];
         wb_sold <= op9[Q_W +: ST_W];
         wb_qold <= op9[Q_W-1:0];
-        wb_dg <= side9[3 +: DG_W];
-        wb_thr <= side9[2];
+        wb_dg <= side9[DS_W+2 +: DG_W];
+        wb_dsum <= side9[2 +: DS_W];
         wb_ovf <= first9 ? 7'd0 : {side9[1], side9[0], dh9[1], dh9[0], r9[0], ovf_sn, ovf_qn};
     end
     wire [TAGW-1:0] tag_wb = `P2_BTAG(WB_T);
@@ -586,15 +586,16 @@ module p2_top #(
             end
         end
     end
-    // the sweep buffer: entry (bank, lane, k) = a, r, S~_k+1, Q~_k+1, dG, |D| >= T_D of
-    // step k, written at the write-back (column WIDTH-1: no entry)
+    // the sweep buffer: entry (bank, lane, k) = D, r, S~_k+1, Q~_k+1, dG of step k (the
+    // forward pass recomputes a and |D| >= T_D from D), written at the write-back
+    // (column WIDTH-1: no entry)
     reg [AW-1:0] sb_wa;              // registered from the tag a cycle ahead
     always @(posedge clk) sb_wa <= {tg9[XW+1 +: LW], tg9[0]} * WIDTH + tg9[1 +: XW];
     wire sb_zero;
     wire [SB_W-1:0] sb_q;
     p2_ram #(SB_W, DEPTH, AW) u_sb (
         .clk(clk), .we(wb_v && !tag_wb[TAGW-2]), .wa(sb_wa),
-        .wd({wb_a, wb_r, wb_sold, wb_qold, wb_dg, wb_thr}), .ra(sb_ra), .zero(sb_zero),
+        .wd({wb_dsum, wb_r, wb_sold, wb_qold, wb_dg}), .ra(sb_ra), .zero(sb_zero),
         .rd(sb_q));
 
     // ---- the forward engine -----------------------------------------------------------
@@ -617,28 +618,42 @@ module p2_top #(
     reg [E_W-1:0] e_op;
     always @(posedge clk)
         e_op <= (ft1[1 +: XW] == 0) ? {E_W{1'b0}} : e_state[ft1[XW+1 +: LW]];
-    wire [A_W-1:0] f_a = fr2[SB_W-1 -: A_W];
-    wire [R_W-1:0] f_r = fr2[SB_W-A_W-1 -: R_W];
-    wire [ST_W-1:0] f_s = fr2[SB_W-A_W-R_W-1 -: ST_W];
-    wire [Q_W-1:0] f_q = fr2[DG_W+1 +: Q_W];
-    wire signed [DG_W-1:0] f_dg = fr2[1 +: DG_W];
-    // F+1: u = e_k - dG (one carry chain); -a for z = cast(-a lam)
+    wire [DS_W-1:0] f_dsum = fr2[SB_W-1 -: DS_W];
+    wire [R_W-1:0] f_r = fr2[SB_W-DS_W-1 -: R_W];
+    wire [ST_W-1:0] f_s = fr2[SB_W-DS_W-R_W-1 -: ST_W];
+    wire [Q_W-1:0] f_q = fr2[DG_W +: Q_W];
+    wire signed [DG_W-1:0] f_dg = fr2[0 +: DG_W];
+    // F+1: u = e_k - dG (one carry chain), |D|; F+2: |D| >= T_D; F -> F+3: KA D;
+    // F+4: a = cast(KA D) (as the sweep engine's; its overflow counted there); F+5: -a
+    wire signed [D_W+1:0] f_ds = $signed({(D_S != 0) & f_dsum[DS_W-1], f_dsum});
+    reg [D_W+1:0] fdabs_1;
+    reg fthr_2;
+    always @(posedge clk) begin
+        fdabs_1 <= f_ds[D_W+1] ? -f_ds : f_ds;
+        fthr_2 <= (fdabs_1 >= td_raw);
+    end
+    wire signed [KA_W+D_W+2:0] fka_d;
+    fx_mul_pipe #(KA_W + 1, D_W + 2) m_fkad (clk, ka_s, f_ds, fka_d);
+    wire [A_W-1:0] fa_n;
+    wire ovf_fan_unused;
+    fx_cast_sized #(KA_W + D_W + 3, KA_F + D_F, A_W, A_F, A_S, A_Q, A_O) c_fa (
+        .x(fka_d), .y(fa_n), .ovf(ovf_fan_unused));
+    reg [A_W-1:0] fa4;
+    always @(posedge clk) fa4 <= fa_n;
+    wire signed [A_W+1:0] fa4s = $signed({(A_S != 0) & fa4[A_W-1], fa4});
+    reg signed [A_W+1:0] fna5;
+    always @(posedge clk) fna5 <= -fa4s;
     localparam integer U_W = ((E_W + 1 + F_U - E_F > DG_W + F_U - G_F)
                               ? E_W + 1 + F_U - E_F : DG_W + F_U - G_F) + 1;
     wire signed [U_W-1:0] e_x = $signed({(E_S != 0) & e_op[E_W-1], e_op});
     wire signed [U_W-1:0] dg_x = f_dg;
-    wire signed [A_W+1:0] f_as = $signed({(A_S != 0) & f_a[A_W-1], f_a});
     reg signed [U_W-1:0] fu_1;
-    reg signed [A_W+1:0] fa_1, fna_1;
     reg [ST_W-1:0] fs_1;
     reg [Q_W-1:0] fq_1;
     reg [R_W-1:0] fr_1;
-    reg fthr_1;
     always @(posedge clk) begin
         fu_1 <= (e_x <<< (F_U - E_F)) - (dg_x <<< (F_U - G_F));
-        fa_1 <= f_as;
-        fna_1 <= -f_as;
-        {fs_1, fq_1, fr_1, fthr_1} <= {f_s, f_q, f_r, fr2[0]};
+        {fs_1, fq_1, fr_1} <= {f_s, f_q, f_r};
     end
     // F+1 -> F+4: S~_k+1 u; F+5: + Q~_k+1; F+6: w = cast(...) (tap w)
     localparam integer WN_W = ((ST_W + 1 + U_W + F_W - ST_F - F_U > Q_W + 1 + F_W - Q_F)
@@ -674,7 +689,7 @@ module p2_top #(
     always @(posedge clk) {lam10, olam10} <= {lam_n, ovf_lamn};
     // F+10 -> F+13: (-a) lam; F+14: z = cast(-(a lam)) (tap z)
     wire [A_W+1:0] na10;
-    fx_delay #(A_W + 2, 9) d_na10 (clk, fna_1, na10);
+    fx_delay #(A_W + 2, 5) d_na10 (clk, fna5, na10);
     wire signed [A_W+LAM_W+2:0] nalam;
     wire signed [A_W+1:0] na10s = na10;
     wire signed [LAM_W:0] lam10s = {(LAM_S != 0) & lam10[LAM_W-1], lam10};
@@ -689,7 +704,7 @@ module p2_top #(
     // F+14 -> F+17: a z; F+18: u + a z (one carry chain); its cast e_k+1 is written into
     // the lane's e state at the end of F+18 (read for the lane's next slot at t' + 1)
     wire [A_W+1:0] a14;
-    fx_delay #(A_W + 2, 13) d_a14 (clk, fa_1, a14);
+    fx_delay #(A_W + 2, 10) d_a14 (clk, fa4s, a14);
     wire signed [Z_W:0] z14s = {(Z_S != 0) & z14[Z_W-1], z14};
     wire signed [A_W+Z_W+2:0] az;
     wire signed [A_W+1:0] a14s = a14;
@@ -709,7 +724,7 @@ module p2_top #(
     always @(posedge clk) if (ft20[FTAGW-1]) e_state[ft20[XW+1 +: LW]] <= e_new;
     // F+15: valid, range (threshold); F+16: the output register
     wire [0:0] thr14;
-    fx_delay #(1, 13) d_thr14 (clk, fthr_1, thr14);
+    fx_delay #(1, 12) d_thr14 (clk, fthr_2, thr14);
     wire signed [Z_W:0] rmax_s = {(Z_S != 0) & rmax_raw[Z_W-1], rmax_raw};
     wire ok14 = thr14[0] && (z14s > 0) && (z14s <= rmax_s);
     reg valid15;

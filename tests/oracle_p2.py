@@ -171,9 +171,9 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
     t_div += 5 if config.divider == "reciprocal" else 0
     mul = 3  # hdl/fx_pipe.v fx_mul_pipe: partial products, pair sums, final sum
     ram = 5  # a block RAM read: address, the blocks' reads, registered, ORed in fours, all
-    # backward loop: operand register, c S~ (mul), + 1, cast den; the divider; r S~ (mul),
-    # + M, cast S~ into the lane's state
-    t_b = 1 + mul + 1 + 1 + t_div + mul + 1 + 1
+    # backward loop: operand register, c S~ (mul), + 1, cast den; the divider; r
+    # registered; r S~ (mul), + M, cast S~ into the lane's state
+    t_b = 1 + mul + 1 + 1 + t_div + 1 + mul + 1 + 1
     # forward loop: u; S~ u (mul), + Q~, cast w; r w (mul), cast lam; (-a) lam (mul), cast
     # z; a z (mul), + u, cast e into the lane's state; the e operand register
     t_f = 1 + mul + 1 + 1 + mul + 1 + mul + 1 + mul + 1 + 1 + 1

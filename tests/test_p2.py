@@ -128,7 +128,8 @@ def test_cycle_stamps_closed_form(hblank):
     assert np.unique(res.out_cycles).size == m * n
     w = {k: f.word for k, f in cfg.formats.items()}
     assert res.line_buffer_bits == 2 * lanes * n * (w["p2_d"] + w["p2_ghat"])
-    sweep = w["p2_a"] + w["p2_r"] + w["p2_st"] + w["p2_q"] + (w["p2_ghat"] + 1) + 1
+    # D and ΔĜ (each one bit wider than d, Ĝ), r, S~, Q~: the forward pass recomputes a
+    sweep = (w["p2_d"] + 1) + w["p2_r"] + w["p2_st"] + w["p2_q"] + (w["p2_ghat"] + 1)
     assert res.sweep_buffer_bits == 2 * lanes * n * sweep
 
 

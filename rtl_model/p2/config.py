@@ -27,6 +27,7 @@ __all__ = [
     "MUL_LATENCY",
     "OPERAND_LATENCY",
     "P2_SIGNALS",
+    "QUOTIENT_LATENCY",
     "STATE_LATENCY",
     "SWEEP_READ",
     "P2Config",
@@ -167,8 +168,12 @@ SWEEP_READ = (
 #: Cycles from the loop entry to the divider's operand ``den``: the operand register,
 #: ``c S~``, ``+ 1``, the cast.
 DEN_LATENCY = OPERAND_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
-#: Cycles from the divider's ``r`` to ``S~_k`` in the lane's state: ``r S~``, ``+ M``, the cast.
-STATE_LATENCY = MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
+#: The divider's quotient ``r`` (its output cast's rounding carry) registered before the
+#: ``r S~``, ``r h`` products' operands.
+QUOTIENT_LATENCY = 1
+#: Cycles from the divider's ``r`` to ``S~_k`` in the lane's state: ``r`` registered,
+#: ``r S~``, ``+ M``, the cast.
+STATE_LATENCY = QUOTIENT_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
 #: The forward recurrence ``e_k -> e_k+1``: ``u = e - dG``; ``S~ u``, ``+ Q~``, cast ``w``;
 #: ``r w``, cast ``lam``; ``(-a) lam``, cast ``z``; ``a z``, ``+ u``, cast ``e`` into the
 #: lane's state; the e operand register.

@@ -40,7 +40,7 @@ from ..cost import (
 from ..cost import operand_bits as _bits
 from ..fixedpoint import FixedFormat
 from .config import P2_SIGNALS, P2Config
-from .model import buffer_bits
+from .model import buffer_bits, sweep_entry_bits
 
 __all__ = [
     "AREA_FEATURES",
@@ -131,8 +131,7 @@ def config_cost(config: P2Config, shape: tuple[int, int], mode: str = "stereo") 
     bits = buffer_bits(config, n)
     depth = lanes * n
     lb_word = f["p2_d"].word + f["p2_ghat"].word
-    sweep_word = f["p2_a"].word + f["p2_r"].word + f["p2_st"].word + f["p2_q"].word
-    sweep_word += f["p2_ghat"].word + 2
+    sweep_word = sweep_entry_bits(config)
     bram = 2 * (bram18_blocks(depth, lb_word) + bram18_blocks(depth, sweep_word))
     return CostReport(
         register_bits=register_bits(config),

@@ -83,6 +83,7 @@ __all__ = [
     "run_p2",
     "schedule_rows",
     "stage_latencies",
+    "sweep_entry_bits",
 ]
 
 _SIG = {name: k for k, name in enumerate(P2_SIGNALS)}
@@ -645,7 +646,7 @@ def _group_recurrence(firsts, lasts, lanes, back, fwd, tb, reads, hold):
         if gi >= 2:  # the sweep buffer it writes is read out by group gi - 2 in time
             b0 = max(b0, starts[gi - 2, 1] + hold)
         # lane l writes its sweep-buffer column 0 at b0 + l + (n - 1) P_b + SWEEP_READ + T_b
-        # and reads it at f0 + l: later, as P_b >= T_b > SWEEP_READ (T_b = 11 + T_div)
+        # and reads it at f0 + l: later, as P_b >= T_b > SWEEP_READ (T_b = 12 + T_div)
         f0 = b0 + back + tb
         f0 = f0 if gi == 0 else max(f0, starts[gi - 1, 1] + fwd)
         if gi >= 2 and starts[gi - 2, 0] + reads > firsts[first] + IN_LATENCY:
@@ -688,14 +689,25 @@ def output_line_starts(starts: np.ndarray, info: dict[str, int], j0: int, j1: in
     return starts[lines // lanes, 1] + lines % lanes + OUT_LATENCY
 
 
+def sweep_entry_bits(config: P2Config) -> int:
+    """Bits of one sweep-buffer entry: ``D = d_k + d_k+1`` and ``ΔĜ`` (each one bit wider
+    than ``d``, ``Ĝ``), ``r``, ``S~_k+1``, ``Q~_k+1``; the forward pass recomputes ``a``
+    and ``|D| >= T_D`` from ``D``."""
+    f = config.formats
+    return (
+        (f["p2_d"].word + 1 + f["p2_r"].word + f["p2_st"].word + f["p2_q"].word)
+        + f["p2_ghat"].word
+        + 1
+    )
+
+
 def buffer_bits(config: P2Config, width: int) -> dict[str, int]:
-    """Ping-pong input line buffers (d, Ĝ) and ping-pong sweep buffers (A, r, S~, Q~,
-    ΔĜ one bit wider, the threshold bit), each ``lanes`` lines deep."""
+    """Ping-pong input line buffers (d, Ĝ) and ping-pong sweep buffers
+    (:func:`sweep_entry_bits`), each ``lanes`` lines deep."""
     f = config.formats
     lanes = config.effective_lanes()
     lb = f["p2_d"].word + f["p2_ghat"].word
-    sweep = f["p2_a"].word + f["p2_r"].word + f["p2_st"].word + f["p2_q"].word
-    sweep += f["p2_ghat"].word + 1 + 1
+    sweep = sweep_entry_bits(config)
     return {
         "line_buffer_bits": 2 * lanes * width * lb,
         "sweep_buffer_bits": 2 * lanes * width * sweep,
