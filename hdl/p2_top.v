@@ -15,9 +15,9 @@
 //   E + 4     c S~, S~ dG                     E + 5     1 + c S~, Q~ - S~ dG
 //   E + 6     den (divider operand), h        E + 6 + T_DIV  r (the divider's cast)
 //   E + 7 + T_DIV  r registered               E + 10 + T_DIV  r S~, r h
-//   E + 11 + T_DIV  M + r S~
+//   E + 11 + T_DIV  M + r S~                E + 12 + T_DIV  cast S~_k, Q~_k (registered)
 //   E + T_B   write-back (taps a c den r s h q; S~_k, Q~_k into the lane's state),
-//             T_B = 6 + T_DIV + 6; sweep-buffer entry D, r, S~_k+1, Q~_k+1, dG
+//             T_B = 6 + T_DIV + 7; sweep-buffer entry D, r, S~_k+1, Q~_k+1, dG
 //   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, |D|
 //   F + 2     |D| >= T_D    F + 3  KA D    F + 4  a = cast(KA D)    F + 5  -a
 //   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w   F + 10  lam (tap)
@@ -39,8 +39,8 @@ module p2_top #(
     parameter integer WIDTH = 32,
     parameter integer HEIGHT = 8,
     parameter integer LANES = 11,
-    parameter integer T_DIV = 14,       // rtl_model/p2/config.py divider_latency_p2
-                                        // (reciprocal: fx_div_reciprocal PIPE 1, UNIT 1)
+    parameter integer T_DIV = 16,       // rtl_model/p2/config.py divider_latency_p2
+                                        // (reciprocal: fx_div_reciprocal PIPE 1, UNIT 2)
     parameter integer DIVIDER = 1,      // 1 reciprocal, 0 restoring
     parameter integer RECIP_L = 8,
     parameter integer RECIP_R = 20,
@@ -81,9 +81,9 @@ module p2_top #(
     // the loop entry E = r + SWEEP_READ: read, D, KA D, cast a, a^2, cast, max(., C_MIN)
     localparam integer SWEEP_READ = LB_READ + 1 + MUL_LAT + 1 + MUL_LAT + 1 + 1;
     // the backward loop: operand register, c S~, + 1, cast (den at E + E_DEN), the
-    // divider, r registered, r S~, + M, cast into the lane's state
+    // divider, r registered, r S~, + M, cast, registered into the lane's state
     localparam integer E_DEN = 1 + MUL_LAT + 1 + 1;
-    localparam integer T_B = E_DEN + T_DIV + 1 + MUL_LAT + 1 + 1;
+    localparam integer T_B = E_DEN + T_DIV + 1 + MUL_LAT + 1 + 1 + 1;
     // the forward loop: u, S~ u, + Q~, cast w, r w, cast lam, (-a) lam, cast z, a z,
     // + u, cast e into the lane's state, the e operand register
     localparam integer T_F = 1 + (MUL_LAT + 2) + (MUL_LAT + 1) * 2 + (MUL_LAT + 2) + 1;
@@ -469,7 +469,7 @@ module p2_top #(
     generate
         if (DIVIDER != 0) begin : g_recip
             fx_div_reciprocal #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, RECIP_L,
-                                RECIP_R, ROM_FILE, 1, 1) u_div (
+                                RECIP_R, ROM_FILE, 1, 2) u_div (
                 .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end else begin : g_rest
             fx_div_restoring #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, 0) u_div (
@@ -504,16 +504,22 @@ module p2_top #(
         s_x10 <= (m_x <<< (F_S - MR_F)) + (rs_x <<< (F_S - R_F - ST_F));
         rh10 <= rh;
     end
-    // E+12+T_DIV = E+T_B, the write-back: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h)
-    // into the lane's state and the write-back registers (taps a c den r s h q; the
-    // lane's first slot, column WIDTH-1: S~_end, Q~ = 0 and the others 0)
-    wire [ST_W-1:0] s_n;
-    wire [Q_W-1:0] q_n;
-    wire ovf_sn, ovf_qn;
+    // E+12+T_DIV: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h), registered (the casts'
+    // rounding carries apart from the lane's state write)
+    wire [ST_W-1:0] s_c;
+    wire [Q_W-1:0] q_c;
+    wire ovf_sc, ovf_qc;
     fx_cast_sized #(SN_W, F_S, ST_W, ST_F, ST_S, ST_Q, ST_O) c_s (
-        .x(s_x10), .y(s_n), .ovf(ovf_sn));
+        .x(s_x10), .y(s_c), .ovf(ovf_sc));
     fx_cast_sized #(R_W + H_W + 2, R_F + H_F, Q_W, Q_F, Q_S, Q_Q, Q_O) c_q (
-        .x(rh10), .y(q_n), .ovf(ovf_qn));
+        .x(rh10), .y(q_c), .ovf(ovf_qc));
+    reg [ST_W-1:0] s_n;
+    reg [Q_W-1:0] q_n;
+    reg ovf_sn, ovf_qn;
+    always @(posedge clk) {s_n, q_n, ovf_sn, ovf_qn} <= {s_c, q_c, ovf_sc, ovf_qc};
+    // E+13+T_DIV = E+T_B, the write-back: S~_k, Q~_k into the lane's state and the
+    // write-back registers (taps a c den r s h q; the lane's first slot, column WIDTH-1:
+    // S~_end, Q~ = 0 and the others 0)
     // beside the loop: from E (a, c, dG, D, ovf a c), E+1 (S~, Q~ operands), E+6 (den,
     // h), E+RD (r) to the cycle before the write-back
     localparam integer SIDE_W = A_W + C_W + DG_W + DS_W + 2;

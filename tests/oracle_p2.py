@@ -165,15 +165,16 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
     controllers that start each group's sweep and forward pass. Raises ``ValueError`` where
     a group's input would overwrite a line buffer its sweep still reads."""
     m, n = in_cycles.shape
-    # P2's divider: the reciprocal one pipelined (PIPE = 1: + 10) and reduced to 1/den
-    # (UNIT = 1: - 5), docs/p2_datapath.md "Timing"; the restoring one as declared
+    # P2's divider: the reciprocal one pipelined (PIPE = 1: + 10), reduced to 1/den
+    # (UNIT = 2: - 5) with den registered again and the normalising shift in two stages
+    # (+ 2), docs/p2_datapath.md "Timing"; the restoring one as declared
     t_div = divider_latency(config.divider, config.fmt("p2_r").word)
-    t_div += 5 if config.divider == "reciprocal" else 0
+    t_div += 10 - 5 + 2 if config.divider == "reciprocal" else 0
     mul = 3  # hdl/fx_pipe.v fx_mul_pipe: partial products, pair sums, final sum
     ram = 5  # a block RAM read: address, the blocks' reads, registered, ORed in fours, all
     # backward loop: operand register, c S~ (mul), + 1, cast den; the divider; r
-    # registered; r S~ (mul), + M, cast S~ into the lane's state
-    t_b = 1 + mul + 1 + 1 + t_div + 1 + mul + 1 + 1
+    # registered; r S~ (mul), + M, cast S~ registered, into the lane's state
+    t_b = 1 + mul + 1 + 1 + t_div + 1 + mul + 1 + 1 + 1
     # forward loop: u; S~ u (mul), + Q~, cast w; r w (mul), cast lam; (-a) lam (mul), cast
     # z; a z (mul), + u, cast e into the lane's state; the e operand register
     t_f = 1 + mul + 1 + 1 + mul + 1 + mul + 1 + mul + 1 + 1 + 1

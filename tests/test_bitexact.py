@@ -150,7 +150,7 @@ P2_RICCATI = (
 P2_DESIGNS = (
     {},
     {"kappa_min": 0.1, "recip_lut_bits": 5, "recip_bits": 13},
-    {"kappa_min": 2.0**-9, "lanes": 40},
+    {"kappa_min": 2.0**-9, "lanes": 44},
     {"recip_lut_bits": 3, "recip_bits": 8},
 )
 

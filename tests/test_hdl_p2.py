@@ -30,7 +30,7 @@ if shutil.which("iverilog") is None or shutil.which("vvp") is None:
     pytest.skip("Icarus Verilog (iverilog) is not installed", allow_module_level=True)
 
 CROP = (200, 208, 100, 124)  # 8 x 24 pixels of the lab scene: one short lane group
-TALL = (190, 244, 100, 124)  # 54 x 24: three groups of 26 (the last short), two of 27
+TALL = (190, 250, 100, 124)  # 60 x 24: three groups of 29 (the last short), two of 30
 GAPS = TimingConfig(hblank=3, vblank=5, gap_prob=0.2, seed=4)
 PLAIN = TimingConfig()
 
@@ -93,10 +93,10 @@ def _check_exact(report: replay.ReplayReport, m: int, n: int, groups: int) -> No
 
 
 CASES = [  # (id, divider, lanes, crop, timing, groups)
-    ("recip-L26-short", "reciprocal", 0, CROP, PLAIN, 1),
-    ("recip-L27-gaps", "reciprocal", 27, TALL, GAPS, 2),
-    ("recip-L26-gaps-3groups", "reciprocal", 0, TALL, GAPS, 3),
-    ("restoring-L42", "restoring", 0, CROP, TimingConfig(hblank=2), 1),
+    ("recip-L29-short", "reciprocal", 0, CROP, PLAIN, 1),
+    ("recip-L30-gaps", "reciprocal", 30, TALL, GAPS, 2),
+    ("recip-L29-gaps-3groups", "reciprocal", 0, TALL, GAPS, 3),
+    ("restoring-L43", "restoring", 0, CROP, TimingConfig(hblank=2), 1),
 ]
 
 
@@ -122,7 +122,7 @@ def test_overflow_counts_equal_the_models(tmp_path):
 
 @pytest.mark.skipif(shutil.which("verilator") is None, reason="Verilator is not installed")
 def test_verilator_replays_value_and_cycle_exact(tmp_path):
-    config = P2Config.default().with_(lanes=27)
+    config = P2Config.default().with_(lanes=30)
     vec, _vs = _vectors(tmp_path, config, TALL, GAPS)
     report = _replay(vec, tmp_path, "verilator")
     _check_exact(report, TALL[1] - TALL[0], TALL[3] - TALL[2], 2)
@@ -141,8 +141,8 @@ def test_cli_replays_a_p2_directory(tmp_path, capsys):
 
 
 def test_overrun_flag_when_the_lanes_cannot_sustain_the_rate(tmp_path):
-    """Vectors at one pixel per clock with 26 lanes, the RTL compiled with a divider 11
-    cycles slower (loop latency 37 > 26 lanes): the sweep cannot keep up, and the
+    """Vectors at one pixel per clock with 29 lanes, the RTL compiled with a divider 9
+    cycles slower (loop latency 38 > 29 lanes): the sweep cannot keep up, and the
     hardware raises ``overrun`` (the model's assertion) instead of sweeping overwritten
     lines silently."""
     vec, _vs = _vectors(tmp_path, P2Config.default(), TALL)

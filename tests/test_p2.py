@@ -217,8 +217,8 @@ def test_group_starts_follow_the_recurrence(seed, arrival):
 
 @pytest.mark.parametrize(
     ("divider", "lanes", "hblank", "gap_prob"),
-    [("reciprocal", 0, 0, 0.0), ("reciprocal", 0, 7, 0.2), ("reciprocal", 27, 0, 0.0),
-     ("restoring", 0, 0, 0.0), ("restoring", 44, 5, 0.3), ("reciprocal", 3, 800, 0.0)],
+    [("reciprocal", 0, 0, 0.0), ("reciprocal", 0, 7, 0.2), ("reciprocal", 30, 0, 0.0),
+     ("restoring", 0, 0, 0.0), ("restoring", 44, 5, 0.3), ("reciprocal", 3, 900, 0.0)],
 )  # fmt: skip
 def test_tap_cycles_are_the_oracles_one_sample_per_cycle(divider, lanes, hblank, gap_prob):
     """Every tap's cycles (the schedule, :mod:`rangefx.rtl_model.p2.taps`) equal the
