@@ -19,9 +19,14 @@
 //                      registered before its overflow mode (+2)); UNIT = 1 (a reciprocal:
 //                      n = 1 and d >= 0, the caller's promise) leaves out the magnitude
 //                      stage (PIPE != 0: -1), the |N| y1 product (-ML) and the y1
-//                      register (-1): latency 7, PIPE = 1: 14, PIPE = 2: 17
+//                      register (-1): latency 7, PIPE = 1: 14, PIPE = 2: 17; NORM = 1
+//                      (with PIPE != 0) splits the normalising shift of |D| in two
+//                      stages (its high amount bits, registered, then its low ones: + 1)
+//                      and with UNIT keeps the operand stage, D registered before its
+//                      leading one (+ 1): PIPE = 1, UNIT = 1, NORM = 1: 16; NORM = 0 (the
+//                      default) is the circuit without them
 // P1 (p1_range.v, p1_frontend.v) uses FRONT = 1 / PIPE = 2 to close its clock (docs/hdl.md);
-// P2 (p2_top.v, r = 1/den) PIPE = 1 / UNIT = 2 (UNIT = 1 and its front cut twice more: below).
+// P2 (p2_top.v, r = 1/den) PIPE = 1 / UNIT = 1 / NORM = 1.
 // D = 0 gives 0 when N = 0, otherwise the overflow mode of S acting on an infinite value
 // with the sign of N (ovf = 1).
 `timescale 1ns / 1ps
@@ -149,7 +154,8 @@ module fx_div_reciprocal #(
     parameter integer R = 20,           // reciprocal fraction bits (recip_bits)
     parameter ROM_FILE = "recip_rom.mem",
     parameter integer PIPE = 0,         // 1: + 10 stages, 2: + 14, see above
-    parameter integer UNIT = 0          // 1: y = 1/d (n = 1, d >= 0): fewer stages, above; 2: below
+    parameter integer UNIT = 0,         // 1: y = 1/d (n = 1, d >= 0): fewer stages, above
+    parameter integer NORM = 0          // 1 (PIPE != 0): + 1 or 2 stages, above
 ) (
     input  wire                    clk,
     input  wire signed [N_W-1:0]   n,
@@ -175,7 +181,8 @@ module fx_div_reciprocal #(
     initial $readmemh(ROM_FILE, rom);
 
     // stages 1-2: magnitude, leading one p, the L seed index bits and mR, the ROM read
-    // (two cycles). PIPE cuts the part before the read in three: |N| |D|; p; idx and mR.
+    // (two cycles). PIPE cuts the part before the read in three: |N| |D|; p; idx and mR
+    // (NORM: in four, the shift's high bits registered before idx and mR).
     wire [N_W-1:0] an_n = n[N_W-1] ? -n : n;
     wire [D_W-1:0] ad_n = (UNIT == 0 && d[D_W-1]) ? -d : d;
     wire           dz_n = (d == {D_W{1'b0}});
@@ -188,13 +195,16 @@ module fx_div_reciprocal #(
     wire [L-1:0]   idx, idx_c;
     wire [R:0]     mr, mr_c;
     reg  [PB-1:0]  p_n;
-    integer k; wire [N_W+3+PB+L+R:0] norm_c;  // UNIT = 2: the stage after the shift (end)
+    integer k;
     always @* begin
         p_n = {PB{1'b0}};
         for (k = 0; k < D_W; k = k + 1)
             if (ad[k]) p_n = k;
     end
-    wire [D_W-1:0] aligned = ad_b << (D_W - 1 - p);  // leading one at bit D_W - 1
+    wire [D_W-1:0] aligned;                         // leading one at bit D_W - 1
+    wire [N_W-1:0] an_s;                            // beside the shift (NORM: its cut)
+    wire [2:0]     fl_s;
+    wire [PB-1:0]  p_s;
     // idx = floor(|D| 2^(L-p)) - 2^L, mR = floor(|D| 2^(R-p)): constant shifts of `aligned`
     wire [D_W+L-1:0] idx_w = {aligned, {L{1'b0}}} >> (D_W - 1);
     wire [D_W+R-1:0] mr_w = {aligned, {R{1'b0}}} >> (D_W - 1);
@@ -211,20 +221,41 @@ module fx_div_reciprocal #(
             always @(posedge clk) begin
                 {an_a, ad_a, fl_a} <= {an_n, ad_n, neg_n, dz_n, nz_n};
                 {an_b_r, ad_b_r, fl_b_r, p_b} <= {an, ad, fl, p_n};
-                {an_c_r, fl_c_r, p_c_r, idx_c_r, mr_c_r} <= {an_b_r, fl_b_r, p_b, idx, mr};
+                {an_c_r, fl_c_r, p_c_r, idx_c_r, mr_c_r} <= {an_s, fl_s, p_s, idx, mr};
             end
-            // UNIT: no magnitude to take, no magnitude stage
-            if (UNIT == 1) begin : g_unit  // UNIT = 2: D registered (at the end)
+            // UNIT: no magnitude to take, no magnitude stage (NORM: D registered there)
+            if (UNIT != 0 && NORM == 0) begin : g_unit
                 assign {an, ad, fl} = {an_n, ad_n, neg_n, dz_n, nz_n};
             end else begin : g_mag
                 assign {an, ad, fl} = {an_a, ad_a, fl_a};
             end
             assign {an_b, ad_b, fl_b, p} = {an_b_r, ad_b_r, fl_b_r, p_b};
-            assign {an_c, fl_c, p_c, idx_c, mr_c} = (UNIT > 1) ? norm_c : {an_c_r, fl_c_r, p_c_r, idx_c_r, mr_c_r};
+            assign {an_c, fl_c, p_c, idx_c, mr_c} = {an_c_r, fl_c_r, p_c_r, idx_c_r, mr_c_r};
+            if (NORM != 0) begin : g_norm
+                // the shift D_W - 1 - p: its bits from SB up, registered, then the rest
+                localparam integer SB = (PB > 1) ? PB / 2 : 1;
+                reg [D_W-1:0] hi_s;
+                reg [SB-1:0]  lo_s;
+                reg [N_W-1:0] an_s_r;
+                reg [2:0]     fl_s_r;
+                reg [PB-1:0]  p_s_r;
+                always @(posedge clk) begin
+                    hi_s <= ad_b << (((D_W - 1 - p) >> SB) << SB);
+                    lo_s <= D_W - 1 - p;
+                    {an_s_r, fl_s_r, p_s_r} <= {an_b, fl_b, p};
+                end
+                assign aligned = hi_s << lo_s;
+                assign {an_s, fl_s, p_s} = {an_s_r, fl_s_r, p_s_r};
+            end else begin : g_shift
+                assign aligned = ad_b << (D_W - 1 - p);
+                assign {an_s, fl_s, p_s} = {an_b, fl_b, p};
+            end
         end else begin : g_direct
             assign {an, ad, fl} = {an_n, ad_n, neg_n, dz_n, nz_n};
             assign {an_b, ad_b, fl_b, p} = {an, ad, fl, p_n};
-            assign {an_c, fl_c, p_c, idx_c, mr_c} = {an_b, fl_b, p, idx, mr};
+            assign aligned = ad_b << (D_W - 1 - p);
+            assign {an_s, fl_s, p_s} = {an_b, fl_b, p};
+            assign {an_c, fl_c, p_c, idx_c, mr_c} = {an_s, fl_s, p_s, idx, mr};
         end
     endgenerate
     // the ROM read takes two cycles, the address and the data out each registered (the
@@ -291,34 +322,4 @@ module fx_div_reciprocal #(
     fx_cast_var #(XW, SH_W, SH_MAX, OUT_W, OUT_S, QUANT, OVF, PIPE) u_cast (
         .clk(clk), .x(x_7), .sh(sh_7), .y(y_c), .ovf(ovf_c));
     always @(posedge clk) {y, ovf} <= {y_c, ovf_c};
-    // UNIT = 2 (P2's; with PIPE != 0): UNIT = 1 with the front cut twice more. D is
-    // registered before its leading one (the operand stage that UNIT = 1 leaves out:
-    // g_mag above, + 1), and the normalising shift D_W - 1 - p takes two stages: its
-    // amount's bits from SB up (hi_s, lo_s registered), then its low bits, idx and mR
-    // from that `aligned` as above, registered in norm_c (+ 1; the stage c registers
-    // above are left unread and removed). PIPE = 1, UNIT = 2: latency 16.
-    // Its lines sit here, after the rest, and it is a value of UNIT rather than a new
-    // parameter, so that P1's divider (UNIT = 0) is elaborated from the same text:
-    // Yosys 0.23 maps the same logic to other LUTs when the module gains a parameter.
-    generate
-        if (UNIT > 1 && PIPE != 0) begin : g_norm
-            localparam integer SB = (PB > 1) ? PB / 2 : 1;
-            reg [D_W-1:0] hi_s;
-            reg [SB-1:0]  lo_s;
-            reg [N_W-1:0] an_s;
-            reg [2:0]     fl_s;
-            reg [PB-1:0]  p_s;
-            reg [N_W+3+PB+L+R:0] c_r;
-            wire [D_W-1:0]   al = hi_s << lo_s;
-            wire [D_W+L-1:0] ix = {al, {L{1'b0}}} >> (D_W - 1);
-            wire [D_W+R-1:0] mx = {al, {R{1'b0}}} >> (D_W - 1);
-            always @(posedge clk) begin
-                hi_s <= ad_b << (((D_W - 1 - p) >> SB) << SB);
-                lo_s <= D_W - 1 - p;
-                {an_s, fl_s, p_s} <= {an_b, fl_b, p};
-                c_r <= {an_s, fl_s, p_s, ix[L-1:0], mx[R:0]};
-            end
-            assign norm_c = c_r;
-        end
-    endgenerate
 endmodule

@@ -21,8 +21,9 @@
 //   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, |D|
 //   F + 2     |D| >= T_D    F + 3  KA D    F + 4  a = cast(KA D)    F + 5  -a
 //   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w   F + 10  lam (tap)
-//   F + 13    (-a) lam  F + 14 z (tap)  F + 17  a z        F + 18  u + a z, cast into the
-//   lane's e state (T_F = 20: the lane's next e operand is read at its next t + 4)
+//   F + 13    (-a) lam  F + 14 z (tap)  F + 17  a z        F + 18  u + a z   F + 19  its
+//   cast, registered into the lane's e state (T_F = 21: the lane's next e operand is read
+//   at its next t + 4)
 //   F + 15    valid, range (threshold)  F + 16  output register (taps, m_axis)
 // Lines are taken in groups of LANES (ping-pong line and sweep buffers, bank = group mod 2);
 // a group's sweep runs WIDTH columns x P_B cycles (column WIDTH-1's slot loads S~_end,
@@ -40,7 +41,8 @@ module p2_top #(
     parameter integer HEIGHT = 8,
     parameter integer LANES = 11,
     parameter integer T_DIV = 16,       // rtl_model/p2/config.py divider_latency_p2
-                                        // (reciprocal: fx_div_reciprocal PIPE 1, UNIT 2)
+                                        // (reciprocal: fx_div_reciprocal PIPE 1, UNIT 1,
+                                        // NORM 1)
     parameter integer DIVIDER = 1,      // 1 reciprocal, 0 restoring
     parameter integer RECIP_L = 8,
     parameter integer RECIP_R = 20,
@@ -85,8 +87,8 @@ module p2_top #(
     localparam integer E_DEN = 1 + MUL_LAT + 1 + 1;
     localparam integer T_B = E_DEN + T_DIV + 1 + MUL_LAT + 1 + 1 + 1;
     // the forward loop: u, S~ u, + Q~, cast w, r w, cast lam, (-a) lam, cast z, a z,
-    // + u, cast e into the lane's state, the e operand register
-    localparam integer T_F = 1 + (MUL_LAT + 2) + (MUL_LAT + 1) * 2 + (MUL_LAT + 2) + 1;
+    // + u, cast e, registered into the lane's state, the e operand register
+    localparam integer T_F = 1 + (MUL_LAT + 2) + (MUL_LAT + 1) * 2 + (MUL_LAT + 2) + 1 + 1;
     localparam integer P_B = (LANES > T_B) ? LANES : T_B;
     localparam integer P_F = (LANES > T_F) ? LANES : T_F;
     localparam integer LW = (LANES > 1) ? $clog2(LANES) : 1;      // lane index
@@ -469,7 +471,7 @@ module p2_top #(
     generate
         if (DIVIDER != 0) begin : g_recip
             fx_div_reciprocal #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, RECIP_L,
-                                RECIP_R, ROM_FILE, 1, 2) u_div (
+                                RECIP_R, ROM_FILE, 1, 1, 1) u_div (
                 .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end else begin : g_rest
             fx_div_restoring #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, 0) u_div (
@@ -707,8 +709,8 @@ module p2_top #(
     reg [Z_W-1:0] z14;
     reg oz14;
     always @(posedge clk) {z14, oz14} <= {z_n, ovf_zn};
-    // F+14 -> F+17: a z; F+18: u + a z (one carry chain); its cast e_k+1 is written into
-    // the lane's e state at the end of F+18 (read for the lane's next slot at t' + 1)
+    // F+14 -> F+17: a z; F+18: u + a z (one carry chain); its cast e_k+1, registered at
+    // F+19, is written into the lane's e state (read for the lane's next slot at t' + 4)
     wire [A_W+1:0] a14;
     fx_delay #(A_W + 2, 10) d_a14 (clk, fa4s, a14);
     wire signed [Z_W:0] z14s = {(Z_S != 0) & z14[Z_W-1], z14};
@@ -726,8 +728,13 @@ module p2_top #(
     wire [E_W-1:0] e_new;
     wire ovf_en;
     fx_cast_sized #(EN_W, F_E, E_W, E_F, E_S, E_Q, E_O) c_e (.x(e_x18), .y(e_new), .ovf(ovf_en));
-    wire [FTAGW-1:0] ft20 = `P2_FTAG(FWD_READ + 18);
-    always @(posedge clk) if (ft20[FTAGW-1]) e_state[ft20[XW+1 +: LW]] <= e_new;
+    // F+19: the cast registered (its rounding carry apart from the lane's e state write),
+    // written into the lane's e state at the end of F+19
+    reg [E_W-1:0] e19;
+    reg oe19;
+    always @(posedge clk) {e19, oe19} <= {e_new, ovf_en};
+    wire [FTAGW-1:0] ft20 = `P2_FTAG(FWD_READ + 19);
+    always @(posedge clk) if (ft20[FTAGW-1]) e_state[ft20[XW+1 +: LW]] <= e19;
     // F+15: valid, range (threshold); F+16: the output register
     wire [0:0] thr14;
     fx_delay #(1, 12) d_thr14 (clk, fthr_2, thr14);
@@ -756,7 +763,7 @@ module p2_top #(
             if (tap_w_v && !ft_w[FTAGW-2]) ovf_w <= ovf_w + ow6;
             if (tap_lam_v && !ft_lam[FTAGW-2]) ovf_lam <= ovf_lam + olam10;
             if (tap_z_v && !ft_z[FTAGW-2]) ovf_z <= ovf_z + oz14;
-            if (ft20[FTAGW-1] && !ft20[FTAGW-2]) ovf_e <= ovf_e + ovf_en;
+            if (ft20[FTAGW-1] && !ft20[FTAGW-2]) ovf_e <= ovf_e + oe19;
         end
     end
     // F+16: the output register (taps valid, range; m_axis): TUSER on the frame's first

@@ -172,20 +172,20 @@ DEN_LATENCY = OPERAND_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
 #: The divider's quotient ``r`` (its output cast's rounding carry) registered before the
 #: ``r S~``, ``r h`` products' operands.
 QUOTIENT_LATENCY = 1
-#: The casts of ``S~_k``, ``Q~_k`` (their rounding carries) registered before the lane's
-#: state write.
+#: The casts of ``S~_k``, ``Q~_k`` and ``e_k+1`` (their rounding carries) registered
+#: before the lane's state write.
 STATE_CAST_LATENCY = 1
 #: Cycles from the divider's ``r`` to ``S~_k`` in the lane's state: ``r`` registered,
 #: ``r S~``, ``+ M``, the cast, registered.
 STATE_LATENCY = QUOTIENT_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY + STATE_CAST_LATENCY
 #: The forward recurrence ``e_k -> e_k+1``: ``u = e - dG``; ``S~ u``, ``+ Q~``, cast ``w``;
-#: ``r w``, cast ``lam``; ``(-a) lam``, cast ``z``; ``a z``, ``+ u``, cast ``e`` into the
-#: lane's state; the e operand register.
+#: ``r w``, cast ``lam``; ``(-a) lam``, cast ``z``; ``a z``, ``+ u``, cast ``e``, registered
+#: into the lane's state (``STATE_CAST_LATENCY``); the e operand register.
 FWD_LOOP = (
     ADD_LATENCY
     + (MUL_LATENCY + ADD_LATENCY + CAST_LATENCY)
     + 2 * (MUL_LATENCY + CAST_LATENCY)
-    + (MUL_LATENCY + ADD_LATENCY + CAST_LATENCY)
+    + (MUL_LATENCY + ADD_LATENCY + CAST_LATENCY + STATE_CAST_LATENCY)
     + OPERAND_LATENCY
 )
 
@@ -193,9 +193,10 @@ FWD_LOOP = (
 #: Cycles P2's divider ``r = 1 / den`` adds to :func:`~rangefx.rtl_model.runtime.divider_latency`
 #: (``hdl/fx_divide.v``): the reciprocal one runs with ``PIPE = 1`` (the leading one, the
 #: normalising shift, the products and the cast's shift each in their own stages: + 10),
-#: ``UNIT = 2`` (numerator 1, ``den >= 0``: no magnitude stage, no ``|N| y1`` product
-#: nor its ``y1`` register: - 5; and ``den`` registered again before its leading one,
-#: the normalising shift in two stages: + 2); the restoring one as declared (``W + 4``).
+#: ``UNIT = 1`` (numerator 1, ``den >= 0``: no magnitude stage, no ``|N| y1`` product
+#: nor its ``y1`` register: - 5) and ``NORM = 1`` (``den`` registered again before its
+#: leading one, the normalising shift in two stages: + 2); the restoring one as declared
+#: (``W + 4``).
 DIVIDER_PIPELINING = {"reciprocal": 10 - 5 + 2, "restoring": 0}
 
 
