@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
-from rangefx.golden.multiscale import pyramid_levels, streaming_schedule
+from rangefx.golden.multiscale import MultiscaleConfig, pyramid_levels, streaming_schedule
 from rangefx.golden.ranging import RangingConfig
 
 from .. import runtime
@@ -1137,11 +1137,19 @@ def tap_offsets(config: P3Config, shape: tuple[int, int]) -> dict[str, tuple[int
     return out
 
 
+@functools.lru_cache(maxsize=32)
+def _schedule(ms: MultiscaleConfig, n: int, m: int) -> dict:
+    """:func:`~rangefx.golden.multiscale.streaming_schedule` once per (settings, shape):
+    a run reads it three times (:func:`p3_schedule` twice, :func:`buffer_bits`), ~0.3 ms
+    each. Shared: its readers here do not change it."""
+    return streaming_schedule(ms, n, m)
+
+
 def p3_schedule(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     """Timing facts of the schedule on ``shape`` images: levels built, level 0's latency
     in lines and its delay lines (``streaming_schedule``), one warp stage's pixel cycles."""
     m, n = shape
-    sched = streaming_schedule(config.multiscale(), n, m)
+    sched = _schedule(config.multiscale(), n, m)
     return {
         "levels": len(sched["levels"]),
         "latency_lines": int(sched["latency_lines"]),
@@ -1199,7 +1207,7 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     form: the five box row sums, exact: both factors' words plus ``ceil(log2(2 rv + 1))``)."""
     m, n = shape
     f = config.formats
-    sched = streaming_schedule(config.multiscale(), n, m)
+    sched = _schedule(config.multiscale(), n, m)
     pix = lambda level: f["p3_pix"].word if level == 0 else f["p3_pyr"].word  # noqa: E731
     # what the warps, window and delay lines hold: the level, or its normalised pixels
     warped = lambda level: f["p3_norm"].word if normalised else pix(level)  # noqa: E731
