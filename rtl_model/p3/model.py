@@ -16,12 +16,13 @@ does at the frame edges; the values do not depend on timing, the cycle stamps fo
 the schedule (:func:`tap_cycles`).
 
 A warp stage runs as line work (:func:`_stage_rows`; the window form then
-:func:`_stage_rows_vertical`; the box form then :func:`_stage_box`, which interleaves
-the box's line and column work through a ring of its row sums, and
-:func:`_stage_rows_corrected`) then column work (:func:`_stage_columns`), each over every
-line of the level; without the vertical term and taps, as one pass down the lines that
-interleaves the two through a ring of row sums (:func:`_stage_fused`). On two threads
-each runs in two bands of lines with their own logs (:func:`_in_bands`), merged after.
+:func:`_stage_rows_vertical`) then column work (:func:`_stage_columns`), each over every
+line of the level; the box form's line work then :func:`_stage_box` (the box's line and
+column work interleaved through a ring of its row sums) and :func:`_stage_box_tail`
+(the correction and the column work, interleaved through rings of row sums); without
+the vertical term and taps, as one pass down the lines that interleaves the two through
+a ring of row sums (:func:`_stage_fused`). On two threads each runs in two bands of
+lines with their own logs (:func:`_in_bands`), merged after.
 """
 
 from __future__ import annotations
@@ -785,10 +786,11 @@ def _stage_box_tail(
     over every line give them, in one pass down the lines (as :func:`_stage_fused`): the
     correction of :data:`FUSED_CHUNK` lines, ``radius`` lines ahead, then the column
     work of a chunk, the row sums on ``e + gy v`` in ``rge``, ``ree`` (a ring of ``2
-    radius + FUSED_CHUNK`` lines each, this band's own, or planes for the taps; ``rgg``
-    :func:`_stage_rows`' plane). The correction does not read ``u``: the ``radius``
-    lines of the other band that a band's column work needs are corrected here too from
-    the same planes, logged nowhere (the other band logs them)."""
+    radius + FUSED_CHUNK`` lines each, this band's own; ``rgg`` :func:`_stage_rows`'
+    plane). The correction does not read ``u``: the ``radius`` lines of the other band
+    that a band's column work needs are corrected here too from the same planes, logged
+    nowhere (the other band logs them). With taps the two run over every line in turn
+    (the row sums into planes)."""
     m, n = u.shape
     r = win.shape[0] - 1
     none = np.empty((0, n), dtype=np.int64)
@@ -1277,8 +1279,10 @@ def _run_level(
     :func:`_in_bands`) before the next starts, since the window's column pass reads
     ``radius`` lines either side; the box form's line work then :func:`_stage_box` and
     :func:`_stage_box_tail` (the correction and the column work in one pass down each
-    band's lines, each band its own ring); without the vertical term and taps, one pass
-    down each band's lines (:func:`_stage_fused`, each band its own ring). Returns
+    band's lines, each band its own ring; with taps :func:`_stage_rows_corrected` then
+    :func:`_stage_columns` over every line, the row sums in planes); without the
+    vertical term and taps, one pass down each band's lines (:func:`_stage_fused`, each
+    band its own ring). Returns
     the last stage's window sums (``sgg``, ``sge``, ``see``, and with ``vertical``
     ``syy``, ``sgy``, ``sye``, ``det``, ``nu``), written only at level 0 (``final``) or
     with taps; ``taps`` (level 0 of a run with taps): ``ax``, ``u_start`` (``ay``), then
@@ -1342,12 +1346,15 @@ def _run_level(
     def box_tail(out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
                  y1: int) -> None:  # fmt: skip
         # the row sums on e + gy v: each band's own ring (the scratch of the thread that
-        # runs it), or for the taps the calling thread's planes
-        rings = (rge, ree) if taps is not None else (
-            runtime.scratch(f"{key}.ring.{k}", ring) for k in ("rge", "ree"))  # fmt: skip
+        # runs it)
+        rge, ree = (runtime.scratch(f"{key}.ring.{k}", ring) for k in ("rge", "ree"))
         _stage_box_tail(g, e, gy, v, config.vertical_radius, u, umax, win, base, kind, lanes,
-                        lut, config.recip_bits, log, modes, fm, st, dst, ov, ev, rgg, *rings,
+                        lut, config.recip_bits, log, modes, fm, st, dst, ov, ev, rgg, rge, ree,
                         out, du, y0, y1)  # fmt: skip
+
+    def corrected(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
+        _stage_rows_corrected(g, e, gy, v, config.vertical_radius, win, base, fm, st, ov, ev,
+                              rge, ree, y0, y1)  # fmt: skip
 
     def columns(out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
                 y1: int) -> None:  # fmt: skip
@@ -1376,10 +1383,13 @@ def _run_level(
         _in_bands(rows, h, w, stats)
         if vertical:
             _in_bands(functools.partial(rows_vertical, first), h, w, stats)
-        if box:  # the box, then the correction and the column work in one pass
+        if box:
             _in_bands(functools.partial(box_stage, first), h, w, stats)
+        if box and taps is None:  # the correction and the column work in one pass
             _in_bands(functools.partial(box_tail, sums if kept else no_sums), h, w, stats)
         else:
+            if box:  # with taps: the row sums on e + gy v into planes, every line
+                _in_bands(corrected, h, w, stats)
             _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
         if taps is None:
             continue
