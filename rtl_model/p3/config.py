@@ -210,16 +210,11 @@ class P3Config(WordLengthConfig):
         return self.multiscale().vertical_form
 
     def multiscale(self) -> MultiscaleConfig:
-        """The golden G6 settings of this config, built at the first call and kept (both
-        are frozen; a run of the model asks ~25 times, each build validating again)."""
-        ms = self.__dict__.get("_multiscale")
-        if ms is None:
-            kw = {k: getattr(self, k) for k in MULTISCALE_FIELDS}
-            kw["max_disparity"] = float(self.max_disparity) or None
-            kw["levels"] = self.levels or None
-            ms = MultiscaleConfig(**kw)
-            object.__setattr__(self, "_multiscale", ms)  # not a field: eq, replace ignore it
-        return ms
+        """The golden G6 settings of this config."""
+        kw = {k: getattr(self, k) for k in MULTISCALE_FIELDS}
+        kw["max_disparity"] = float(self.max_disparity) or None
+        kw["levels"] = self.levels or None
+        return MultiscaleConfig(**kw)
 
     def exact_intermediates(self) -> Iterable[tuple[str, Terms, int]]:
         f = self.formats
