@@ -398,11 +398,45 @@ def test_two_bands_of_the_fused_stage_have_their_own_rings(monkeypatch):
             assert not np.shares_memory(ring_a, ring_b)
 
 
+def test_two_bands_of_the_box_form_have_their_own_rings(monkeypatch):
+    """The box form (the default) runs its box (``_stage_box``: the five box row sums in
+    a ring) and then its correction and column work (``_stage_box_tail``: the row sums
+    on ``e + gy v`` in two rings) each as one pass down a band's lines; on two threads
+    the bands run at once, so no ring may be shared between them (as
+    ``test_two_bands_of_the_fused_stage_have_their_own_rings``), and the 512 x 512 lab
+    frame's outputs equal the one-thread run's."""
+    calls = {"_stage_box": [], "_stage_box_tail": []}
+    # the rings' positions among the arguments (counted from the end), then y0, y1
+    rings = {"_stage_box": (-7,), "_stage_box_tail": (-6, -5)}
+
+    def spy(name):
+        real = getattr(p3_model, name)
+
+        def run(*args):
+            calls[name].append(tuple(args[k] for k in rings[name]) + args[-2:])
+            real(*args)
+
+        return run
+
+    for name in calls:
+        monkeypatch.setattr(p3_model, name, spy(name))
+    config = P3.default_config()
+    assert config.vertical_form == "box"
+    _assert_two_threads_give_one_thread_on_lab(config, runs=2)
+    for name, made in calls.items():
+        firsts = [c for c in made if c[-2] == 0]
+        pairs = [(a, b) for b in made if b[-2] > 0 for a in firsts if a[-1] == b[-2]]
+        assert len(pairs) >= 2 * config.warps, name
+        for a, b in pairs:
+            for ring_a, ring_b in zip(a[:-2], b[:-2], strict=True):
+                assert not np.shares_memory(ring_a, ring_b), name
+
+
 @pytest.mark.parametrize("design", [{}, {"vertical_radius": 0}])
 def test_two_threads_give_one_thread_on_the_lab_frame_with_the_vertical_term(design):
-    """The box form (the default) and the window form run their stages unfused, in two
-    bands of lines on two threads: the 512 x 512 lab frame's ranges, validity, cycles,
-    counts and min/max equal the one-thread run's, three runs each."""
+    """The box form (the default) and the window form run in two bands of lines on two
+    threads: the 512 x 512 lab frame's ranges, validity, cycles, counts and min/max equal
+    the one-thread run's, three runs each."""
     config = P3.default_config(**design)
     assert config.vertical_form == ("box" if not design else "window")
     _assert_two_threads_give_one_thread_on_lab(config, runs=3)

@@ -16,12 +16,13 @@ does at the frame edges; the values do not depend on timing, the cycle stamps fo
 the schedule (:func:`tap_cycles`).
 
 A warp stage runs as line work (:func:`_stage_rows`; the window form then
-:func:`_stage_rows_vertical`; the box form then :func:`_stage_rows_box`,
-:func:`_stage_box_columns` and :func:`_stage_rows_corrected`) then column work
-(:func:`_stage_columns`), each over every line of the level; without the vertical term
-and taps, as one pass down the lines that interleaves the two through a
-ring of row sums (:func:`_stage_fused`). On two threads each runs in two bands of lines
-with their own logs (:func:`_in_bands`), merged after.
+:func:`_stage_rows_vertical`) then column work (:func:`_stage_columns`), each over every
+line of the level; the box form's line work then :func:`_stage_box` (the box's line and
+column work interleaved through a ring of its row sums) and :func:`_stage_box_tail`
+(the correction and the column work, interleaved through rings of row sums); without
+the vertical term and taps, as one pass down the lines that interleaves the two through
+a ring of row sums (:func:`_stage_fused`). On two threads each runs in two bands of
+lines with their own logs (:func:`_in_bands`), merged after.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ import numpy as np
 from numba import njit
 
 from rangefx.golden.geometry import MotionIncrement, PinholeCamera
-from rangefx.golden.multiscale import pyramid_levels, streaming_schedule
+from rangefx.golden.multiscale import MultiscaleConfig, pyramid_levels, streaming_schedule
 from rangefx.golden.ranging import RangingConfig
 
 from .. import runtime
@@ -399,10 +400,11 @@ def _stage_rows(
     row pass on the three products (formed as the row pass reads them: no product
     plane), line ``y`` of each into its line ``y % rows`` (a plane, or a ring of lines:
     :func:`_ring_line`). Each line needs only its own line of every input: two bands of
-    lines run on two threads. ``w``, ``wx``, ``g``, ``e`` are planes to keep (taps, the
-    vertical term) or, with no lines, not kept: each line then lives in a line buffer
-    (four planes fewer written per stage). Without ``fit_e`` (the box form) the row
-    passes on ``g e`` and ``e²`` are left to :func:`_stage_rows_corrected`."""
+    lines run on two threads. ``w``, ``g``, ``e`` are planes to keep (taps, the vertical
+    term) or, with no lines, not kept: each line then lives in a line buffer (four planes
+    fewer written per stage); ``wx`` the same, kept for the taps only. Without ``fit_e``
+    (the box form) the row passes on ``g e`` and ``e²`` are left to
+    :func:`_stage_rows_corrected`."""
     n = a.shape[1]
     f_u, f_grad, f_warp, f_keys = fm[U, 1], fm[GRAD, 1], fm[WARP, 1], fm[KEYS, 1]
     f_g, f_e = fm[G, 1], fm[E, 1]
@@ -413,7 +415,7 @@ def _stage_rows(
     row = np.empty(n, dtype=np.int64)
     row2 = np.empty(n, dtype=np.int64)
     lines = np.empty((4, n), dtype=np.int64)  # w, wx, g, e of a line when not kept
-    keep = w.shape[0] > 0
+    keep, keep_wx = w.shape[0] > 0, wx.shape[0] > 0
     r = win.shape[0] - 1
     pad = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
     f_wgg, f_wge, f_wee = fm[WIN, 1] + 2 * f_g, fm[WIN, 1] + f_g + f_e, fm[WIN, 1] + 2 * f_e
@@ -440,7 +442,8 @@ def _stage_rows(
             idx = t >> (f_u - keys_bits) if f_u >= keys_bits else t << (keys_bits - f_u)
             row[x] = (k0[idx] * bp[i0] + k1[idx] * bp[i0 + 1] + k2[idx] * bp[i0 + 2]
                       + k3[idx] * bp[i0 + 3])  # fmt: skip
-        wl, wxl = (w[y], wx[y]) if keep else (lines[0], lines[1])
+        wl = w[y] if keep else lines[0]
+        wxl = wx[y] if keep_wx else lines[1]
         gl, el = (g[y], e[y]) if keep else (lines[2], lines[3])
         _cast_logged_row(row, f_keys + f_l, WARP, base + L_WARP, fm, st, ov, wl)
         _row_difference(wl, row)
@@ -459,62 +462,78 @@ def _stage_rows(
 
 
 @njit(cache=True, nogil=True)
-def _gy_line(a, w, ay, y, f_l, base, first, fm, st, ov, row, wyl, gyl):
-    """Line ``y`` of ``gy = (E1y + Wy) / 2`` (the level's ``first`` stage: E1's column
-    difference ``ay`` too) into ``gyl``, ``Wy`` into ``wyl``: the column differences read
-    lines ``y ± 1`` of E1 ``a`` and W ``w``."""
+def _gy_line(a, w, ayl, y, f_l, base, first, fm, st, ov, row, wyl, gyl):
+    """Line ``y`` of ``gy = (E1y + Wy) / 2`` into ``gyl``, ``Wy`` into ``wyl``: the column
+    differences read lines ``y ± 1`` of E1 ``a`` and W ``w``; E1's (``ayl``) is taken in
+    the level's ``first`` stage, read after."""
     n = a.shape[1]
     if first:
-        _column_difference_line(a, y, f_l, GRAD, base + L_AY, fm, st, ov, row, ay[y])
+        _column_difference_line(a, y, f_l, GRAD, base + L_AY, fm, st, ov, row, ayl)
     _column_difference_line(w, y, fm[WARP, 1], GRAD, base + L_WY, fm, st, ov, row, wyl)
-    ayl = ay[y]
     for x in range(n):
         row[x] = ayl[x] + wyl[x]
     _cast_logged_row(row, fm[GRAD, 1] + 1, GY, base + L_GY, fm, st, ov, gyl)
 
 
-@njit(cache=True, nogil=True)
-def _stage_rows_box(a, w, g, e, ay, f_l, rv, base, first, fm, st, ov, wy, gy, brows, y0, y1):
-    """Lines ``y0 <= y < y1`` of the box form's line work, once :func:`_stage_rows` has
-    written every line of ``w``, ``g``, ``e``: ``Wy``, ``gy`` (:func:`_gy_line`) and the
-    box's row pass on the five products ``g²``, ``g e``, ``gy²``, ``g gy``, ``gy e``:
-    plain running sums of ``2 rv + 1`` taps (replicated borders), exact (no cast: the
-    line buffers hold the exact sums), into ``brows``."""
-    n = a.shape[1]
-    row = np.empty(n, dtype=np.int64)
-    prod = np.empty((5, n), dtype=np.int64)
-    for y in range(y0, y1):
-        gl, el, yl = g[y], e[y], gy[y]
-        _gy_line(a, w, ay, y, f_l, base, first, fm, st, ov, row, wy[y], yl)
-        for x in range(n):
-            prod[0, x] = gl[x] * gl[x]
-            prod[1, x] = gl[x] * el[x]
-            prod[2, x] = yl[x] * yl[x]
-            prod[3, x] = gl[x] * yl[x]
-            prod[4, x] = yl[x] * el[x]
-        for j in range(5):
-            p, out = prod[j], brows[j, y]
-            acc = np.int64(0)
-            for k in range(-rv, rv + 1):
-                acc += p[min(max(k, 0), n - 1)]
-            out[0] = acc
-            for x in range(1, n):
-                acc += p[min(x + rv, n - 1)] - p[max(x - rv - 1, 0)]
-                out[x] = acc
+@njit((_R, _R, _R, _I, _R, _P), cache=True, nogil=True)
+def _box_rows_line(g, e, gy, rv, pad, out):
+    """The box's row pass on one line: the five products ``g²``, ``g e``, ``gy²``, ``g
+    gy``, ``gy e``, each summed over ``2 rv + 1`` taps (replicated borders), exact (no
+    cast: the line buffers hold the exact sums), into ``out`` (5 rows). Each product is
+    formed into ``pad`` with ``rv`` replicated pixels either side, then summed as a
+    running sum along it without a clamp (0.70 against 1.03 ns a pixel with the clamped
+    index, one 512-pixel line; summing by doubling, 2, 4, 8, 16 taps over the whole line,
+    did not vectorise in a loop over ``rv``'s binary digits and was slower)."""
+    n = g.shape[0]
+    width = 2 * rv + 1
+    for j in range(5):
+        if j == 0:
+            for x in range(n):
+                pad[x + rv] = g[x] * g[x]
+        elif j == 1:
+            for x in range(n):
+                pad[x + rv] = g[x] * e[x]
+        elif j == 2:
+            for x in range(n):
+                pad[x + rv] = gy[x] * gy[x]
+        elif j == 3:
+            for x in range(n):
+                pad[x + rv] = g[x] * gy[x]
+        else:
+            for x in range(n):
+                pad[x + rv] = gy[x] * e[x]
+        for k in range(rv):
+            pad[k] = pad[rv]
+            pad[n + rv + k] = pad[n + rv - 1]
+        o = out[j]
+        acc = np.int64(0)
+        for k in range(width):
+            acc += pad[k]
+        o[0] = acc
+        for x in range(1, n):
+            acc += pad[x + width - 1] - pad[x - 1]
+            o[x] = acc
 
 
 @njit(cache=True, nogil=True)
-def _stage_box_columns(
-    brows, rv, base, kind, lanes, lut, r_bits, log, modes, fm, st, dst, ov, bsums, bdet, bnv,
-    v, y0, y1,
+def _stage_box(
+    a, w, g, e, ay, f_l, rv, base, first, kind, lanes, lut, r_bits, log, modes, fm, st, dst,
+    ov, wy, gy, ring, bsums, bdet, bnv, v, y0, y1,
 ):  # fmt: skip
-    """Lines ``y0 <= y < y1`` of the box form's column work, once the box row sums of
-    every line are there: the five box sums (``2 rv + 1`` lines, replicated borders)
+    """Lines ``y0 <= y < y1`` of the box form, once :func:`_stage_rows` has written every
+    line of ``w``, ``g``, ``e``, in one pass down the lines: the line work (``Wy``,
+    ``gy``: :func:`_gy_line`; the box's five row sums: :func:`_box_rows_line`) ``rv``
+    lines ahead into ``ring`` (``2 rv + 2`` lines of the five sums, this band's own), then the
+    column work of line ``y``: the five box sums (``2 rv + 1`` lines, replicated
+    borders; running down the band's lines, one line in, one out: the same exact sums)
     cast into ``p3_bgg`` .. ``p3_bye``, ``bdet = bgg byy - bgy²`` and ``bnv = bgg bye -
     bgy bge`` exact then cast, and the divider ``v = -bnv / bdet`` where ``bdet > 0``
-    (else fed 0 / 1) into ``v``. The column sums run down the band's lines (one line in,
-    one out: the same exact sums). ``bsums``, ``bdet``, ``bnv`` with no lines are not kept."""
-    m, n = brows.shape[1], brows.shape[2]
+    (else fed 0 / 1) into ``v``. The box of a band's first and last ``rv`` lines reaches
+    into the other band: those lines' row sums are taken here too (their ``ay`` into a
+    line of this band's, when the stage is the level's first) and logged nowhere (the
+    other band logs them). ``bsums``, ``bdet``, ``bnv`` with no lines are not kept."""
+    m, n = a.shape
+    rows = ring.shape[0]
     f_g, f_gy, f_e = fm[G, 1], fm[GY, 1], fm[E, 1]
     f_in = (2 * f_g, f_g + f_e, 2 * f_gy, f_g + f_gy, f_gy + f_e)
     f_gg, f_ge, f_yy, f_gy2, f_ye = fm[BGG, 1], fm[BGE, 1], fm[BYY, 1], fm[BGY, 1], fm[BYE, 1]
@@ -525,33 +544,49 @@ def _stage_box_columns(
     num = np.empty(n, dtype=np.int64)
     den = np.empty(n, dtype=np.int64)
     flags = np.empty(n, dtype=np.bool_)
+    pad = np.empty(n + 2 * rv, dtype=np.int64)
+    halo = np.empty((3, n), dtype=np.int64)  # ay, Wy, gy of the other band's lines
+    sth, ovh = st.copy(), ov.copy()  # the halo's log, discarded
     lines = np.empty((7, n), dtype=np.int64)  # the sums, bdet, bnv when not kept
     keep = bsums.shape[1] > 0
     cols = np.zeros((5, n), dtype=np.int64)  # the running column sums (exact)
+    done = max(y0 - rv, 0)  # the next line whose box row sums are due
     for y in range(y0, y1):
+        need = min(y + rv + 1, m)
+        for yl in range(done, need):
+            if y0 <= yl < y1:
+                _gy_line(a, w, ay[yl], yl, f_l, base, first, fm, st, ov, row, wy[yl], gy[yl])
+                gyl = gy[yl]
+            else:
+                ayl = halo[0] if first else ay[yl]
+                _gy_line(a, w, ayl, yl, f_l, base, first, fm, sth, ovh, row, halo[1], halo[2])
+                gyl = halo[2]
+            _box_rows_line(g[yl], e[yl], gyl, rv, pad, ring[yl % rows])
+        done = max(done, need)
         for j in range(5):
             col = cols[j]
             if y == y0:  # the band's first line: the whole box
                 for k in range(-rv, rv + 1):
-                    src = brows[j, min(max(y + k, 0), m - 1)]
+                    src = ring[min(max(y + k, 0), m - 1) % rows, j]
                     for x in range(n):
                         col[x] += src[x]
             else:  # then one line in, one out
-                add, drop = brows[j, min(y + rv, m - 1)], brows[j, max(y - rv - 1, 0)]
+                add = ring[min(y + rv, m - 1) % rows, j]
+                drop = ring[max(y - rv - 1, 0) % rows, j]
                 for x in range(n):
                     col[x] += add[x] - drop[x]
             out = bsums[j, y] if keep else lines[j]
             _cast_logged_row(col, f_in[j], _BOX_SIGNALS[j], base + _BOX_SITES[j], fm, st, ov,
                              out)  # fmt: skip
         if keep:
-            gg, ge, yy, gy, ye = bsums[0, y], bsums[1, y], bsums[2, y], bsums[3, y], bsums[4, y]
+            gg, ge, yy, gy2, ye = bsums[0, y], bsums[1, y], bsums[2, y], bsums[3, y], bsums[4, y]
             dl, nl = bdet[y], bnv[y]
         else:
-            gg, ge, yy, gy, ye = lines[0], lines[1], lines[2], lines[3], lines[4]
+            gg, ge, yy, gy2, ye = lines[0], lines[1], lines[2], lines[3], lines[4]
             dl, nl = lines[5], lines[6]
         for x in range(n):
-            acc[x] = _at(gg[x] * yy[x], f_gg + f_yy, fd) - _at(gy[x] * gy[x], 2 * f_gy2, fd)
-            row[x] = _at(gg[x] * ye[x], f_gg + f_ye, fn) - _at(gy[x] * ge[x], f_gy2 + f_ge, fn)
+            acc[x] = _at(gg[x] * yy[x], f_gg + f_yy, fd) - _at(gy2[x] * gy2[x], 2 * f_gy2, fd)
+            row[x] = _at(gg[x] * ye[x], f_gg + f_ye, fn) - _at(gy2[x] * ge[x], f_gy2 + f_ge, fn)
         _cast_logged_row(acc, fd, BDET, base + L_BDET, fm, st, ov, dl)
         _cast_logged_row(row, fn, BNV, base + L_BNV, fm, st, ov, nl)
         for x in range(n):
@@ -571,7 +606,8 @@ def _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, st, ov, ev, rge, ree, 
     """Lines ``y0 <= y < y1`` of the box form's correction, once ``v`` of every line is
     there: ``e + gy v`` with ``v`` of line ``y - rv`` (top lines: line 0's) cast into
     ``p3_ev`` and the window's row pass on ``g ev`` and ``ev²`` into ``rge``, ``ree`` (in
-    place of :func:`_stage_rows`' on ``e``). ``ev`` with no lines is not kept."""
+    place of :func:`_stage_rows`' on ``e``; line ``y`` into line ``y % rows``: a plane or
+    a ring of lines). ``ev`` with no lines is not kept."""
     n = g.shape[1]
     f_g, f_gy, f_e, f_v, f_ev = fm[G, 1], fm[GY, 1], fm[E, 1], fm[V, 1], fm[EV, 1]
     fc = max(f_e, f_gy + f_v)
@@ -581,14 +617,16 @@ def _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, st, ov, ev, rge, ree, 
     pad = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
     keep = ev.shape[0] > 0
     f_wge, f_wee = fm[WIN, 1] + f_g + f_ev, fm[WIN, 1] + 2 * f_ev
+    rows = rge.shape[0]
     for y in range(y0, y1):
         el, yl, vl = e[y], gy[y], v[max(y - rv, 0)]
         for x in range(n):
             row[x] = _at(el[x], f_e, fc) + _at(yl[x] * vl[x], f_gy + f_v, fc)
         evl = ev[y] if keep else line
         _cast_logged_row(row, fc, EV, base + L_EV, fm, st, ov, evl)
-        _window_row(g[y], evl, f_wge, win, RGE, base + L_RGE, fm, st, ov, pad, row, rge[y])
-        _window_row(evl, evl, f_wee, win, REE, base + L_REE, fm, st, ov, pad, row, ree[y])
+        j = y % rows
+        _window_row(g[y], evl, f_wge, win, RGE, base + L_RGE, fm, st, ov, pad, row, rge[j])
+        _window_row(evl, evl, f_wee, win, REE, base + L_REE, fm, st, ov, pad, row, ree[j])
 
 
 @njit(cache=True, nogil=True)
@@ -607,7 +645,7 @@ def _stage_rows_vertical(
     f_wyy, f_wgy = fm[WIN, 1] + 2 * f_gy, fm[WIN, 1] + f_g + f_gy
     f_wye = fm[WIN, 1] + f_gy + f_e
     for y in range(y0, y1):
-        _gy_line(a, w, ay, y, f_l, base, first, fm, st, ov, row, wy[y], gy[y])
+        _gy_line(a, w, ay[y], y, f_l, base, first, fm, st, ov, row, wy[y], gy[y])
         gl, el, yl = g[y], e[y], gy[y]
         _window_row(yl, yl, f_wyy, win, RYY, base + L_RYY, fm, st, ov, pad, row, ryy[y])
         _window_row(gl, yl, f_wgy, win, RGY, base + L_RGY, fm, st, ov, pad, row, rgy[y])
@@ -736,6 +774,42 @@ def _stage_fused(
         _stage_columns(u, umax, win, off, base, kind, lanes, lut, r_bits, log, modes, fm, st,
                        dst, ov, rgg, rge, ree, none, none, none, sums, none, t,
                        min(t + chunk, y1))  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _stage_box_tail(
+    g, e, gy, v, rv, u, umax, win, base, kind, lanes, lut, r_bits, log, modes, fm, st, dst,
+    ov, ev, rgg, rge, ree, sums, du, y0, y1,
+):  # fmt: skip
+    """Lines ``y0 <= y < y1`` of the box form's correction and column work, once ``v`` of
+    every line is there, as :func:`_stage_rows_corrected` then :func:`_stage_columns`
+    over every line give them, in one pass down the lines (as :func:`_stage_fused`): the
+    correction of :data:`FUSED_CHUNK` lines, ``radius`` lines ahead, then the column
+    work of a chunk, the row sums on ``e + gy v`` in ``rge``, ``ree`` (a ring of ``2
+    radius + FUSED_CHUNK`` lines each, this band's own; ``rgg`` :func:`_stage_rows`'
+    plane). The correction does not read ``u``: the ``radius`` lines of the other band
+    that a band's column work needs are corrected here too from the same planes, logged
+    nowhere (the other band logs them). With taps the two run over every line in turn
+    (the row sums into planes)."""
+    m, n = u.shape
+    r = win.shape[0] - 1
+    none = np.empty((0, n), dtype=np.int64)
+    off = np.bool_(False)  # typed, not a constant (tests/test_compile.py)
+    sth, ovh = st.copy(), ov.copy()  # the halo's log, discarded
+    lo, hi = max(y0 - r, 0), min(y1 + r, m)
+    done = lo  # the next line whose corrected row sums are due
+    for t in range(y0, y1, FUSED_CHUNK):
+        need = min(t + FUSED_CHUNK + r, hi)
+        _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, sth, ovh, none, rge, ree, done,
+                              min(need, y0))  # fmt: skip
+        _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, st, ov, ev, rge, ree,
+                              max(done, y0), min(need, y1))  # fmt: skip
+        _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, sth, ovh, none, rge, ree,
+                              max(done, y1), need)  # fmt: skip
+        done = need
+        _stage_columns(u, umax, win, off, base, kind, lanes, lut, r_bits, log, modes, fm, st,
+                       dst, ov, rgg, rge, ree, none, none, none, sums, du, t,
+                       min(t + FUSED_CHUNK, y1))  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
@@ -1065,11 +1139,19 @@ def tap_offsets(config: P3Config, shape: tuple[int, int]) -> dict[str, tuple[int
     return out
 
 
+@functools.lru_cache(maxsize=32)
+def _schedule(ms: MultiscaleConfig, n: int, m: int) -> dict:
+    """:func:`~rangefx.golden.multiscale.streaming_schedule` once per (settings, shape):
+    a run reads it three times (:func:`p3_schedule` twice, :func:`buffer_bits`), ~0.3 ms
+    each. Shared: its readers here do not change it."""
+    return streaming_schedule(ms, n, m)
+
+
 def p3_schedule(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     """Timing facts of the schedule on ``shape`` images: levels built, level 0's latency
     in lines and its delay lines (``streaming_schedule``), one warp stage's pixel cycles."""
     m, n = shape
-    sched = streaming_schedule(config.multiscale(), n, m)
+    sched = _schedule(config.multiscale(), n, m)
     return {
         "levels": len(sched["levels"]),
         "latency_lines": int(sched["latency_lines"]),
@@ -1127,7 +1209,7 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
     form: the five box row sums, exact: both factors' words plus ``ceil(log2(2 rv + 1))``)."""
     m, n = shape
     f = config.formats
-    sched = streaming_schedule(config.multiscale(), n, m)
+    sched = _schedule(config.multiscale(), n, m)
     pix = lambda level: f["p3_pix"].word if level == 0 else f["p3_pyr"].word  # noqa: E731
     # what the warps, window and delay lines hold: the level, or its normalised pixels
     warped = lambda level: f["p3_norm"].word if normalised else pix(level)  # noqa: E731
@@ -1192,12 +1274,15 @@ def _run_level(
     """The ``warps`` stages of one level on E1 ``a``, E2 ``b`` (``f_l`` fraction bits)
     from the start estimate ``u`` (updated in place), E1's central difference ``ax``
     once (:func:`_difference_lines`): per stage the line work (:func:`_stage_rows`; the
-    window form then :func:`_stage_rows_vertical`; the box form then
-    :func:`_stage_rows_box`, :func:`_stage_box_columns`, :func:`_stage_rows_corrected`)
-    and the column work (:func:`_stage_columns`), each over every line (in two bands on
-    two threads: :func:`_in_bands`) before the next starts, since the window's column
-    pass reads ``radius`` lines either side; without the vertical term and taps, one
-    pass down each band's lines (:func:`_stage_fused`, each band its own ring). Returns
+    window form then :func:`_stage_rows_vertical`) and the column work
+    (:func:`_stage_columns`), each over every line (in two bands on two threads:
+    :func:`_in_bands`) before the next starts, since the window's column pass reads
+    ``radius`` lines either side; the box form's line work then :func:`_stage_box` and
+    :func:`_stage_box_tail` (the correction and the column work in one pass down each
+    band's lines, each band its own ring; with taps :func:`_stage_rows_corrected` then
+    :func:`_stage_columns` over every line, the row sums in planes); without the
+    vertical term and taps, one pass down each band's lines (:func:`_stage_fused`, each
+    band its own ring). Returns
     the last stage's window sums (``sgg``, ``sge``, ``see``, and with ``vertical``
     ``syy``, ``sgy``, ``sye``, ``det``, ``nu``), written only at level 0 (``final``) or
     with taps; ``taps`` (level 0 of a run with taps): ``ax``, ``u_start`` (``ay``), then
@@ -1216,22 +1301,24 @@ def _run_level(
     ax = plane("ax")
     # the row sums: planes, or (fused) each band's own ring of lines, the scratch of the
     # thread that runs it (a ring shared by the two bands was a race: each overwrote the
-    # other's lines, issue 38)
-    rgg, rge, ree = (plane(k, 0 if fused else h) for k in ("rgg", "rge", "ree"))
+    # other's lines, issue 38); the box form's rge, ree: rings (_stage_box_tail) but for
+    # the taps
+    rgg = plane("rgg", 0 if fused else h)
+    rge, ree = (plane(k, 0 if fused or (box and taps is None) else h) for k in ("rge", "ree"))
     ring = (2 * config.radius + FUSED_CHUNK, w)
-    # W, Wx, g, e as planes only for the taps and the vertical term, du for the taps, the
-    # window sums for the taps and the last stage of level 0 (else line buffers)
+    # W, g, e as planes only for the taps and the vertical term, Wx and du for the taps,
+    # the window sums for the taps and the last stage of level 0 (else line buffers)
     mk = h if form != "off" or taps is not None else 0
-    wp, wx, g, e = (plane(k, mk) for k in ("w", "wx", "g", "e"))
+    wp, g, e = (plane(k, mk) for k in ("w", "g", "e"))
+    wx = plane("wx", h if taps is not None else 0)
     du = plane("du", h if taps is not None else 0)
     sums = runtime.scratch(f"{key}.sums", (N_SUMS, h, w))
     no_sums = np.empty((N_SUMS, 0, w), dtype=np.int64)
     ay, wy, gy = (plane(k, mv) for k in ("ay", "wy", "gy"))
     ryy, rgy, rye = (plane(k, h if vertical else 0) for k in ("ryy", "rgy", "rye"))
-    # the box form: the five box row sums (exact), v; the box sums, bdet, bnv, ev kept for
-    # the taps only
+    # the box form: v; the box sums, bdet, bnv, ev kept for the taps only (the five exact
+    # box row sums: each band's ring of lines, _stage_box)
     mb, mt = (h if box else 0), (h if box and taps is not None else 0)
-    brows = runtime.scratch(f"{key}.brows", (5, mb, w))
     bsums = runtime.scratch(f"{key}.bsums", (5, mt, w))
     v, bdet, bnv, ev = plane("v", mb), plane("bdet", mt), plane("bnv", mt), plane("ev", mt)
     if taps is not None:
@@ -1249,15 +1336,21 @@ def _run_level(
         _stage_rows_vertical(a, wp, g, e, ay, f_l, win, base, first, fm, st, ov, wy, gy, ryy,
                              rgy, rye, y0, y1)  # fmt: skip
 
-    def rows_box(first: bool, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
-                 y1: int) -> None:  # fmt: skip
-        _stage_rows_box(a, wp, g, e, ay, f_l, config.vertical_radius, base, first, fm, st, ov,
-                        wy, gy, brows, y0, y1)  # fmt: skip
+    def box_stage(first: bool, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
+                  y1: int) -> None:  # fmt: skip
+        ring = runtime.scratch(f"{key}.ring.box", (2 * config.vertical_radius + 2, 5, w))
+        _stage_box(a, wp, g, e, ay, f_l, config.vertical_radius, base, first, kind, lanes_v,
+                   lut, config.recip_bits, log, modes, fm, st, dst, ov, wy, gy, ring, bsums,
+                   bdet, bnv, v, y0, y1)  # fmt: skip
 
-    def box_columns(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
-        _stage_box_columns(brows, config.vertical_radius, base, kind, lanes_v, lut,
-                           config.recip_bits, log, modes, fm, st, dst, ov, bsums, bdet, bnv, v,
-                           y0, y1)  # fmt: skip
+    def box_tail(out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
+                 y1: int) -> None:  # fmt: skip
+        # the row sums on e + gy v: each band's own ring (the scratch of the thread that
+        # runs it)
+        rge, ree = (runtime.scratch(f"{key}.ring.{k}", ring) for k in ("rge", "ree"))
+        _stage_box_tail(g, e, gy, v, config.vertical_radius, u, umax, win, base, kind, lanes,
+                        lut, config.recip_bits, log, modes, fm, st, dst, ov, ev, rgg, rge, ree,
+                        out, du, y0, y1)  # fmt: skip
 
     def corrected(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
         _stage_rows_corrected(g, e, gy, v, config.vertical_radius, win, base, fm, st, ov, ev,
@@ -1290,11 +1383,14 @@ def _run_level(
         _in_bands(rows, h, w, stats)
         if vertical:
             _in_bands(functools.partial(rows_vertical, first), h, w, stats)
-        elif box:
-            _in_bands(functools.partial(rows_box, first), h, w, stats)
-            _in_bands(box_columns, h, w, stats)
-            _in_bands(corrected, h, w, stats)
-        _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
+        if box:
+            _in_bands(functools.partial(box_stage, first), h, w, stats)
+        if box and taps is None:  # the correction and the column work in one pass
+            _in_bands(functools.partial(box_tail, sums if kept else no_sums), h, w, stats)
+        else:
+            if box:  # with taps: the row sums on e + gy v into planes, every line
+                _in_bands(corrected, h, w, stats)
+            _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
         if taps is None:
             continue
         if first:
