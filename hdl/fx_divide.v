@@ -20,6 +20,7 @@
 //                      n = 1 and d >= 0, the caller's promise) leaves out the magnitude
 //                      stage (PIPE != 0: -1), the |N| y1 product (-ML) and the y1
 //                      register (-1): latency 7, PIPE = 1: 14, PIPE = 2: 17
+//   fx_lead_one      : the reciprocal's leading one of |D| (combinational), a balanced tree
 // P1 (p1_range.v, p1_frontend.v) uses FRONT = 1 / PIPE = 2 to close its clock (docs/hdl.md);
 // P2 (p2_top.v, r = 1/den) PIPE = 1 / UNIT = 1.
 // D = 0 gives 0 when N = 0, otherwise the overflow mode of S acting on an infinite value
