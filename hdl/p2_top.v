@@ -33,7 +33,8 @@
 // (lane, bank, column k) at (lane 2 + bank) WIDTH + k; the one sweep buffer (LANES WIDTH
 // entries) holds it at lane WIDTH + k (bank 0) or lane WIDTH + WIDTH-1-k (bank 1), so that
 // slot i of a group's sweep writes the word slot i of the previous group's forward pass
-// reads, HOLD cycles or more after it (model.py sweep_address, sweep_hold). Flags (sticky): align_error (the two
+// reads, a cycle or more after that read (the sweep's start held HOLD after that forward
+// start: model.py sweep_address, sweep_hold). Flags (sticky): align_error (the two
 // inputs' TVALID/TUSER/TLAST differ), line_too_long (a line over WIDTH pixels: its extra
 // pixels are dropped), overrun (a group's first pixel would overwrite a line buffer its
 // sweep has not read: the lanes cannot sustain the rate). Overflow counters (32 bits)
@@ -258,7 +259,7 @@ module p2_top #(
     reg fw_go, fw_on, fw_bank, fw_next, fw_ph_last, fw_k_last;
     reg [PFW-1:0] fph;
     reg [XW-1:0] fk;
-    reg [SAW-1:0] sb_ra, sb_ca;      // the slot's address; its column's, lane 0: k or WIDTH-1-k
+    reg [SAW-1:0] sb_ra, sb_ca;      // the slot's address; its column's, lane 0 (k, WIDTH-1-k)
     reg [LW:0] sw_lines_b [0:1];     // per bank: the lines of the group swept into it
     reg [LW:0] fw_lines;
     wire fb = fw_bank;
