@@ -21,10 +21,10 @@
 //   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, |D|
 //   F + 2     |D| >= T_D    F + 3  KA D    F + 4  a = cast(KA D)    F + 5  -a
 //   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w   F + 10  lam (tap)
-//   F + 13    (-a) lam  F + 14 z (tap)  F + 17  a z        F + 18  u + a z   F + 19  its
-//   cast, registered into the lane's e state (T_F = 21: the lane's next e operand is read
-//   at its next t + 4)
-//   F + 15    valid, range (threshold)  F + 16  output register (taps, m_axis)
+//   F + 13    (-a) lam  F + 14  its rounded value  F + 15  z (tap)   F + 18  a z
+//   F + 19    u + a z   F + 20  its cast, registered into the lane's e state (T_F = 22:
+//   the lane's next e operand is read at its next t + 4)
+//   F + 16    valid, range (threshold)  F + 17  output register (taps, m_axis)
 // Lines are taken in groups of LANES (ping-pong line and sweep buffers, bank = group mod 2);
 // a group's sweep runs WIDTH columns x P_B cycles (column WIDTH-1's slot loads S~_end,
 // Q~ = 0), its forward pass WIDTH x P_F; the controllers start them as the model's
@@ -86,9 +86,11 @@ module p2_top #(
     // divider, r registered, r S~, + M, cast, registered into the lane's state
     localparam integer E_DEN = 1 + MUL_LAT + 1 + 1;
     localparam integer T_B = E_DEN + T_DIV + 1 + MUL_LAT + 1 + 1 + 1;
-    // the forward loop: u, S~ u, + Q~, cast w, r w, cast lam, (-a) lam, cast z, a z,
-    // + u, cast e, registered into the lane's state, the e operand register
-    localparam integer T_F = 1 + (MUL_LAT + 2) + (MUL_LAT + 1) * 2 + (MUL_LAT + 2) + 1 + 1;
+    // the forward loop: u, S~ u, + Q~, cast w, r w, cast lam, (-a) lam, cast z (its
+    // rounded value, then its overflow mode), a z, + u, cast e, registered into the
+    // lane's state, the e operand register
+    localparam integer T_F = 1 + (MUL_LAT + 2) + (MUL_LAT + 1) + (MUL_LAT + 2) + (MUL_LAT + 2)
+                             + 1 + 1;
     localparam integer P_B = (LANES > T_B) ? LANES : T_B;
     localparam integer P_F = (LANES > T_F) ? LANES : T_F;
     localparam integer LW = (LANES > 1) ? $clog2(LANES) : 1;      // lane index
@@ -695,7 +697,8 @@ module p2_top #(
     reg [LAM_W-1:0] lam10;
     reg olam10;
     always @(posedge clk) {lam10, olam10} <= {lam_n, ovf_lamn};
-    // F+10 -> F+13: (-a) lam; F+14: z = cast(-(a lam)) (tap z)
+    // F+10 -> F+13: (-a) lam; F+14: its rounded value (fx_cast_reg), F+15: z = cast(-(a
+    // lam)) (tap z; the rounding carry and the overflow mode in two cycles)
     wire [A_W+1:0] na10;
     fx_delay #(A_W + 2, 5) d_na10 (clk, fna5, na10);
     wire signed [A_W+LAM_W+2:0] nalam;
@@ -704,54 +707,54 @@ module p2_top #(
     fx_mul_pipe #(A_W + 2, LAM_W + 1) m_alam (clk, na10s, lam10s, nalam);
     wire [Z_W-1:0] z_n;
     wire ovf_zn;
-    fx_cast_sized #(A_W + LAM_W + 3, A_F + LAM_F, Z_W, Z_F, Z_S, Z_Q, Z_O) c_z (
-        .x(nalam), .y(z_n), .ovf(ovf_zn));
-    reg [Z_W-1:0] z14;
-    reg oz14;
-    always @(posedge clk) {z14, oz14} <= {z_n, ovf_zn};
-    // F+14 -> F+17: a z; F+18: u + a z (one carry chain); its cast e_k+1, registered at
-    // F+19, is written into the lane's e state (read for the lane's next slot at t' + 4)
-    wire [A_W+1:0] a14;
-    fx_delay #(A_W + 2, 10) d_a14 (clk, fa4s, a14);
-    wire signed [Z_W:0] z14s = {(Z_S != 0) & z14[Z_W-1], z14};
+    fx_cast_reg #(A_W + LAM_W + 3, A_F + LAM_F, Z_W, Z_F, Z_S, Z_Q, Z_O) c_z (
+        .clk(clk), .x(nalam), .y(z_n), .ovf(ovf_zn));
+    reg [Z_W-1:0] z15;
+    reg oz15;
+    always @(posedge clk) {z15, oz15} <= {z_n, ovf_zn};
+    // F+15 -> F+18: a z; F+19: u + a z (one carry chain); its cast e_k+1, registered at
+    // F+20, is written into the lane's e state (read for the lane's next slot at t' + 4)
+    wire [A_W+1:0] a15;
+    fx_delay #(A_W + 2, 11) d_a15 (clk, fa4s, a15);
+    wire signed [Z_W:0] z15s = {(Z_S != 0) & z15[Z_W-1], z15};
     wire signed [A_W+Z_W+2:0] az;
-    wire signed [A_W+1:0] a14s = a14;
-    fx_mul_pipe #(A_W + 2, Z_W + 1) m_az (clk, a14s, z14s, az);
-    wire [U_W-1:0] u17;
-    fx_delay #(U_W, 16) d_u17 (clk, fu_1, u17);
+    wire signed [A_W+1:0] a15s = a15;
+    fx_mul_pipe #(A_W + 2, Z_W + 1) m_az (clk, a15s, z15s, az);
+    wire [U_W-1:0] u18;
+    fx_delay #(U_W, 17) d_u18 (clk, fu_1, u18);
     localparam integer EN_W = ((U_W + F_E - F_U > A_W + Z_W + 3 + F_E - A_F - Z_F)
                                ? U_W + F_E - F_U : A_W + Z_W + 3 + F_E - A_F - Z_F) + 2;
     wire signed [EN_W-1:0] az_x = az;
-    wire signed [EN_W-1:0] u17_x = $signed(u17);
-    reg signed [EN_W-1:0] e_x18;
-    always @(posedge clk) e_x18 <= (u17_x <<< (F_E - F_U)) + (az_x <<< (F_E - A_F - Z_F));
+    wire signed [EN_W-1:0] u18_x = $signed(u18);
+    reg signed [EN_W-1:0] e_x19;
+    always @(posedge clk) e_x19 <= (u18_x <<< (F_E - F_U)) + (az_x <<< (F_E - A_F - Z_F));
     wire [E_W-1:0] e_new;
     wire ovf_en;
-    fx_cast_sized #(EN_W, F_E, E_W, E_F, E_S, E_Q, E_O) c_e (.x(e_x18), .y(e_new), .ovf(ovf_en));
-    // F+19: the cast registered (its rounding carry apart from the lane's e state write),
-    // written into the lane's e state at the end of F+19
-    reg [E_W-1:0] e19;
-    reg oe19;
-    always @(posedge clk) {e19, oe19} <= {e_new, ovf_en};
-    wire [FTAGW-1:0] ft20 = `P2_FTAG(FWD_READ + 19);
-    always @(posedge clk) if (ft20[FTAGW-1]) e_state[ft20[XW+1 +: LW]] <= e19;
-    // F+15: valid, range (threshold); F+16: the output register
-    wire [0:0] thr14;
-    fx_delay #(1, 12) d_thr14 (clk, fthr_2, thr14);
+    fx_cast_sized #(EN_W, F_E, E_W, E_F, E_S, E_Q, E_O) c_e (.x(e_x19), .y(e_new), .ovf(ovf_en));
+    // F+20: the cast registered (its rounding carry apart from the lane's e state write),
+    // written into the lane's e state at the end of F+20
+    reg [E_W-1:0] e20;
+    reg oe20;
+    always @(posedge clk) {e20, oe20} <= {e_new, ovf_en};
+    wire [FTAGW-1:0] ft21 = `P2_FTAG(FWD_READ + 20);
+    always @(posedge clk) if (ft21[FTAGW-1]) e_state[ft21[XW+1 +: LW]] <= e20;
+    // F+16: valid, range (threshold); F+17: the output register
+    wire [0:0] thr15;
+    fx_delay #(1, 13) d_thr15 (clk, fthr_2, thr15);
     wire signed [Z_W:0] rmax_s = {(Z_S != 0) & rmax_raw[Z_W-1], rmax_raw};
-    wire ok14 = thr14[0] && (z14s > 0) && (z14s <= rmax_s);
-    reg valid15;
-    reg [Z_W-1:0] range15;
+    wire ok15 = thr15[0] && (z15s > 0) && (z15s <= rmax_s);
+    reg valid16;
+    reg [Z_W-1:0] range16;
     always @(posedge clk) begin
-        valid15 <= ok14;
-        range15 <= ok14 ? z14 : rmax_raw;
+        valid16 <= ok15;
+        range16 <= ok15 ? z15 : rmax_raw;
     end
     // the taps' valid strobes (one register each, one sample per cycle)
     wire [FTAGW-1:0] ft_e = `P2_FTAG(FWD_READ);
     wire [FTAGW-1:0] ft_w = `P2_FTAG(FWD_READ + 6);
     wire [FTAGW-1:0] ft_lam = `P2_FTAG(FWD_READ + 10);
-    wire [FTAGW-1:0] ft_z = `P2_FTAG(FWD_READ + 14);
-    wire [FTAGW-1:0] ft_vr = `P2_FTAG(FWD_READ + 15);
+    wire [FTAGW-1:0] ft_z = `P2_FTAG(FWD_READ + 15);
+    wire [FTAGW-1:0] ft_vr = `P2_FTAG(FWD_READ + 16);
     wire tap_e_v = ft_e[FTAGW-1];
     wire tap_w_v = ft_w[FTAGW-1];
     wire tap_lam_v = ft_lam[FTAGW-1];
@@ -762,16 +765,16 @@ module p2_top #(
         end else begin
             if (tap_w_v && !ft_w[FTAGW-2]) ovf_w <= ovf_w + ow6;
             if (tap_lam_v && !ft_lam[FTAGW-2]) ovf_lam <= ovf_lam + olam10;
-            if (tap_z_v && !ft_z[FTAGW-2]) ovf_z <= ovf_z + oz14;
-            if (ft20[FTAGW-1] && !ft20[FTAGW-2]) ovf_e <= ovf_e + oe19;
+            if (tap_z_v && !ft_z[FTAGW-2]) ovf_z <= ovf_z + oz15;
+            if (ft21[FTAGW-1] && !ft21[FTAGW-2]) ovf_e <= ovf_e + oe20;
         end
     end
-    // F+16: the output register (taps valid, range; m_axis): TUSER on the frame's first
+    // F+17: the output register (taps valid, range; m_axis): TUSER on the frame's first
     // word, TLAST on the group's last (its last lane, column WIDTH-1)
     reg out_first;
     always @(posedge clk) begin
         m_axis_tvalid <= rst ? 1'b0 : ft_vr[FTAGW-1];
-        m_axis_tdata <= {valid15, range15};
+        m_axis_tdata <= {valid16, range16};
         m_axis_tuser <= ft_vr[FTAGW-1] && out_first;
         m_axis_tlast <= ft_vr[FTAGW-1] && ft_vr[FTAGW-3] && (ft_vr[1 +: XW] == WIDTH - 1);
         if (rst) out_first <= 1'b1;
