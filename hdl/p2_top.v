@@ -12,12 +12,13 @@
 //   r + 9     KA D                            r + 10    a = cast(KA D)
 //   r + 13    a^2                             r + 14    cast(a^2)
 //   E = r+15  c = max(cast(a^2), C_MIN)       E + 1     S~_k+1, Q~_k+1 (lane state read)
-//   E + 4     c S~, S~ dG                     E + 5     1 + c S~, Q~ - S~ dG
-//   E + 6     den (divider operand), h        E + 6 + T_DIV  r (the divider's cast)
-//   E + 7 + T_DIV  r registered               E + 10 + T_DIV  r S~, r h
-//   E + 11 + T_DIV  M + r S~                E + 12 + T_DIV  cast S~_k, Q~_k (registered)
+//   E + 2     c, S~, dG in the DSPs' input registers (the loop's products: IREG = 1)
+//   E + 5     c S~, S~ dG                     E + 6     1 + c S~, Q~ - S~ dG
+//   E + 7     den (divider operand), h        E + 7 + T_DIV  r (the divider's cast)
+//   E + 8 + T_DIV  r registered               E + 12 + T_DIV  r S~, r h
+//   E + 13 + T_DIV  M + r S~                E + 14 + T_DIV  cast S~_k, Q~_k (registered)
 //   E + T_B   write-back (taps a c den r s h q; S~_k, Q~_k into the lane's state),
-//             T_B = 6 + T_DIV + 7; sweep-buffer entry D, r, S~_k+1, Q~_k+1, dG
+//             T_B = 7 + T_DIV + 8; sweep-buffer entry D, r, S~_k+1, Q~_k+1, dG
 //   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, |D|
 //   F + 2     |D| >= T_D    F + 3  KA D    F + 4  a = cast(KA D)    F + 5  -a
 //   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w   F + 10  lam (tap)
@@ -40,8 +41,8 @@ module p2_top #(
     parameter integer WIDTH = 32,
     parameter integer HEIGHT = 8,
     parameter integer LANES = 11,
-    parameter integer T_DIV = 16,       // rtl_model/p2/config.py divider_latency_p2
-                                        // (reciprocal: fx_div_reciprocal PIPE 1, UNIT 1,
+    parameter integer T_DIV = 19,       // rtl_model/p2/config.py divider_latency_p2
+                                        // (reciprocal: fx_div_reciprocal PIPE 2, UNIT 1,
                                         // NORM 1)
     parameter integer DIVIDER = 1,      // 1 reciprocal, 0 restoring
     parameter integer RECIP_L = 8,
@@ -78,14 +79,16 @@ module p2_top #(
     // declared latencies (rtl_model/p2/config.py): every unit one multiply (fx_mul_pipe,
     // MUL_LAT stages), one carry chain or one cast per cycle; block RAMs read in LB_READ
     localparam integer MUL_LAT = 3;                  // fx_pipe.v fx_mul_pipe
+    localparam integer LMUL_LAT = MUL_LAT + 1;       // the loop's: IREG = 1 (in the DSP)
     localparam integer LB_READ = 5;                  // p2_ram: address, read, out, ORed x2
     localparam integer FWD_READ = LB_READ;           // the sweep buffer likewise
     // the loop entry E = r + SWEEP_READ: read, D, KA D, cast a, a^2, cast, max(., C_MIN)
     localparam integer SWEEP_READ = LB_READ + 1 + MUL_LAT + 1 + MUL_LAT + 1 + 1;
     // the backward loop: operand register, c S~, + 1, cast (den at E + E_DEN), the
-    // divider, r registered, r S~, + M, cast, registered into the lane's state
-    localparam integer E_DEN = 1 + MUL_LAT + 1 + 1;
-    localparam integer T_B = E_DEN + T_DIV + 1 + MUL_LAT + 1 + 1 + 1;
+    // divider, r registered, r S~, + M, cast, registered into the lane's state; its
+    // products with their operands in the MULT18X18D's input registers (LMUL_LAT)
+    localparam integer E_DEN = 1 + LMUL_LAT + 1 + 1;
+    localparam integer T_B = E_DEN + T_DIV + 1 + LMUL_LAT + 1 + 1 + 1;
     // the forward loop: u, S~ u, + Q~, cast w, r w, cast lam, (-a) lam, cast z (its
     // rounded value, then its overflow mode), a z, + u, cast e, registered into the
     // lane's state, the e operand register
@@ -432,18 +435,18 @@ module p2_top #(
     reg [C_W-1:0] c_op1;
     reg [DG_W-1:0] dg_op1;
     always @(posedge clk) {s_op1, q_op1, c_op1, dg_op1} <= {s_state[lane_E], q_state[lane_E], cE, dgE};
-    // E+1 -> E+4: c S~, S~ dG (fx_mul_pipe)
+    // E+1 -> E+5: c S~, S~ dG (fx_mul_pipe, IREG = 1: the operands in the DSP at E+2)
     wire signed [ST_W:0] s_op1s = {1'b0, s_op1};
     localparam integer CS_W = C_W + ST_W + 2;
     wire signed [CS_W-1:0] cs;
     wire signed [C_W:0] c_op1s = {1'b0, c_op1};
     wire signed [DG_W-1:0] dg_op1s = dg_op1;
-    fx_mul_pipe #(C_W + 1, ST_W + 1) m_cs (clk, c_op1s, s_op1s, cs);
+    fx_mul_pipe #(C_W + 1, ST_W + 1, 1) m_cs (clk, c_op1s, s_op1s, cs);
     wire signed [ST_W+DG_W:0] sdg;
-    fx_mul_pipe #(ST_W + 1, DG_W) m_sdg (clk, s_op1s, dg_op1s, sdg);
+    fx_mul_pipe #(ST_W + 1, DG_W, 1) m_sdg (clk, s_op1s, dg_op1s, sdg);
     wire [Q_W-1:0] q4;
-    fx_delay #(Q_W, MUL_LAT) d_q4 (clk, q_op1, q4);
-    // E+5: 1 + c S~, Q~ - S~ dG (one carry chain each)
+    fx_delay #(Q_W, LMUL_LAT) d_q4 (clk, q_op1, q4);
+    // E+6: 1 + c S~, Q~ - S~ dG (one carry chain each)
     localparam integer DN_W = C_W + ST_W + 4 + F_DEN + (F_DEN - C_F - ST_F);
     localparam integer HN_W = ((Q_W + 1 + F_H - Q_F > ST_W + 1 + DG_W + F_H - ST_F - G_F)
                                ? Q_W + 1 + F_H - Q_F : ST_W + 1 + DG_W + F_H - ST_F - G_F) + 2;
@@ -456,7 +459,7 @@ module p2_top #(
         den_x5 <= ($signed({{(DN_W-1){1'b0}}, 1'b1}) <<< F_DEN) + (cs_x <<< (F_DEN - C_F - ST_F));
         h_x5 <= (q4_x <<< (F_H - Q_F)) - (sdg_x <<< (F_H - ST_F - G_F));
     end
-    // E+6: den = cast(1 + c S~) (the divider's operand), h = cast(Q~ - S~ dG)
+    // E+7 = E+E_DEN: den = cast(1 + c S~) (the divider's operand), h = cast(Q~ - S~ dG)
     wire [DEN_W-1:0] den_n;
     wire [H_W-1:0] h_n;
     wire ovf_denn, ovf_hn;
@@ -467,21 +470,21 @@ module p2_top #(
     reg [H_W-1:0] h6;
     reg oden6, oh6;
     always @(posedge clk) {den6, h6, oden6, oh6} <= {den_n, h_n, ovf_denn, ovf_hn};
-    // E+6+T_DIV: r = divide(1, den)
+    // E+7+T_DIV: r = divide(1, den)
     wire [R_W-1:0] r_q;
     wire ovf_rq;
     generate
         if (DIVIDER != 0) begin : g_recip
             fx_div_reciprocal #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, RECIP_L,
-                                RECIP_R, ROM_FILE, 1, 1, 1) u_div (
+                                RECIP_R, ROM_FILE, 2, 1, 1) u_div (
                 .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end else begin : g_rest
             fx_div_restoring #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, 0) u_div (
                 .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end
     endgenerate
-    // E+7+T_DIV: r registered (the divider's output cast apart from the products'
-    // operands); E+7+T_DIV -> E+10+T_DIV: r S~_k+1, r h (fx_mul_pipe)
+    // E+8+T_DIV: r registered (the divider's output cast apart from the products'
+    // operands); E+8+T_DIV -> E+12+T_DIV: r S~_k+1, r h (fx_mul_pipe, IREG = 1)
     localparam integer RD = E_DEN + T_DIV + 1;   // r registered at E + RD
     reg [R_W-1:0] r_r;
     reg ovf_rr;
@@ -495,9 +498,9 @@ module p2_top #(
     wire signed [R_W+H_W+1:0] rh;
     wire signed [ST_W:0] s_old_s = {1'b0, s_old};
     wire signed [H_W:0] h_d_s = {(H_S != 0) & h_d[H_W-1], h_d};
-    fx_mul_pipe #(R_W + 1, ST_W + 1) m_rs (clk, r_s, s_old_s, rs);
-    fx_mul_pipe #(R_W + 1, H_W + 1) m_rh (clk, r_s, h_d_s, rh);
-    // E+11+T_DIV: M + r S~ (one carry chain); r h waits
+    fx_mul_pipe #(R_W + 1, ST_W + 1, 1) m_rs (clk, r_s, s_old_s, rs);
+    fx_mul_pipe #(R_W + 1, H_W + 1, 1) m_rh (clk, r_s, h_d_s, rh);
+    // E+13+T_DIV: M + r S~ (one carry chain); r h waits
     localparam integer SN_W = ((MR_W + 1 + F_S - MR_F > R_W + ST_W + 2 + F_S - R_F - ST_F)
                                ? MR_W + 1 + F_S - MR_F : R_W + ST_W + 2 + F_S - R_F - ST_F) + 2;
     wire signed [SN_W-1:0] m_x = $signed({(MR_S != 0) & m_raw[MR_W-1], m_raw});
@@ -508,7 +511,7 @@ module p2_top #(
         s_x10 <= (m_x <<< (F_S - MR_F)) + (rs_x <<< (F_S - R_F - ST_F));
         rh10 <= rh;
     end
-    // E+12+T_DIV: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h), registered (the casts'
+    // E+14+T_DIV: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h), registered (the casts'
     // rounding carries apart from the lane's state write)
     wire [ST_W-1:0] s_c;
     wire [Q_W-1:0] q_c;
@@ -521,11 +524,11 @@ module p2_top #(
     reg [Q_W-1:0] q_n;
     reg ovf_sn, ovf_qn;
     always @(posedge clk) {s_n, q_n, ovf_sn, ovf_qn} <= {s_c, q_c, ovf_sc, ovf_qc};
-    // E+13+T_DIV = E+T_B, the write-back: S~_k, Q~_k into the lane's state and the
+    // E+15+T_DIV = E+T_B, the write-back: S~_k, Q~_k into the lane's state and the
     // write-back registers (taps a c den r s h q; the lane's first slot, column WIDTH-1:
     // S~_end, Q~ = 0 and the others 0)
-    // beside the loop: from E (a, c, dG, D, ovf a c), E+1 (S~, Q~ operands), E+6 (den,
-    // h), E+RD (r) to the cycle before the write-back
+    // beside the loop: from E (a, c, dG, D, ovf a c), E+1 (S~, Q~ operands), E+E_DEN
+    // (den, h), E+RD (r) to the cycle before the write-back
     localparam integer SIDE_W = A_W + C_W + DG_W + DS_W + 2;
     wire [SIDE_W-1:0] side_E = {aE, cE, dgE, dE, oaE, ocE};
     wire [SIDE_W-1:0] side9;
