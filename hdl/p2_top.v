@@ -21,11 +21,12 @@
 //             T_B = 7 + T_DIV + 8; sweep-buffer entry D, r, S~_k+1, Q~_k+1, dG
 //   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, |D|
 //   F + 2     |D| >= T_D    F + 3  KA D    F + 4  a = cast(KA D)    F + 5  -a
-//   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w   F + 10  lam (tap)
-//   F + 13    (-a) lam  F + 14  its rounded value  F + 15  z (tap)   F + 18  a z
-//   F + 19    u + a z   F + 20  its cast, registered into the lane's e state (T_F = 22:
+//   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w
+//   F + 10    its rounded value         F + 11  lam (tap)  F + 14  (-a) lam
+//   F + 15    its rounded value         F + 16  z (tap)    F + 19  a z
+//   F + 20    u + a z   F + 21  its cast, registered into the lane's e state (T_F = 23:
 //   the lane's next e operand is read at its next t + 4)
-//   F + 16    valid, range (threshold)  F + 17  output register (taps, m_axis)
+//   F + 17    valid, range (threshold)  F + 18  output register (taps, m_axis)
 // Lines are taken in groups of LANES (ping-pong line and sweep buffers, bank = group mod 2);
 // a group's sweep runs WIDTH columns x P_B cycles (column WIDTH-1's slot loads S~_end,
 // Q~ = 0), its forward pass WIDTH x P_F; the controllers start them as the model's
@@ -89,11 +90,15 @@ module p2_top #(
     // products with their operands in the MULT18X18D's input registers (LMUL_LAT)
     localparam integer E_DEN = 1 + LMUL_LAT + 1 + 1;
     localparam integer T_B = E_DEN + T_DIV + 1 + LMUL_LAT + 1 + 1 + 1;
-    // the forward loop: u, S~ u, + Q~, cast w, r w, cast lam, (-a) lam, cast z (its
-    // rounded value, then its overflow mode), a z, + u, cast e, registered into the
-    // lane's state, the e operand register
-    localparam integer T_F = 1 + (MUL_LAT + 2) + (MUL_LAT + 1) + (MUL_LAT + 2) + (MUL_LAT + 2)
-                             + 1 + 1;
+    // the forward loop, its units' cycles after F (the sweep-buffer entry and the e
+    // operand): u, S~ u, + Q~, cast w (FO_W); r w, cast lam (FO_LAM: its rounded value,
+    // then its overflow mode); (-a) lam, cast z (FO_Z: likewise); a z, + u, cast e,
+    // registered (FO_E) into the lane's state; the e operand register read at t + 4
+    localparam integer FO_W = 1 + MUL_LAT + 1 + 1;
+    localparam integer FO_LAM = FO_W + MUL_LAT + 2;
+    localparam integer FO_Z = FO_LAM + MUL_LAT + 2;
+    localparam integer FO_E = FO_Z + MUL_LAT + 1 + 1;
+    localparam integer T_F = FO_E + 2;
     localparam integer P_B = (LANES > T_B) ? LANES : T_B;
     localparam integer P_F = (LANES > T_F) ? LANES : T_F;
     localparam integer LW = (LANES > 1) ? $clog2(LANES) : 1;      // lane index
@@ -686,78 +691,80 @@ module p2_top #(
     reg [W_W-1:0] w6;
     reg ow6;
     always @(posedge clk) {w6, ow6} <= {w_n, ovf_wn};
-    // F+6 -> F+9: r w; F+10: lam = cast(r w) (tap lam)
+    // F+FO_W -> F+FO_W+3: r w; F+FO_LAM-1: its rounded value (fx_cast_reg), F+FO_LAM:
+    // lam = cast(r w) (tap lam; the rounding carry and the overflow mode in two cycles)
     wire [R_W-1:0] r6;
-    fx_delay #(R_W, 5) d_r6 (clk, fr_1, r6);
+    fx_delay #(R_W, FO_W - 1) d_r6 (clk, fr_1, r6);
     wire signed [R_W+W_W+1:0] rw;
     wire signed [R_W:0] r6s = {(R_S != 0) & r6[R_W-1], r6};
     wire signed [W_W:0] w6s = {(W_S != 0) & w6[W_W-1], w6};
     fx_mul_pipe #(R_W + 1, W_W + 1) m_rw (clk, r6s, w6s, rw);
     wire [LAM_W-1:0] lam_n;
     wire ovf_lamn;
-    fx_cast_sized #(R_W + W_W + 2, R_F + W_F, LAM_W, LAM_F, LAM_S, LAM_Q, LAM_O) c_lam (
-        .x(rw), .y(lam_n), .ovf(ovf_lamn));
-    reg [LAM_W-1:0] lam10;
-    reg olam10;
-    always @(posedge clk) {lam10, olam10} <= {lam_n, ovf_lamn};
-    // F+10 -> F+13: (-a) lam; F+14: its rounded value (fx_cast_reg), F+15: z = cast(-(a
-    // lam)) (tap z; the rounding carry and the overflow mode in two cycles)
-    wire [A_W+1:0] na10;
-    fx_delay #(A_W + 2, 5) d_na10 (clk, fna5, na10);
+    fx_cast_reg #(R_W + W_W + 2, R_F + W_F, LAM_W, LAM_F, LAM_S, LAM_Q, LAM_O) c_lam (
+        .clk(clk), .x(rw), .y(lam_n), .ovf(ovf_lamn));
+    reg [LAM_W-1:0] lam_f;
+    reg olam_f;
+    always @(posedge clk) {lam_f, olam_f} <= {lam_n, ovf_lamn};
+    // F+FO_LAM -> F+FO_LAM+3: (-a) lam; then its rounded value (fx_cast_reg), F+FO_Z:
+    // z = cast(-(a lam)) (tap z; the rounding carry and the overflow mode in two cycles)
+    wire [A_W+1:0] na_l;
+    fx_delay #(A_W + 2, FO_LAM - 5) d_na_l (clk, fna5, na_l);
     wire signed [A_W+LAM_W+2:0] nalam;
-    wire signed [A_W+1:0] na10s = na10;
-    wire signed [LAM_W:0] lam10s = {(LAM_S != 0) & lam10[LAM_W-1], lam10};
-    fx_mul_pipe #(A_W + 2, LAM_W + 1) m_alam (clk, na10s, lam10s, nalam);
+    wire signed [A_W+1:0] na_ls = na_l;
+    wire signed [LAM_W:0] lam_fs = {(LAM_S != 0) & lam_f[LAM_W-1], lam_f};
+    fx_mul_pipe #(A_W + 2, LAM_W + 1) m_alam (clk, na_ls, lam_fs, nalam);
     wire [Z_W-1:0] z_n;
     wire ovf_zn;
     fx_cast_reg #(A_W + LAM_W + 3, A_F + LAM_F, Z_W, Z_F, Z_S, Z_Q, Z_O) c_z (
         .clk(clk), .x(nalam), .y(z_n), .ovf(ovf_zn));
-    reg [Z_W-1:0] z15;
-    reg oz15;
-    always @(posedge clk) {z15, oz15} <= {z_n, ovf_zn};
-    // F+15 -> F+18: a z; F+19: u + a z (one carry chain); its cast e_k+1, registered at
-    // F+20, is written into the lane's e state (read for the lane's next slot at t' + 4)
-    wire [A_W+1:0] a15;
-    fx_delay #(A_W + 2, 11) d_a15 (clk, fa4s, a15);
-    wire signed [Z_W:0] z15s = {(Z_S != 0) & z15[Z_W-1], z15};
+    reg [Z_W-1:0] z_f;
+    reg oz_f;
+    always @(posedge clk) {z_f, oz_f} <= {z_n, ovf_zn};
+    // F+FO_Z -> F+FO_Z+3: a z; F+FO_E-1: u + a z (one carry chain); its cast e_k+1,
+    // registered at F+FO_E, is written into the lane's e state (read for the lane's next
+    // slot at t' + 4)
+    wire [A_W+1:0] a_z;
+    fx_delay #(A_W + 2, FO_Z - 4) d_a_z (clk, fa4s, a_z);
+    wire signed [Z_W:0] z_fs = {(Z_S != 0) & z_f[Z_W-1], z_f};
     wire signed [A_W+Z_W+2:0] az;
-    wire signed [A_W+1:0] a15s = a15;
-    fx_mul_pipe #(A_W + 2, Z_W + 1) m_az (clk, a15s, z15s, az);
-    wire [U_W-1:0] u18;
-    fx_delay #(U_W, 17) d_u18 (clk, fu_1, u18);
+    wire signed [A_W+1:0] a_zs = a_z;
+    fx_mul_pipe #(A_W + 2, Z_W + 1) m_az (clk, a_zs, z_fs, az);
+    wire [U_W-1:0] u_az;
+    fx_delay #(U_W, FO_Z + MUL_LAT - 1) d_u_az (clk, fu_1, u_az);
     localparam integer EN_W = ((U_W + F_E - F_U > A_W + Z_W + 3 + F_E - A_F - Z_F)
                                ? U_W + F_E - F_U : A_W + Z_W + 3 + F_E - A_F - Z_F) + 2;
     wire signed [EN_W-1:0] az_x = az;
-    wire signed [EN_W-1:0] u18_x = $signed(u18);
-    reg signed [EN_W-1:0] e_x19;
-    always @(posedge clk) e_x19 <= (u18_x <<< (F_E - F_U)) + (az_x <<< (F_E - A_F - Z_F));
+    wire signed [EN_W-1:0] u_az_x = $signed(u_az);
+    reg signed [EN_W-1:0] e_sum;
+    always @(posedge clk) e_sum <= (u_az_x <<< (F_E - F_U)) + (az_x <<< (F_E - A_F - Z_F));
     wire [E_W-1:0] e_new;
     wire ovf_en;
-    fx_cast_sized #(EN_W, F_E, E_W, E_F, E_S, E_Q, E_O) c_e (.x(e_x19), .y(e_new), .ovf(ovf_en));
-    // F+20: the cast registered (its rounding carry apart from the lane's e state write),
-    // written into the lane's e state at the end of F+20
-    reg [E_W-1:0] e20;
-    reg oe20;
-    always @(posedge clk) {e20, oe20} <= {e_new, ovf_en};
-    wire [FTAGW-1:0] ft21 = `P2_FTAG(FWD_READ + 20);
-    always @(posedge clk) if (ft21[FTAGW-1]) e_state[ft21[XW+1 +: LW]] <= e20;
-    // F+16: valid, range (threshold); F+17: the output register
-    wire [0:0] thr15;
-    fx_delay #(1, 13) d_thr15 (clk, fthr_2, thr15);
+    fx_cast_sized #(EN_W, F_E, E_W, E_F, E_S, E_Q, E_O) c_e (.x(e_sum), .y(e_new), .ovf(ovf_en));
+    // F+FO_E: the cast registered (its rounding carry apart from the lane's e state
+    // write), written into the lane's e state at the end of F+FO_E
+    reg [E_W-1:0] e_f;
+    reg oe_f;
+    always @(posedge clk) {e_f, oe_f} <= {e_new, ovf_en};
+    wire [FTAGW-1:0] ft_st = `P2_FTAG(FWD_READ + FO_E);
+    always @(posedge clk) if (ft_st[FTAGW-1]) e_state[ft_st[XW+1 +: LW]] <= e_f;
+    // F+FO_Z+1: valid, range (threshold); F+FO_Z+2: the output register
+    wire [0:0] thr_z;
+    fx_delay #(1, FO_Z - 2) d_thr_z (clk, fthr_2, thr_z);
     wire signed [Z_W:0] rmax_s = {(Z_S != 0) & rmax_raw[Z_W-1], rmax_raw};
-    wire ok15 = thr15[0] && (z15s > 0) && (z15s <= rmax_s);
-    reg valid16;
-    reg [Z_W-1:0] range16;
+    wire ok_z = thr_z[0] && (z_fs > 0) && (z_fs <= rmax_s);
+    reg valid_f;
+    reg [Z_W-1:0] range_f;
     always @(posedge clk) begin
-        valid16 <= ok15;
-        range16 <= ok15 ? z15 : rmax_raw;
+        valid_f <= ok_z;
+        range_f <= ok_z ? z_f : rmax_raw;
     end
     // the taps' valid strobes (one register each, one sample per cycle)
     wire [FTAGW-1:0] ft_e = `P2_FTAG(FWD_READ);
-    wire [FTAGW-1:0] ft_w = `P2_FTAG(FWD_READ + 6);
-    wire [FTAGW-1:0] ft_lam = `P2_FTAG(FWD_READ + 10);
-    wire [FTAGW-1:0] ft_z = `P2_FTAG(FWD_READ + 15);
-    wire [FTAGW-1:0] ft_vr = `P2_FTAG(FWD_READ + 16);
+    wire [FTAGW-1:0] ft_w = `P2_FTAG(FWD_READ + FO_W);
+    wire [FTAGW-1:0] ft_lam = `P2_FTAG(FWD_READ + FO_LAM);
+    wire [FTAGW-1:0] ft_z = `P2_FTAG(FWD_READ + FO_Z);
+    wire [FTAGW-1:0] ft_vr = `P2_FTAG(FWD_READ + FO_Z + 1);
     wire tap_e_v = ft_e[FTAGW-1];
     wire tap_w_v = ft_w[FTAGW-1];
     wire tap_lam_v = ft_lam[FTAGW-1];
@@ -767,17 +774,17 @@ module p2_top #(
             ovf_w <= 0; ovf_lam <= 0; ovf_z <= 0; ovf_e <= 0;
         end else begin
             if (tap_w_v && !ft_w[FTAGW-2]) ovf_w <= ovf_w + ow6;
-            if (tap_lam_v && !ft_lam[FTAGW-2]) ovf_lam <= ovf_lam + olam10;
-            if (tap_z_v && !ft_z[FTAGW-2]) ovf_z <= ovf_z + oz15;
-            if (ft21[FTAGW-1] && !ft21[FTAGW-2]) ovf_e <= ovf_e + oe20;
+            if (tap_lam_v && !ft_lam[FTAGW-2]) ovf_lam <= ovf_lam + olam_f;
+            if (tap_z_v && !ft_z[FTAGW-2]) ovf_z <= ovf_z + oz_f;
+            if (ft_st[FTAGW-1] && !ft_st[FTAGW-2]) ovf_e <= ovf_e + oe_f;
         end
     end
-    // F+17: the output register (taps valid, range; m_axis): TUSER on the frame's first
-    // word, TLAST on the group's last (its last lane, column WIDTH-1)
+    // F+FO_Z+2: the output register (taps valid, range; m_axis): TUSER on the frame's
+    // first word, TLAST on the group's last (its last lane, column WIDTH-1)
     reg out_first;
     always @(posedge clk) begin
         m_axis_tvalid <= rst ? 1'b0 : ft_vr[FTAGW-1];
-        m_axis_tdata <= {valid16, range16};
+        m_axis_tdata <= {valid_f, range_f};
         m_axis_tuser <= ft_vr[FTAGW-1] && out_first;
         m_axis_tlast <= ft_vr[FTAGW-1] && ft_vr[FTAGW-3] && (ft_vr[1 +: XW] == WIDTH - 1);
         if (rst) out_first <= 1'b1;

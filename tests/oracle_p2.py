@@ -177,13 +177,13 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
     # backward loop: operand register, c S~ (lmul), + 1, cast den; the divider; r
     # registered; r S~ (lmul), + M, cast S~ registered, into the lane's state
     t_b = 1 + lmul + 1 + 1 + t_div + 1 + lmul + 1 + 1 + 1
-    # forward loop: u; S~ u (mul), + Q~, cast w; r w (mul), cast lam; (-a) lam (mul), z's
-    # rounded value registered, cast z; a z (mul), + u, cast e registered into the lane's
-    # state; the e operand register
-    t_f = 1 + mul + 1 + 1 + mul + 1 + mul + 1 + 1 + mul + 1 + 1 + 1 + 1
+    # forward loop: u; S~ u (mul), + Q~, cast w; r w (mul), its rounded value registered,
+    # cast lam; (-a) lam (mul), rounded, cast z; a z (mul), + u, cast e registered into
+    # the lane's state; the e operand register
+    t_f = 1 + mul + 1 + 1 + mul + 1 + 1 + mul + 1 + 1 + mul + 1 + 1 + 1 + 1
     entry = ram + 1 + mul + 1 + mul + 1 + 1  # read, D, KA D, cast a, a^2, cast, max C_MIN
     w_at = ram + 1 + mul + 1 + 1  # after a forward slot's read: u, S~ u, + Q~, cast
-    lam_at, z_at = w_at + mul + 1, w_at + 2 * (mul + 1) + 1  # z: rounded, then cast
+    lam_at, z_at = w_at + mul + 2, w_at + 2 * (mul + 2)  # each: rounded, then cast
     out_at = z_at + 1 + 1  # threshold compare, output register
     lanes = config.lanes or max(t_b, t_f)
     p_b, p_f = max(lanes, t_b), max(lanes, t_f)  # periods per column: one slot per lane

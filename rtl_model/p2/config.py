@@ -162,7 +162,7 @@ LOOP_MUL_LATENCY = MUL_LATENCY + 1
 ADD_LATENCY = 1  # one carry chain (an add, a subtract or a compare), registered
 CAST_LATENCY = 1  # fx_cast_sized: the rounding carry and the overflow mode, registered
 #: fx_cast_reg: a cast's rounded value registered before its overflow mode (the forward
-#: ``z`` cast: its rounding carry alone in the cycle after the ``(-a) lam`` product)
+#: ``lam`` and ``z`` casts: each rounding carry alone in the cycle after its product)
 ROUND_LATENCY = 1
 #: A block RAM read (hdl/p2_top.v p2_ram): the address registered, the blocks' read
 #: ports (zero but the one holding the address), their words registered, ORed in fours,
@@ -189,14 +189,13 @@ STATE_LATENCY = (
     QUOTIENT_LATENCY + LOOP_MUL_LATENCY + ADD_LATENCY + CAST_LATENCY + STATE_CAST_LATENCY
 )
 #: The forward recurrence ``e_k -> e_k+1``: ``u = e - dG``; ``S~ u``, ``+ Q~``, cast ``w``;
-#: ``r w``, cast ``lam``; ``(-a) lam``, cast ``z`` (its rounded value registered,
-#: ``ROUND_LATENCY``); ``a z``, ``+ u``, cast ``e``, registered into the lane's state
-#: (``STATE_CAST_LATENCY``); the e operand register.
+#: ``r w``, cast ``lam``; ``(-a) lam``, cast ``z`` (each with its rounded value
+#: registered first, ``ROUND_LATENCY``); ``a z``, ``+ u``, cast ``e``, registered into
+#: the lane's state (``STATE_CAST_LATENCY``); the e operand register.
 FWD_LOOP = (
     ADD_LATENCY
     + (MUL_LATENCY + ADD_LATENCY + CAST_LATENCY)
-    + (MUL_LATENCY + CAST_LATENCY)
-    + (MUL_LATENCY + ROUND_LATENCY + CAST_LATENCY)
+    + 2 * (MUL_LATENCY + ROUND_LATENCY + CAST_LATENCY)
     + (MUL_LATENCY + ADD_LATENCY + CAST_LATENCY + STATE_CAST_LATENCY)
     + OPERAND_LATENCY
 )

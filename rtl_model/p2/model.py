@@ -102,10 +102,10 @@ IN_LATENCY = 2  # input cast + d/Ĝ adder, then the line-buffer write
 FWD_READ = BRAM_READ  # a forward slot's sweep-buffer read: with it, the e operand register
 #: Cycles after a forward slot's sweep-buffer read at which its taps leave (Hardware):
 #: ``e`` with the read; ``w`` after ``u``, ``S~ u``, ``+ Q~``, the cast; ``lam`` and ``z``
-#: after a product and a cast each (``z``'s rounded value registered first);
+#: after a product and a cast each (the casts' rounded values registered first);
 #: ``valid``/``range`` after the threshold compare and the output register.
 W_OFFSET = FWD_READ + ADD_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
-LAM_OFFSET = W_OFFSET + MUL_LATENCY + CAST_LATENCY
+LAM_OFFSET = W_OFFSET + MUL_LATENCY + ROUND_LATENCY + CAST_LATENCY
 Z_OFFSET = LAM_OFFSET + MUL_LATENCY + ROUND_LATENCY + CAST_LATENCY
 OUT_LATENCY = Z_OFFSET + ADD_LATENCY + 1
 
