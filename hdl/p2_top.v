@@ -27,12 +27,16 @@
 //   F + 20    u + a z   F + 21  its cast, registered into the lane's e state (T_F = 23:
 //   the lane's next e operand is read at its next t + 4)
 //   F + 17    valid, range (threshold)  F + 18  output register (taps, m_axis)
-// Lines are taken in groups of LANES (ping-pong line and sweep buffers, bank = group mod 2);
-// a group's sweep runs WIDTH columns x P_B cycles (column WIDTH-1's slot loads S~_end,
-// Q~ = 0), its forward pass WIDTH x P_F; the controllers start them as the model's
-// schedule does (rtl_model/p2/model.py group_starts), each slot decided the cycle before
-// (its registers hold its phase, column, bank and buffer address; the buffers hold entry
-// (lane, bank, column k) at (lane 2 + bank) WIDTH + k). Flags (sticky): align_error (the two
+// Lines are taken in groups of LANES (bank = group mod 2); a group's sweep runs WIDTH
+// columns x P_B cycles (column WIDTH-1's slot loads S~_end, Q~ = 0), its forward pass
+// WIDTH x P_F; the controllers start them as the model's schedule does
+// (rtl_model/p2/model.py group_starts), each slot decided the cycle before (its registers
+// hold its phase, column, bank and buffer address). The ping-pong line buffer holds entry
+// (lane, bank, column k) at (lane 2 + bank) WIDTH + k; the one sweep buffer (LANES WIDTH
+// entries) holds it at lane WIDTH + k (bank 0) or lane WIDTH + WIDTH-1-k (bank 1), so that
+// slot i of a group's sweep writes the word slot i of the previous group's forward pass
+// reads, a cycle or more after that read (the sweep's start held HOLD after that forward
+// start: model.py sweep_address, sweep_hold). Flags (sticky): align_error (the two
 // inputs' TVALID/TUSER/TLAST differ), line_too_long (a line over WIDTH pixels: its extra
 // pixels are dropped), overrun (a group's first pixel would overwrite a line buffer its
 // sweep has not read: the lanes cannot sustain the rate). Overflow counters (32 bits)
@@ -106,8 +110,10 @@ module p2_top #(
     localparam integer PFW = $clog2(P_F + 1);                     // forward phase
     localparam integer XW = (WIDTH > 1) ? $clog2(WIDTH) : 1;      // column
     localparam integer YW = $clog2(HEIGHT + 1);                   // row
-    localparam integer DEPTH = 2 * LANES * WIDTH;                 // one buffer, both banks
+    localparam integer DEPTH = 2 * LANES * WIDTH;                 // line buffer, both banks
     localparam integer AW = $clog2(DEPTH);
+    localparam integer SB_DEPTH = LANES * WIDTH;                  // sweep buffer, one bank
+    localparam integer SAW = $clog2(SB_DEPTH);
     localparam integer DG_W = G_W + 1;                            // G_k+1 - G_k
     // aligned fraction bits of the sums (rtl_model/p2/model.py _fracs)
     localparam integer F_U = (E_F > G_F) ? E_F : G_F;
@@ -118,9 +124,16 @@ module p2_top #(
     localparam integer F_E = (F_U > A_F + Z_F) ? F_U : A_F + Z_F;
     localparam [47:0] SWEEP_LEN = WIDTH * P_B;
     localparam [47:0] FWD_LEN = WIDTH * P_F;
-    // the sweep-buffer hold: a sweep starts no earlier than H after the forward start of
-    // the group two before (model: (n - 2) P_f - P_b - SWEEP_READ - T_b)
-    localparam signed [47:0] HOLD = (WIDTH - 2) * P_F - P_B - SWEEP_READ - T_B;
+    // the sweep-buffer hold: a sweep starts no earlier than HOLD after the forward start
+    // of the previous group (model.py sweep_hold: its slot i, 1 <= i <= WIDTH-1, writes at
+    // its write-back a cycle after that forward pass's slot i reads the same word:
+    // max(P_f - P_b, (n - 1)(P_f - P_b)) - SWEEP_READ - T_b + 1). That forward start is
+    // max(F_READY of the previous sweep, the forward end of the group before it); a
+    // sweep waits for both + HOLD
+    localparam signed [47:0] HOLD_DP = (P_F > P_B) ? (WIDTH - 1) * (P_F - P_B) : P_F - P_B;
+    localparam signed [47:0] HOLD = HOLD_DP - SWEEP_READ - T_B + 1;
+    localparam signed [47:0] HOLD_A = SWEEP_LEN + T_B + HOLD;     // after a sweep's start
+    localparam signed [47:0] HOLD_B = FWD_LEN + HOLD;             // after a forward start
     localparam integer DS_W = D_W + 1;                            // D = d_k + d_k+1
     localparam integer SB_W = DS_W + R_W + ST_W + Q_W + DG_W;
 
@@ -218,21 +231,26 @@ module p2_top #(
     // Each controller's registers describe its slot of the current cycle (on, phase,
     // column, bank, buffer address); the cycle before decides them, so no decision (go)
     // and no address arithmetic lies between a register and the block RAMs' address.
-    // Buffer layout (line and sweep buffers alike): entry (lane, bank, column k) at
-    // (lane 2 + bank) WIDTH + k, a concatenation when WIDTH is a power of two; the read
-    // addresses advance by 2 WIDTH per lane and by one column per slot (no multiply).
+    // Buffer layout: the line buffer's entry (lane, bank, column k) at (lane 2 + bank)
+    // WIDTH + k, the sweep buffer's at lane WIDTH + k (bank 0) or lane WIDTH + WIDTH-1-k
+    // (bank 1), concatenations when WIDTH is a power of two; the read addresses advance
+    // by 2 WIDTH (line buffer) or WIDTH (sweep buffer) per lane and by one word per slot
+    // (no multiply).
     reg [1:0] ready;                 // per bank: a group is in the line buffer
     reg [LW:0] lines [0:1];          // per bank: the group's lines
     reg [1:0] lb_busy;               // per bank: its sweep has reads left
-    reg [1:0] used;                  // per bank: a sweep has filled its sweep buffer
+    reg [1:0] used;                  // per bank: a group of it has been swept
     reg [1:0] f_started;             // per bank: that group's forward pass has started
     reg [1:0] f_pend;                // per bank: a swept group waits for its forward pass
     reg [47:0] f_ready [0:1];
-    reg [47:0] hold_at [0:1];        // f_start + HOLD
+    reg [47:0] hold_at [0:1];        // per bank: its forward start + HOLD_B
+    reg [47:0] hold_a;               // the last sweep's start + HOLD_A
     // the time compares, registered two cycles ahead (one carry chain each): per bank,
-    // hold_met2 = now + 2 - f_start >= HOLD, fwd_met2 = now + 2 >= f_ready
+    // hold_met2 = now + 2 - f_start >= HOLD_B, fwd_met2 = now + 2 >= f_ready; hold_a_met2
+    // = now + 2 - (the last sweep's start) >= HOLD_A
     reg [47:0] now2;                 // now + 2
     reg [1:0] hold_met2, fwd_met2;
+    reg hold_a_met2;
     // the sweep's slot at this cycle: sw_go (its first), sw_on, phase ph (the lane),
     // st_t (column WIDTH-1-st_t), bank, line-buffer read address lb_ra
     reg sw_go, sw_on, sw_bank, sw_next, sw_ph_last, sw_t_last;
@@ -251,7 +269,7 @@ module p2_top #(
     reg fw_go, fw_on, fw_bank, fw_next, fw_ph_last, fw_k_last;
     reg [PFW-1:0] fph;
     reg [XW-1:0] fk;
-    reg [AW-1:0] sb_ra, sb_ca;       // the slot's address; bank WIDTH + k
+    reg [SAW-1:0] sb_ra, sb_ca;      // the slot's address; its column's, lane 0 (k, WIDTH-1-k)
     reg [LW:0] sw_lines_b [0:1];     // per bank: the lines of the group swept into it
     reg [LW:0] fw_lines;
     wire fb = fw_bank;
@@ -260,27 +278,30 @@ module p2_top #(
     wire fw_end = fw_wrap && fw_k_last;
     wire fw_free = !fw_on || fw_end;
     // next cycle's starts: the sweep when its next bank's group is in the line buffer
-    // (or arrives now) and the sweep buffer's hold has passed; the forward pass when its
-    // next bank's sweep is written back
+    // (or arrives now) and the sweep buffer's hold has passed (HOLD after the previous
+    // group's forward start: HOLD_A after the previous sweep's start and HOLD_B after the
+    // forward start of the group before it, in its bank); the forward pass when its next
+    // bank's sweep is written back
     wire [1:0] bank2_is = {bank2, ~bank2};
     wire [1:0] ready_n = ready | ({2{v2 && last2}} & bank2_is);
     wire [1:0] fwgo_is = {2{fw_go}} & {fw_next, ~fw_next};
     wire [1:0] started_n = f_started | fwgo_is;
-    wire hold_now = (HOLD <= 1);
+    wire hold_now = (HOLD_B <= 1);
     wire [1:0] hold_n = (fwgo_is & {2{hold_now}}) | (~fwgo_is & hold_met2);
-    wire hold_ok_n = !used[sw_next] || (started_n[sw_next] && hold_n[sw_next]);
+    wire hold_ok_n = hold_a_met2 && (!used[sw_next] || (started_n[sw_next] && hold_n[sw_next]));
     wire sw_go_n = sw_free && ready_n[sw_next] && hold_ok_n;
     wire fw_go_n = fw_free && f_pend[fw_next] && fwd_met2[fw_next];
     // the first slot's addresses: column WIDTH-1 (the sweep) or 0 (the forward pass) of
     // lane 0 in the next bank
     wire [AW-1:0] sw_start = sw_next ? 2 * WIDTH - 1 : WIDTH - 1;
-    wire [AW-1:0] fw_start = fw_next ? WIDTH : 0;
+    wire [SAW-1:0] fw_start = fw_next ? WIDTH - 1 : 0;
 
     always @(posedge clk) begin
         if (rst) begin
             ready <= 2'b00; lb_busy <= 2'b00; used <= 2'b00; f_started <= 2'b00;
             f_pend <= 2'b00; overrun <= 1'b0;
             now2 <= 48'd2; hold_met2 <= 2'b00; fwd_met2 <= 2'b00;
+            hold_a <= 48'd0; hold_a_met2 <= 1'b1;    // no previous sweep: no bound
             sw_go <= 1'b0; sw_on <= 1'b0; sw_bank <= 1'b0; sw_next <= 1'b0; ph <= 0;
             st_t <= 0; sw_ph_last <= (P_B == 1); sw_t_last <= (WIDTH == 1);
             fw_go <= 1'b0; fw_on <= 1'b0; fw_bank <= 1'b0; fw_next <= 1'b0; fph <= 0;
@@ -290,6 +311,7 @@ module p2_top #(
             // the compares for the cycle after next (overridden below where a bank restarts)
             hold_met2[0] <= $signed(now2) >= $signed(hold_at[0]);
             hold_met2[1] <= $signed(now2) >= $signed(hold_at[1]);
+            hold_a_met2 <= $signed(now2) >= $signed(hold_a);
             fwd_met2[0] <= now2 >= f_ready[0];
             fwd_met2[1] <= now2 >= f_ready[1];
             // the input side: a group's first pixel claims its bank, its last one is ready
@@ -309,6 +331,8 @@ module p2_top #(
                 f_pend[sw_next] <= 1'b1;
                 f_ready[sw_next] <= now + SWEEP_LEN + T_B;
                 fwd_met2[sw_next] <= 1'b0;    // SWEEP_LEN + T_B > 2 cycles away
+                hold_a <= now + HOLD_A;
+                hold_a_met2 <= (HOLD_A <= 2);  // now + 2 - b_start = 2
                 sw_lines_b[sw_next] <= lines[sw_next];
                 sw_next <= ~sw_next;
             end
@@ -332,8 +356,8 @@ module p2_top #(
             if (fw_go) begin
                 f_pend[fw_next] <= 1'b0;
                 f_started[fw_next] <= 1'b1;
-                hold_at[fw_next] <= now + HOLD;
-                hold_met2[fw_next] <= (HOLD <= 2);  // now + 2 - f_start = 2
+                hold_at[fw_next] <= now + HOLD_B;
+                hold_met2[fw_next] <= (HOLD_B <= 2);  // now + 2 - f_start = 2
                 fw_next <= ~fw_next;
             end
             // the forward pass's next slot
@@ -348,11 +372,11 @@ module p2_top #(
                 fw_lines <= sw_lines_b[fw_next];
                 sb_ra <= fw_start;
                 sb_ca <= fw_start;
-            end else if (fw_wrap) begin
-                sb_ra <= sb_ca + 1'b1;
-                sb_ca <= sb_ca + 1'b1;
+            end else if (fw_wrap) begin     // the next column: one word on (bank 0) or back
+                sb_ra <= fb ? sb_ca - 1'b1 : sb_ca + 1'b1;
+                sb_ca <= fb ? sb_ca - 1'b1 : sb_ca + 1'b1;
             end else begin
-                sb_ra <= sb_ra + 2 * WIDTH;
+                sb_ra <= sb_ra + WIDTH;
             end
         end
     end
@@ -604,14 +628,16 @@ module p2_top #(
             end
         end
     end
-    // the sweep buffer: entry (bank, lane, k) = D, r, S~_k+1, Q~_k+1, dG of step k (the
-    // forward pass recomputes a and |D| >= T_D from D), written at the write-back
-    // (column WIDTH-1: no entry)
-    reg [AW-1:0] sb_wa;              // registered from the tag a cycle ahead
-    always @(posedge clk) sb_wa <= {tg9[XW+1 +: LW], tg9[0]} * WIDTH + tg9[1 +: XW];
+    // the sweep buffer: entry (lane, k) = D, r, S~_k+1, Q~_k+1, dG of step k (the forward
+    // pass recomputes a and |D| >= T_D from D), written at the write-back (column
+    // WIDTH-1: no entry) to lane WIDTH + k (bank 0) or lane WIDTH + WIDTH-1-k (bank 1)
+    reg [SAW-1:0] sb_wa;             // registered from the tag a cycle ahead
+    wire sb_wbank = tg9[0];          // the write-back's group parity
+    wire [XW-1:0] sb_wcol = sb_wbank ? WIDTH - 1 - tg9[1 +: XW] : tg9[1 +: XW];
+    always @(posedge clk) sb_wa <= tg9[XW+1 +: LW] * WIDTH + sb_wcol;
     wire sb_zero;
     wire [SB_W-1:0] sb_q;
-    p2_ram #(SB_W, DEPTH, AW) u_sb (
+    p2_ram #(SB_W, SB_DEPTH, SAW) u_sb (
         .clk(clk), .we(wb_v && !tag_wb[TAGW-2]), .wa(sb_wa),
         .wd({wb_dsum, wb_r, wb_sold, wb_qold, wb_dg}), .ra(sb_ra), .zero(sb_zero),
         .rd(sb_q));

@@ -162,8 +162,13 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
     ("Hardware") unit by unit: the input stage, the sweep engine's slots (line-buffer read,
     A, c, then the loop: den, the divider, S~ and Q~ written back), the forward engine's
     slots (sweep-buffer read, e operand, w, λ/β, z, threshold, output register) and the
-    controllers that start each group's sweep and forward pass. Raises ``ValueError`` where
-    a group's input would overwrite a line buffer its sweep still reads."""
+    controllers that start each group's sweep and forward pass. The one sweep buffer holds
+    entry (lane, column k) of an even group at word lane n + k, of an odd one at lane n +
+    n - 1 - k; a write there lands a clock edge after a read of the same word issued in
+    the same cycle (both addresses registered once), so each write comes at least one
+    cycle after the previous group's forward read of its word. Raises ``ValueError`` where
+    a group's input would overwrite a line buffer its sweep still reads, or a forward read
+    would come before its entry is written."""
     m, n = in_cycles.shape
     # P2's divider: the reciprocal one pipelined (PIPE = 2: + 14, its products' operands
     # in the DSPs' input registers and the cast's rounded value registered), reduced to
@@ -191,7 +196,11 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
     out = {k: np.zeros((m, n), dtype=np.int64) for k in ("pix_in", *TAPS)}
     sweep_end = fwd_end = -(10**18)  # the engines are free from these cycles on
     last_reads: list[int] = []  # per group: its sweep's last line-buffer read
-    fwd_starts: list[int] = []  # per group: its forward pass's first read
+    read_at: dict[int, int] = {}  # sweep-buffer word -> the last group's forward read of it
+
+    def word(lane: int, k: int, g: int) -> int:
+        return lane * n + (k if g % 2 == 0 else n - 1 - k)
+
     for g in range(-(-m // lanes)):
         lines = range(g * lanes, min(m, (g + 1) * lanes))
         # the line buffer bank of group g is that of group g - 2: its sweep must be done
@@ -199,16 +208,25 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
             raise ValueError(f"group {g} overwrites the line buffer of group {g - 2}")
         d_written = int(in_cycles[lines[-1], n - 1]) + 2  # cast, then the d/Ĝ adders
         sweep = max(d_written + 1, sweep_end)  # the read after the last write
-        if g >= 2:  # each sweep-buffer write (column i <= n - 2, lane l, at the slot's
-            # write-back) no earlier than group g - 2's forward read of the same entry
-            for i in range(n - 1):
-                write = sweep + (n - 1 - i) * p_b + entry + t_b
-                sweep += max(0, fwd_starts[g - 2] + i * p_f - write)
+        # each sweep-buffer write (lane, column k <= n - 2, at the slot's write-back) one
+        # cycle after the previous group's forward read of its word, if any
+        delay = 0
+        for lane in range(len(lines)):
+            for k in range(n - 1):
+                write = sweep + (n - 1 - k) * p_b + lane + entry + t_b
+                if word(lane, k, g) in read_at:
+                    delay = max(delay, read_at[word(lane, k, g)] + 1 - write)
+        sweep += delay
         sweep_end = sweep + sweep_len
         fwd = max(sweep_end + t_b, fwd_end)
         fwd_end = fwd + fwd_len
         last_reads.append(sweep + (n - 1) * p_b + lanes - 1)  # lane L - 1, column 0
-        fwd_starts.append(fwd)
+        for lane in range(len(lines)):
+            for k in range(n):  # column n - 1's read is issued too (its output zeroed)
+                read = fwd + k * p_f + lane
+                if k < n - 1 and read <= sweep + (n - 1 - k) * p_b + lane + entry + t_b:
+                    raise ValueError(f"group {g} reads column {k} before it is written")
+                read_at[word(lane, k, g)] = read
         for lane, j in enumerate(lines):
             for i in range(n):
                 out["pix_in"][j, i] = in_cycles[j, i]

@@ -10,7 +10,9 @@
   ``rangefx.api.replay``, are reported at the first mismatch computed without the RTL:
   a rounding mode of the sweep engine (the model of the same change gives the first
   differing sample and every tap's count), the sweep's lane tags one cycle late beside
-  the divider (every write-back sample one cycle late).
+  the divider (every write-back sample one cycle late), the one sweep buffer written in
+  the forward pass's column order (the first forward read that the next group's sweep
+  overwrote first).
 * P2's line-buffer read bound (docs/p2_datapath.md, Timing): the default schedule sits on
   it with equality; one cycle past it the model raises and the RTL raises ``overrun``.
 
@@ -32,7 +34,7 @@ from rangefx import api
 from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import Quant
 from rangefx.rtl_model.p2.config import P2Config, loop_latency
-from rangefx.rtl_model.p2.model import group_starts
+from rangefx.rtl_model.p2.model import FWD_READ, W_OFFSET, group_starts
 from rangefx.rtl_model.registry import get_pipeline
 from rangefx.tools.cli import main
 from rangefx.tools.studies.cases import crop_case, scene_case
@@ -212,6 +214,46 @@ def test_the_lanes_tag_delay_off_by_one_is_reported_at_the_first_write_back(tmp_
         assert figures["taps"][tap]["cycle_mismatches"] == m * n, tap
     for tap in ("d", "g_hat"):
         assert figures["taps"][tap]["cycle_mismatches"] == 0, tap
+
+
+def test_the_sweep_buffer_written_in_the_forward_passs_order_is_reported_at_the_first_overwrite(
+    tmp_path, monkeypatch
+):
+    """The one sweep buffer's write address taken with the parity of the forward pass
+    running beside the sweep (the previous group's) instead of the sweep's own group, in a
+    patched copy: group 1's sweep then writes its entry (lane, k) on the word where group
+    0's forward pass reads column k, and overwrites those read later than the write (slot
+    n-1-k of the sweep against slot k of the forward pass). The first mismatch is the
+    ``w`` tap (the first product of the entry read) of the earliest such read, at its cycle,
+    row and column, computed from the model's stamps (write-back: tap ``a``; read: tap
+    ``e`` - FWD_READ); no cycle mismatch."""
+    config = P2Config.default()
+    lanes = config.effective_lanes()
+    crop = (190, 190 + 2 * lanes, 100, 116)  # two full groups
+    vec, vs = _vectors(tmp_path, "p2", config, crop, GAPS)
+    manifest = load_manifest(vec)
+    m, n = manifest["shape"]
+    write = _cycles(vec, manifest, "a").reshape(m, n)
+    read = _cycles(vec, manifest, "e").reshape(m, n) - FWD_READ
+    # group 0's reads of columns k <= n-2 that group 1's write of (lane, k) comes before
+    late = write[lanes:, : n - 1] < read[:lanes, : n - 1]
+    assert late.any() and not late.all()
+    at = np.argwhere(late)
+    j, k = at[np.argmin(read[:lanes, : n - 1][late])]
+    taps = vs.result.taps
+    # the overwriting entry differs in S~_k+1 and Q~_k+1 (the w product's operands)
+    assert taps["s"][j, k + 1] != taps["s"][j + lanes, k + 1]
+    assert taps["q"][j, k + 1] != taps["q"][j + lanes, k + 1]
+    _patched_hdl(tmp_path, monkeypatch, r"(wire sb_wbank = )tg9\[0\](;)", r"\1fw_bank\2")
+    result = api.replay(vec, "icarus", bench="plain")
+    assert not result.ok
+    first = result.figures["first_mismatch"]
+    w_at = int(read[j, k]) + W_OFFSET
+    assert w_at == int(_cycles(vec, manifest, "w").reshape(m, n)[j, k])
+    assert (first["tap"], first["row"], first["col"]) == ("w", j, k), first
+    assert (first["cycle"], first["got_cycle"]) == (w_at, w_at), first
+    assert first["expected"] != first["got"], first
+    assert result.figures["cycle_mismatches"] == 0
 
 
 # -- the line-buffer read bound ---------------------------------------------------------------

@@ -17,11 +17,13 @@ from rangefx.rtl_model.p1.config import P1Config
 from rangefx.rtl_model.p2.config import P2_SIGNALS, P2Config, loop_latency
 from rangefx.rtl_model.p2.model import (
     FWD_LOOP,
+    FWD_READ,
     IN_LATENCY,
     OUT_LATENCY,
     SWEEP_READ,
     group_starts,
     p2_schedule,
+    sweep_address,
 )
 from rangefx.rtl_model.pipeline import Case
 from rangefx.rtl_model.registry import PIPELINES
@@ -130,7 +132,7 @@ def test_cycle_stamps_closed_form(hblank):
     assert res.line_buffer_bits == 2 * lanes * n * (w["p2_d"] + w["p2_ghat"])
     # D and ΔĜ (each one bit wider than d, Ĝ), r, S~, Q~: the forward pass recomputes a
     sweep = (w["p2_d"] + 1) + w["p2_r"] + w["p2_st"] + w["p2_q"] + (w["p2_ghat"] + 1)
-    assert res.sweep_buffer_bits == 2 * lanes * n * sweep
+    assert res.sweep_buffer_bits == lanes * n * sweep  # one bank (sweep_address)
 
 
 @pytest.mark.parametrize("threads", [1, 2])
@@ -155,18 +157,17 @@ def test_band_cycle_maps_equal_the_whole_frame_schedule(threads, gap_prob):
 
 def _group_starts_by_hand(firsts, lasts, lanes, back, fwd, tb, reads, hold):
     """The group recurrence of docs/p2_datapath.md (Timing) on Python ints: a group's
-    sweep starts when its last line is in and the previous sweep is done (and the sweep
-    buffer of group g - 2 is read out in time), its forward pass after its sweep and the
-    previous forward pass; None where group g would overwrite the line buffer of group g - 2
-    before its sweep's last read."""
+    sweep starts when its last line is in and the previous sweep is done (and ``hold``
+    after the forward start of group g - 1, whose sweep-buffer words it overwrites), its
+    forward pass after its sweep and the previous forward pass; None where group g would
+    overwrite the line buffer of group g - 2 before its sweep's last read."""
     m, starts = len(firsts), []
     for gi in range(-(-m // lanes)):
         first, last = gi * lanes, min(m, (gi + 1) * lanes) - 1
         b0 = lasts[last] + 1 + IN_LATENCY
         if gi >= 1:
-            b0 = max(b0, starts[gi - 1][0] + back)
+            b0 = max(b0, starts[gi - 1][0] + back, starts[gi - 1][1] + hold)
         if gi >= 2:
-            b0 = max(b0, starts[gi - 2][1] + hold)
             if starts[gi - 2][0] + reads > firsts[first] + IN_LATENCY:
                 return None, gi
         f0 = b0 + back + tb
@@ -183,9 +184,9 @@ def _group_starts_by_hand(firsts, lasts, lanes, back, fwd, tb, reads, hold):
 )  # fmt: skip
 def test_group_starts_follow_the_recurrence(seed, arrival):
     """Random line arrivals: ``gapped`` (some lines far late), ``tight`` (one pixel per
-    clock without blanking and a short last group: its sweep waits for the forward pass of
-    group g - 2) and ``early`` (lines a few cycles apart, too fast for the line buffer):
-    every group's start cycles, or the group the error names."""
+    clock without blanking and a short last group) and ``early`` (lines a few cycles
+    apart, too fast for the line buffer): every group's start cycles, or the group the
+    error names."""
     rng = np.random.default_rng(seed)
     config = P2Config.default()
     lanes, tb = config.effective_lanes(), loop_latency(config)
@@ -193,7 +194,8 @@ def test_group_starts_follow_the_recurrence(seed, arrival):
     m = int(rng.integers(3 * lanes, 7 * lanes))
     pb, pf = max(lanes, tb), max(lanes, FWD_LOOP)
     back, fwd = n * pb, n * pf
-    reads, hold = (n - 1) * pb + lanes, (n - 2) * pf - pb - SWEEP_READ - tb
+    # the sweep of g writes slot i's word 1 cycle after the forward of g - 1 reads it
+    reads, hold = (n - 1) * pb + lanes, max(pf - pb, (n - 1) * (pf - pb)) - SWEEP_READ - tb + 1
     if arrival == "tight":
         hblank, m = 0, 4 * lanes - 3
         firsts = np.arange(m) * n
@@ -248,6 +250,70 @@ def test_tap_cycles_are_the_oracles_one_sample_per_cycle(divider, lanes, hblank,
         got = p2_taps.tap_cycles(tap, cfg, res.in_cycles, rows, info)
         assert np.array_equal(got, want[tap.rpartition(".")[2]]), tap
         assert np.unique(got).size == m * n, f"{tap}: two samples on one cycle"
+
+
+def _bank_events(cfg, res, hblank):
+    """Every access of P2's one sweep buffer over a frame, from the model's stamps: each
+    write-back of an entry (line j, column k <= n - 2; the taps ``a`` ... ``q`` leave with
+    it) and each forward read (tap ``e`` minus ``FWD_READ``; column n - 1's output is
+    zeroed), at its word (:func:`sweep_address`). Arrays (word, cycle, is_write, key, used)
+    where ``key`` is (j, k) as ``j n + k`` and ``used``: the read's data is used."""
+    from rangefx.rtl_model.p2 import taps as p2_taps
+
+    m, n = res.in_cycles.shape
+    _, info, rows = p2_schedule(res.in_cycles, cfg, hblank)
+    lanes = info["lanes"]
+    write = p2_taps.tap_cycles("a", cfg, res.in_cycles, rows, info).reshape(m, n)
+    read = p2_taps.tap_cycles("e", cfg, res.in_cycles, rows, info).reshape(m, n) - FWD_READ
+    j, k = np.mgrid[0:m, 0:n]
+    group, lane = j // lanes, j % lanes
+    word = sweep_address(lane, k, group, n)
+    key = j * n + k
+    w = k < n - 1
+    return (np.concatenate([word[w], word.ravel()]),
+            np.concatenate([write[w], read.ravel()]),
+            np.concatenate([np.ones(w.sum(), bool), np.zeros(m * n, bool)]),
+            np.concatenate([key[w], key.ravel()]),
+            np.concatenate([np.ones(w.sum(), bool), (k < n - 1).ravel()]))  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("divider", "lanes", "shape", "hblank", "gap_prob"),
+    [("reciprocal", 0, None, 0, 0.0), ("restoring", 0, None, 3, 0.2),
+     ("reciprocal", 3, (64, 100), 1200, 0.0), ("reciprocal", 20, (64, 100), 80, 0.1),
+     ("reciprocal", 40, (100, 64), 0, 0.0)],
+)  # fmt: skip
+def test_the_one_sweep_buffer_is_written_after_each_read_over_a_frame(
+    lab, divider, lanes, shape, hblank, gap_prob
+):
+    """P2's single-bank sweep buffer over a whole frame (the 512x512 lab frame; 100x64
+    crops with lanes below the loop latency and blanking, above it with a short last
+    group), from the model's stamps: no word is accessed twice in one cycle, and every
+    read whose data is used finds, as the last write of its word before it, its own entry
+    (the same line and column). A sweep writing its group's entries in the previous
+    group's column order breaks it (checked once by planting it)."""
+    cfg = P2Config.default().with_(divider=divider, lanes=lanes)
+    im1, im2, camera = lab.image1, lab.image2, lab.camera
+    if shape is not None:
+        im1, im2 = (
+            im1[200 : 200 + shape[0], 100 : 100 + shape[1]],
+            im2[200 : 200 + shape[0], 100 : 100 + shape[1]],
+        )
+        camera = PinholeCamera(shape[1], shape[0], lab.camera.f_px)
+    timing = TimingConfig(hblank=hblank, gap_prob=gap_prob, seed=3)
+    res = run_pair(im1, im2, camera, lab.motion, cfg, SCENE_RICCATI["lab"], timing=timing,
+                   taps=False)  # fmt: skip
+    word, cycle, is_write, key, used = _bank_events(cfg, res, hblank)
+    order = np.lexsort((cycle, word))
+    word, cycle, is_write, key, used = (a[order] for a in (word, cycle, is_write, key, used))
+    same = word[1:] == word[:-1]
+    assert not (same & (cycle[1:] == cycle[:-1])).any(), "two accesses of a word in one cycle"
+    idx = np.arange(word.size)
+    last_write = np.maximum.accumulate(np.where(is_write, idx, -1))
+    reads = ~is_write & used
+    lw = last_write[reads]
+    assert (lw >= 0).all(), "a read before any write"
+    assert np.array_equal(word[lw], word[reads]) and np.array_equal(key[lw], key[reads])
 
 
 def test_throughput_assertion():

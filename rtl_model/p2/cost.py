@@ -13,10 +13,11 @@ Registers
     word). The per-lane state the engines carry between steps (``S~``, ``Q~`` in the
     sweep, ``e`` in the forward pass) takes one word per lane.
 Buffers
-    Ping-pong input line buffers (``d``, ``Ĝ``) and ping-pong sweep buffers (``A``, ``r``,
-    ``S~``, ``Q~``, ``ΔĜ`` one bit wider, the threshold bit), each ``lanes`` lines deep;
-    every field of a buffer is packed into one memory of ``lanes * width`` words, two
-    memories (ping and pong) per buffer.
+    Ping-pong input line buffers (``d``, ``Ĝ``), two memories of ``lanes * width`` words,
+    and one sweep buffer of ``lanes * width`` entries (``D`` and ``ΔĜ`` one bit wider than
+    ``d``, ``Ĝ``; ``r``, ``S~``, ``Q~``: :func:`~rangefx.rtl_model.p2.model.sweep_entry_bits`),
+    filled in alternating column order (:func:`~rangefx.rtl_model.p2.model.sweep_address`);
+    every field of a buffer packed into one memory.
 DSP slices
     ``KA (d_k + d_k+1)``, ``A^2``, ``c S~``, ``r S~``, ``S~ ΔĜ``, ``r h``; forward
     ``S~ u``, ``r w``, ``A λ``, ``A z``; the reciprocal divider's three products.
@@ -132,7 +133,7 @@ def config_cost(config: P2Config, shape: tuple[int, int], mode: str = "stereo") 
     depth = lanes * n
     lb_word = f["p2_d"].word + f["p2_ghat"].word
     sweep_word = sweep_entry_bits(config)
-    bram = 2 * (bram18_blocks(depth, lb_word) + bram18_blocks(depth, sweep_word))
+    bram = 2 * bram18_blocks(depth, lb_word) + bram18_blocks(depth, sweep_word)
     return CostReport(
         register_bits=register_bits(config),
         line_buffer_bits=bits["line_buffer_bits"] + bits["sweep_buffer_bits"],

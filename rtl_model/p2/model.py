@@ -7,8 +7,10 @@ normalised fixed-point form of ``docs/p2_datapath.md`` (``S~ = S/β``, ``Q~ = (K
 one divider ``r = 1/(1 + A² S~)`` per pixel, eqs 27-28 as δ → 0); a forward pass yields
 ``λ/β``, the range ``z = -A λ/β`` (eqs 19, 38) and ``e = G - Ĝ`` (eq 37). The sweep
 engine interleaves ``lanes`` lines so that its loop-carried recurrence (through the
-divider) issues one step per clock; ping-pong line and sweep buffers let group ``g + 1``
-arrive while group ``g`` is swept. Values do not depend on timing; cycle stamps do.
+divider) issues one step per clock; ping-pong line buffers let group ``g + 1`` arrive while
+group ``g`` is swept, and one sweep buffer, filled in alternating column order, lets the
+sweep of group ``g + 1`` write each entry right after the forward pass of group ``g`` has
+read it (:func:`sweep_address`). Values do not depend on timing; cycle stamps do.
 
 The model runs bands of :data:`BAND` lines in SIMD lanes (``_p2_bands``: every stage's
 recurrence runs along a line, lines are independent); configs with a cast shifting by
@@ -65,6 +67,7 @@ from .config import (
 )
 
 __all__ = [
+    "BANK_MARGIN",
     "FWD_LOOP",
     "FWD_READ",
     "IN_LATENCY",
@@ -84,7 +87,9 @@ __all__ = [
     "run_p2",
     "schedule_rows",
     "stage_latencies",
+    "sweep_address",
     "sweep_entry_bits",
+    "sweep_hold",
 ]
 
 _SIG = {name: k for k, name in enumerate(P2_SIGNALS)}
@@ -108,6 +113,12 @@ W_OFFSET = FWD_READ + ADD_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
 LAM_OFFSET = W_OFFSET + MUL_LATENCY + ROUND_LATENCY + CAST_LATENCY
 Z_OFFSET = LAM_OFFSET + MUL_LATENCY + ROUND_LATENCY + CAST_LATENCY
 OUT_LATENCY = Z_OFFSET + ADD_LATENCY + 1
+#: Cycles a sweep-buffer write must come after the read of the same address: ``p2_ram``
+#: registers a write's and a read's address alike, so a write at cycle ``w`` lands in the
+#: block RAM at the clock edge that ends ``w + 1`` and a read at ``t`` samples it at the
+#: edge that ends ``t + 1``; the write's edge must come strictly later (the two ports of
+#: a DP16KD on one address at one edge collide): ``w >= t + BANK_MARGIN``.
+BANK_MARGIN = 1
 
 
 @njit(cache=True, nogil=True)
@@ -564,9 +575,10 @@ def p2_schedule(
     its sweep likewise. Raises ``ValueError`` when the
     sweep or the forward pass of a group needs more cycles than the group's lines take to
     arrive, or when group ``g + 2`` would overwrite the ping-pong line buffer before group
-    ``g``'s sweep has read it: one pixel per clock could not be sustained. A sweep waits
-    for its ping-pong sweep buffer to be read out by the forward pass of group ``g - 2``
-    (this only delays a short last group of a frame).
+    ``g``'s sweep has read it: one pixel per clock could not be sustained. The sweep of
+    group ``g`` writes the one sweep buffer where the forward pass of group ``g - 1`` reads
+    (:func:`sweep_address`): it starts no earlier than :func:`sweep_hold` cycles after that
+    forward pass (a bound that does not bind while ``T_f <= T_b``).
     """
     m, n = in_cycles.shape
     starts, info = group_starts(in_cycles[:, 0], in_cycles[:, n - 1], n, config, hblank)
@@ -601,10 +613,7 @@ def group_starts(
     # the sweep's last line-buffer read (lane L - 1, column 0) must come before the
     # write of the first pixel of group g + 2 into the same bank
     reads = (n - 1) * pb + lanes
-    # the sweep of group g + 2 writes column i of the sweep-buffer bank of group g no
-    # earlier than g's forward pass reads it (the tightest: column n - 2; column n - 1 is
-    # neither written nor read)
-    hold = (n - 2) * pf - pb - SWEEP_READ - tb
+    hold = sweep_hold(n, pb, pf, tb)
     starts, bad = _group_recurrence(firsts, lasts, lanes, back, fwd, tb, reads, hold)
     if bad >= 0:
         raise ValueError(
@@ -634,7 +643,7 @@ def _group_recurrence(firsts, lasts, lanes, back, fwd, tb, reads, hold):
     first group that would overwrite the line buffer a sweep still reads (-1: none):
     ``reads`` cycles after its start a sweep has read its bank, whose next group's first
     pixel is written ``IN_LATENCY`` cycles after its beat; a sweep starts no earlier than
-    ``hold`` cycles after the forward start of group g - 2 (its sweep-buffer bank). In
+    ``hold`` cycles after the forward start of group g - 1 (:func:`sweep_hold`). In
     Python, P2's host work around no-op kernels took 0.377 ms a run against 0.338 with
     this (one thread, 47 groups, measured)."""
     m = firsts.shape[0]
@@ -644,10 +653,11 @@ def _group_recurrence(firsts, lasts, lanes, back, fwd, tb, reads, hold):
         first, last = gi * lanes, min(m, (gi + 1) * lanes) - 1
         ready = lasts[last] + 1 + IN_LATENCY
         b0 = ready if gi == 0 else max(ready, starts[gi - 1, 0] + back)
-        if gi >= 2:  # the sweep buffer it writes is read out by group gi - 2 in time
-            b0 = max(b0, starts[gi - 2, 1] + hold)
+        if gi >= 1:  # each entry it writes is read by group gi - 1's forward pass first
+            b0 = max(b0, starts[gi - 1, 1] + hold)
         # lane l writes its sweep-buffer column 0 at b0 + l + (n - 1) P_b + SWEEP_READ + T_b
-        # and reads it at f0 + l: later, as P_b >= T_b > SWEEP_READ (T_b = 12 + T_div)
+        # and reads it at f0 + l >= b0 + l + n P_b + T_b: later by P_b - SWEEP_READ >=
+        # BANK_MARGIN, as P_b >= T_b > SWEEP_READ (T_b = 13 + T_div)
         f0 = b0 + back + tb
         f0 = f0 if gi == 0 else max(f0, starts[gi - 1, 1] + fwd)
         if gi >= 2 and starts[gi - 2, 0] + reads > firsts[first] + IN_LATENCY:
@@ -681,6 +691,36 @@ def schedule_rows(
         forward_start[:] = starts[group, 1] + lane
 
 
+def sweep_address(lane: int, column: int, group: int, n: int) -> int:
+    """Word of the sweep buffer (``lanes * n`` entries, one bank) holding entry (``lane``,
+    ``column``) of ``group``: ``lane n + column`` for an even group, ``lane n + n - 1 -
+    column`` for an odd one.
+
+    Why one bank suffices: slot ``i`` of a lane's sweep (read at ``b_g + lane + i P_b``)
+    handles column ``n - 1 - i`` and writes its entry at the write-back, ``SWEEP_READ + T_b``
+    cycles later (slot 0, column ``n - 1``, only loads the start values: no entry); slot
+    ``i`` of the lane's forward pass reads column ``i`` at ``f_g + lane + i P_f``. With the
+    column order alternating between groups, slot ``i`` of group ``g``'s sweep writes the
+    very word slot ``i`` of group ``g - 1``'s forward pass reads, and every word is written
+    (group g), read (group g), written (group g + 1), ... in that order as long as each
+    write comes :data:`BANK_MARGIN` after the read before it: :func:`sweep_hold` for
+    the sweep of ``g + 1``, ``P_b - SWEEP_READ`` for the forward pass of ``g`` (its read of
+    column 0, the last written, comes ``n P_b + T_b`` after its sweep's start at least)."""
+    return lane * n + column + (group % 2) * (n - 1 - 2 * column)  # numpy arrays too
+
+
+def sweep_hold(n: int, pb: int, pf: int, tb: int) -> int:
+    """The earliest start of group ``g``'s sweep after the forward start of group ``g - 1``
+    (:func:`sweep_address`): slot ``i`` (``1 <= i <= n - 1``, the written ones; the
+    forward's slot ``n - 1`` reads a word whose output it zeroes) writes at ``b_g + lane +
+    i P_b + SWEEP_READ + T_b``, the forward pass of ``g - 1`` reads the same word at
+    ``f_g-1 + lane + i P_f``, and the write comes :data:`BANK_MARGIN` after the read:
+    ``b_g >= f_g-1 + max over i of i (P_f - P_b) - SWEEP_READ - T_b + BANK_MARGIN``. With
+    ``P_f <= P_b`` (``T_f <= T_b``) the maximum is at ``i = 1`` and is below ``-T_b``: it
+    never binds, as ``f_g-1 <= b_g + T_b`` then."""
+    return max(pf - pb, (n - 1) * (pf - pb)) - SWEEP_READ - tb + BANK_MARGIN
+
+
 def output_line_starts(starts: np.ndarray, info: dict[str, int], j0: int, j1: int) -> np.ndarray:
     """The output cycle of the first pixel of lines ``j0 <= j < j1`` (:func:`schedule_rows`:
     pixel ``i`` of a line leaves ``i * info["forward_period"]`` cycles later): the line's
@@ -703,15 +743,15 @@ def sweep_entry_bits(config: P2Config) -> int:
 
 
 def buffer_bits(config: P2Config, width: int) -> dict[str, int]:
-    """Ping-pong input line buffers (d, Ĝ) and ping-pong sweep buffers
-    (:func:`sweep_entry_bits`), each ``lanes`` lines deep."""
+    """Ping-pong input line buffers (d, Ĝ), two banks of ``lanes`` lines, and one sweep
+    buffer of ``lanes`` lines (:func:`sweep_entry_bits`; :func:`sweep_address`)."""
     f = config.formats
     lanes = config.effective_lanes()
     lb = f["p2_d"].word + f["p2_ghat"].word
     sweep = sweep_entry_bits(config)
     return {
         "line_buffer_bits": 2 * lanes * width * lb,
-        "sweep_buffer_bits": 2 * lanes * width * sweep,
+        "sweep_buffer_bits": lanes * width * sweep,
     }
 
 
