@@ -12,19 +12,21 @@
 //   r + 9     KA D                            r + 10    a = cast(KA D)
 //   r + 13    a^2                             r + 14    cast(a^2)
 //   E = r+15  c = max(cast(a^2), C_MIN)       E + 1     S~_k+1, Q~_k+1 (lane state read)
-//   E + 4     c S~, S~ dG                     E + 5     1 + c S~, Q~ - S~ dG
-//   E + 6     den (divider operand), h        E + 6 + T_DIV  r (the divider's cast)
-//   E + 7 + T_DIV  r registered               E + 10 + T_DIV  r S~, r h
-//   E + 11 + T_DIV  M + r S~                E + 12 + T_DIV  cast S~_k, Q~_k (registered)
+//   E + 2     c, S~, dG in the DSPs' input registers (the loop's products: IREG = 1)
+//   E + 5     c S~, S~ dG                     E + 6     1 + c S~, Q~ - S~ dG
+//   E + 7     den (divider operand), h        E + 7 + T_DIV  r (the divider's cast)
+//   E + 8 + T_DIV  r registered               E + 12 + T_DIV  r S~, r h
+//   E + 13 + T_DIV  M + r S~                E + 14 + T_DIV  cast S~_k, Q~_k (registered)
 //   E + T_B   write-back (taps a c den r s h q; S~_k, Q~_k into the lane's state),
-//             T_B = 6 + T_DIV + 7; sweep-buffer entry D, r, S~_k+1, Q~_k+1, dG
+//             T_B = 7 + T_DIV + 8; sweep-buffer entry D, r, S~_k+1, Q~_k+1, dG
 //   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, |D|
 //   F + 2     |D| >= T_D    F + 3  KA D    F + 4  a = cast(KA D)    F + 5  -a
-//   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w   F + 10  lam (tap)
-//   F + 13    (-a) lam  F + 14 z (tap)  F + 17  a z        F + 18  u + a z   F + 19  its
-//   cast, registered into the lane's e state (T_F = 21: the lane's next e operand is read
-//   at its next t + 4)
-//   F + 15    valid, range (threshold)  F + 16  output register (taps, m_axis)
+//   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w
+//   F + 10    its rounded value         F + 11  lam (tap)  F + 14  (-a) lam
+//   F + 15    its rounded value         F + 16  z (tap)    F + 19  a z
+//   F + 20    u + a z   F + 21  its cast, registered into the lane's e state (T_F = 23:
+//   the lane's next e operand is read at its next t + 4)
+//   F + 17    valid, range (threshold)  F + 18  output register (taps, m_axis)
 // Lines are taken in groups of LANES (bank = group mod 2); a group's sweep runs WIDTH
 // columns x P_B cycles (column WIDTH-1's slot loads S~_end, Q~ = 0), its forward pass
 // WIDTH x P_F; the controllers start them as the model's schedule does
@@ -44,8 +46,8 @@ module p2_top #(
     parameter integer WIDTH = 32,
     parameter integer HEIGHT = 8,
     parameter integer LANES = 11,
-    parameter integer T_DIV = 16,       // rtl_model/p2/config.py divider_latency_p2
-                                        // (reciprocal: fx_div_reciprocal PIPE 1, UNIT 1,
+    parameter integer T_DIV = 19,       // rtl_model/p2/config.py divider_latency_p2
+                                        // (reciprocal: fx_div_reciprocal PIPE 2, UNIT 1,
                                         // NORM 1)
     parameter integer DIVIDER = 1,      // 1 reciprocal, 0 restoring
     parameter integer RECIP_L = 8,
@@ -82,17 +84,25 @@ module p2_top #(
     // declared latencies (rtl_model/p2/config.py): every unit one multiply (fx_mul_pipe,
     // MUL_LAT stages), one carry chain or one cast per cycle; block RAMs read in LB_READ
     localparam integer MUL_LAT = 3;                  // fx_pipe.v fx_mul_pipe
+    localparam integer LMUL_LAT = MUL_LAT + 1;       // the loop's: IREG = 1 (in the DSP)
     localparam integer LB_READ = 5;                  // p2_ram: address, read, out, ORed x2
     localparam integer FWD_READ = LB_READ;           // the sweep buffer likewise
     // the loop entry E = r + SWEEP_READ: read, D, KA D, cast a, a^2, cast, max(., C_MIN)
     localparam integer SWEEP_READ = LB_READ + 1 + MUL_LAT + 1 + MUL_LAT + 1 + 1;
     // the backward loop: operand register, c S~, + 1, cast (den at E + E_DEN), the
-    // divider, r registered, r S~, + M, cast, registered into the lane's state
-    localparam integer E_DEN = 1 + MUL_LAT + 1 + 1;
-    localparam integer T_B = E_DEN + T_DIV + 1 + MUL_LAT + 1 + 1 + 1;
-    // the forward loop: u, S~ u, + Q~, cast w, r w, cast lam, (-a) lam, cast z, a z,
-    // + u, cast e, registered into the lane's state, the e operand register
-    localparam integer T_F = 1 + (MUL_LAT + 2) + (MUL_LAT + 1) * 2 + (MUL_LAT + 2) + 1 + 1;
+    // divider, r registered, r S~, + M, cast, registered into the lane's state; its
+    // products with their operands in the MULT18X18D's input registers (LMUL_LAT)
+    localparam integer E_DEN = 1 + LMUL_LAT + 1 + 1;
+    localparam integer T_B = E_DEN + T_DIV + 1 + LMUL_LAT + 1 + 1 + 1;
+    // the forward loop, its units' cycles after F (the sweep-buffer entry and the e
+    // operand): u, S~ u, + Q~, cast w (FO_W); r w, cast lam (FO_LAM: its rounded value,
+    // then its overflow mode); (-a) lam, cast z (FO_Z: likewise); a z, + u, cast e,
+    // registered (FO_E) into the lane's state; the e operand register read at t + 4
+    localparam integer FO_W = 1 + MUL_LAT + 1 + 1;
+    localparam integer FO_LAM = FO_W + MUL_LAT + 2;
+    localparam integer FO_Z = FO_LAM + MUL_LAT + 2;
+    localparam integer FO_E = FO_Z + MUL_LAT + 1 + 1;
+    localparam integer T_F = FO_E + 2;
     localparam integer P_B = (LANES > T_B) ? LANES : T_B;
     localparam integer P_F = (LANES > T_F) ? LANES : T_F;
     localparam integer LW = (LANES > 1) ? $clog2(LANES) : 1;      // lane index
@@ -454,18 +464,18 @@ module p2_top #(
     reg [C_W-1:0] c_op1;
     reg [DG_W-1:0] dg_op1;
     always @(posedge clk) {s_op1, q_op1, c_op1, dg_op1} <= {s_state[lane_E], q_state[lane_E], cE, dgE};
-    // E+1 -> E+4: c S~, S~ dG (fx_mul_pipe)
+    // E+1 -> E+5: c S~, S~ dG (fx_mul_pipe, IREG = 1: the operands in the DSP at E+2)
     wire signed [ST_W:0] s_op1s = {1'b0, s_op1};
     localparam integer CS_W = C_W + ST_W + 2;
     wire signed [CS_W-1:0] cs;
     wire signed [C_W:0] c_op1s = {1'b0, c_op1};
     wire signed [DG_W-1:0] dg_op1s = dg_op1;
-    fx_mul_pipe #(C_W + 1, ST_W + 1) m_cs (clk, c_op1s, s_op1s, cs);
+    fx_mul_pipe #(C_W + 1, ST_W + 1, 1) m_cs (clk, c_op1s, s_op1s, cs);
     wire signed [ST_W+DG_W:0] sdg;
-    fx_mul_pipe #(ST_W + 1, DG_W) m_sdg (clk, s_op1s, dg_op1s, sdg);
+    fx_mul_pipe #(ST_W + 1, DG_W, 1) m_sdg (clk, s_op1s, dg_op1s, sdg);
     wire [Q_W-1:0] q4;
-    fx_delay #(Q_W, MUL_LAT) d_q4 (clk, q_op1, q4);
-    // E+5: 1 + c S~, Q~ - S~ dG (one carry chain each)
+    fx_delay #(Q_W, LMUL_LAT) d_q4 (clk, q_op1, q4);
+    // E+6: 1 + c S~, Q~ - S~ dG (one carry chain each)
     localparam integer DN_W = C_W + ST_W + 4 + F_DEN + (F_DEN - C_F - ST_F);
     localparam integer HN_W = ((Q_W + 1 + F_H - Q_F > ST_W + 1 + DG_W + F_H - ST_F - G_F)
                                ? Q_W + 1 + F_H - Q_F : ST_W + 1 + DG_W + F_H - ST_F - G_F) + 2;
@@ -478,7 +488,7 @@ module p2_top #(
         den_x5 <= ($signed({{(DN_W-1){1'b0}}, 1'b1}) <<< F_DEN) + (cs_x <<< (F_DEN - C_F - ST_F));
         h_x5 <= (q4_x <<< (F_H - Q_F)) - (sdg_x <<< (F_H - ST_F - G_F));
     end
-    // E+6: den = cast(1 + c S~) (the divider's operand), h = cast(Q~ - S~ dG)
+    // E+7 = E+E_DEN: den = cast(1 + c S~) (the divider's operand), h = cast(Q~ - S~ dG)
     wire [DEN_W-1:0] den_n;
     wire [H_W-1:0] h_n;
     wire ovf_denn, ovf_hn;
@@ -489,21 +499,21 @@ module p2_top #(
     reg [H_W-1:0] h6;
     reg oden6, oh6;
     always @(posedge clk) {den6, h6, oden6, oh6} <= {den_n, h_n, ovf_denn, ovf_hn};
-    // E+6+T_DIV: r = divide(1, den)
+    // E+7+T_DIV: r = divide(1, den)
     wire [R_W-1:0] r_q;
     wire ovf_rq;
     generate
         if (DIVIDER != 0) begin : g_recip
             fx_div_reciprocal #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, RECIP_L,
-                                RECIP_R, ROM_FILE, 1, 1, 1) u_div (
+                                RECIP_R, ROM_FILE, 2, 1, 1) u_div (
                 .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end else begin : g_rest
             fx_div_restoring #(2, 0, DEN_W + 1, DEN_F, R_W, R_F, R_S, R_Q, R_O, 0) u_div (
                 .clk(clk), .n(2'sb01), .d({1'b0, den6}), .y(r_q), .ovf(ovf_rq));
         end
     endgenerate
-    // E+7+T_DIV: r registered (the divider's output cast apart from the products'
-    // operands); E+7+T_DIV -> E+10+T_DIV: r S~_k+1, r h (fx_mul_pipe)
+    // E+8+T_DIV: r registered (the divider's output cast apart from the products'
+    // operands); E+8+T_DIV -> E+12+T_DIV: r S~_k+1, r h (fx_mul_pipe, IREG = 1)
     localparam integer RD = E_DEN + T_DIV + 1;   // r registered at E + RD
     reg [R_W-1:0] r_r;
     reg ovf_rr;
@@ -517,9 +527,9 @@ module p2_top #(
     wire signed [R_W+H_W+1:0] rh;
     wire signed [ST_W:0] s_old_s = {1'b0, s_old};
     wire signed [H_W:0] h_d_s = {(H_S != 0) & h_d[H_W-1], h_d};
-    fx_mul_pipe #(R_W + 1, ST_W + 1) m_rs (clk, r_s, s_old_s, rs);
-    fx_mul_pipe #(R_W + 1, H_W + 1) m_rh (clk, r_s, h_d_s, rh);
-    // E+11+T_DIV: M + r S~ (one carry chain); r h waits
+    fx_mul_pipe #(R_W + 1, ST_W + 1, 1) m_rs (clk, r_s, s_old_s, rs);
+    fx_mul_pipe #(R_W + 1, H_W + 1, 1) m_rh (clk, r_s, h_d_s, rh);
+    // E+13+T_DIV: M + r S~ (one carry chain); r h waits
     localparam integer SN_W = ((MR_W + 1 + F_S - MR_F > R_W + ST_W + 2 + F_S - R_F - ST_F)
                                ? MR_W + 1 + F_S - MR_F : R_W + ST_W + 2 + F_S - R_F - ST_F) + 2;
     wire signed [SN_W-1:0] m_x = $signed({(MR_S != 0) & m_raw[MR_W-1], m_raw});
@@ -530,7 +540,7 @@ module p2_top #(
         s_x10 <= (m_x <<< (F_S - MR_F)) + (rs_x <<< (F_S - R_F - ST_F));
         rh10 <= rh;
     end
-    // E+12+T_DIV: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h), registered (the casts'
+    // E+14+T_DIV: S~_k = cast(M + r S~_k+1), Q~_k = cast(r h), registered (the casts'
     // rounding carries apart from the lane's state write)
     wire [ST_W-1:0] s_c;
     wire [Q_W-1:0] q_c;
@@ -543,11 +553,11 @@ module p2_top #(
     reg [Q_W-1:0] q_n;
     reg ovf_sn, ovf_qn;
     always @(posedge clk) {s_n, q_n, ovf_sn, ovf_qn} <= {s_c, q_c, ovf_sc, ovf_qc};
-    // E+13+T_DIV = E+T_B, the write-back: S~_k, Q~_k into the lane's state and the
+    // E+15+T_DIV = E+T_B, the write-back: S~_k, Q~_k into the lane's state and the
     // write-back registers (taps a c den r s h q; the lane's first slot, column WIDTH-1:
     // S~_end, Q~ = 0 and the others 0)
-    // beside the loop: from E (a, c, dG, D, ovf a c), E+1 (S~, Q~ operands), E+6 (den,
-    // h), E+RD (r) to the cycle before the write-back
+    // beside the loop: from E (a, c, dG, D, ovf a c), E+1 (S~, Q~ operands), E+E_DEN
+    // (den, h), E+RD (r) to the cycle before the write-back
     localparam integer SIDE_W = A_W + C_W + DG_W + DS_W + 2;
     wire [SIDE_W-1:0] side_E = {aE, cE, dgE, dE, oaE, ocE};
     wire [SIDE_W-1:0] side9;
@@ -707,77 +717,80 @@ module p2_top #(
     reg [W_W-1:0] w6;
     reg ow6;
     always @(posedge clk) {w6, ow6} <= {w_n, ovf_wn};
-    // F+6 -> F+9: r w; F+10: lam = cast(r w) (tap lam)
+    // F+FO_W -> F+FO_W+3: r w; F+FO_LAM-1: its rounded value (fx_cast_reg), F+FO_LAM:
+    // lam = cast(r w) (tap lam; the rounding carry and the overflow mode in two cycles)
     wire [R_W-1:0] r6;
-    fx_delay #(R_W, 5) d_r6 (clk, fr_1, r6);
+    fx_delay #(R_W, FO_W - 1) d_r6 (clk, fr_1, r6);
     wire signed [R_W+W_W+1:0] rw;
     wire signed [R_W:0] r6s = {(R_S != 0) & r6[R_W-1], r6};
     wire signed [W_W:0] w6s = {(W_S != 0) & w6[W_W-1], w6};
     fx_mul_pipe #(R_W + 1, W_W + 1) m_rw (clk, r6s, w6s, rw);
     wire [LAM_W-1:0] lam_n;
     wire ovf_lamn;
-    fx_cast_sized #(R_W + W_W + 2, R_F + W_F, LAM_W, LAM_F, LAM_S, LAM_Q, LAM_O) c_lam (
-        .x(rw), .y(lam_n), .ovf(ovf_lamn));
-    reg [LAM_W-1:0] lam10;
-    reg olam10;
-    always @(posedge clk) {lam10, olam10} <= {lam_n, ovf_lamn};
-    // F+10 -> F+13: (-a) lam; F+14: z = cast(-(a lam)) (tap z)
-    wire [A_W+1:0] na10;
-    fx_delay #(A_W + 2, 5) d_na10 (clk, fna5, na10);
+    fx_cast_reg #(R_W + W_W + 2, R_F + W_F, LAM_W, LAM_F, LAM_S, LAM_Q, LAM_O) c_lam (
+        .clk(clk), .x(rw), .y(lam_n), .ovf(ovf_lamn));
+    reg [LAM_W-1:0] lam_f;
+    reg olam_f;
+    always @(posedge clk) {lam_f, olam_f} <= {lam_n, ovf_lamn};
+    // F+FO_LAM -> F+FO_LAM+3: (-a) lam; then its rounded value (fx_cast_reg), F+FO_Z:
+    // z = cast(-(a lam)) (tap z; the rounding carry and the overflow mode in two cycles)
+    wire [A_W+1:0] na_l;
+    fx_delay #(A_W + 2, FO_LAM - 5) d_na_l (clk, fna5, na_l);
     wire signed [A_W+LAM_W+2:0] nalam;
-    wire signed [A_W+1:0] na10s = na10;
-    wire signed [LAM_W:0] lam10s = {(LAM_S != 0) & lam10[LAM_W-1], lam10};
-    fx_mul_pipe #(A_W + 2, LAM_W + 1) m_alam (clk, na10s, lam10s, nalam);
+    wire signed [A_W+1:0] na_ls = na_l;
+    wire signed [LAM_W:0] lam_fs = {(LAM_S != 0) & lam_f[LAM_W-1], lam_f};
+    fx_mul_pipe #(A_W + 2, LAM_W + 1) m_alam (clk, na_ls, lam_fs, nalam);
     wire [Z_W-1:0] z_n;
     wire ovf_zn;
-    fx_cast_sized #(A_W + LAM_W + 3, A_F + LAM_F, Z_W, Z_F, Z_S, Z_Q, Z_O) c_z (
-        .x(nalam), .y(z_n), .ovf(ovf_zn));
-    reg [Z_W-1:0] z14;
-    reg oz14;
-    always @(posedge clk) {z14, oz14} <= {z_n, ovf_zn};
-    // F+14 -> F+17: a z; F+18: u + a z (one carry chain); its cast e_k+1, registered at
-    // F+19, is written into the lane's e state (read for the lane's next slot at t' + 4)
-    wire [A_W+1:0] a14;
-    fx_delay #(A_W + 2, 10) d_a14 (clk, fa4s, a14);
-    wire signed [Z_W:0] z14s = {(Z_S != 0) & z14[Z_W-1], z14};
+    fx_cast_reg #(A_W + LAM_W + 3, A_F + LAM_F, Z_W, Z_F, Z_S, Z_Q, Z_O) c_z (
+        .clk(clk), .x(nalam), .y(z_n), .ovf(ovf_zn));
+    reg [Z_W-1:0] z_f;
+    reg oz_f;
+    always @(posedge clk) {z_f, oz_f} <= {z_n, ovf_zn};
+    // F+FO_Z -> F+FO_Z+3: a z; F+FO_E-1: u + a z (one carry chain); its cast e_k+1,
+    // registered at F+FO_E, is written into the lane's e state (read for the lane's next
+    // slot at t' + 4)
+    wire [A_W+1:0] a_z;
+    fx_delay #(A_W + 2, FO_Z - 4) d_a_z (clk, fa4s, a_z);
+    wire signed [Z_W:0] z_fs = {(Z_S != 0) & z_f[Z_W-1], z_f};
     wire signed [A_W+Z_W+2:0] az;
-    wire signed [A_W+1:0] a14s = a14;
-    fx_mul_pipe #(A_W + 2, Z_W + 1) m_az (clk, a14s, z14s, az);
-    wire [U_W-1:0] u17;
-    fx_delay #(U_W, 16) d_u17 (clk, fu_1, u17);
+    wire signed [A_W+1:0] a_zs = a_z;
+    fx_mul_pipe #(A_W + 2, Z_W + 1) m_az (clk, a_zs, z_fs, az);
+    wire [U_W-1:0] u_az;
+    fx_delay #(U_W, FO_Z + MUL_LAT - 1) d_u_az (clk, fu_1, u_az);
     localparam integer EN_W = ((U_W + F_E - F_U > A_W + Z_W + 3 + F_E - A_F - Z_F)
                                ? U_W + F_E - F_U : A_W + Z_W + 3 + F_E - A_F - Z_F) + 2;
     wire signed [EN_W-1:0] az_x = az;
-    wire signed [EN_W-1:0] u17_x = $signed(u17);
-    reg signed [EN_W-1:0] e_x18;
-    always @(posedge clk) e_x18 <= (u17_x <<< (F_E - F_U)) + (az_x <<< (F_E - A_F - Z_F));
+    wire signed [EN_W-1:0] u_az_x = $signed(u_az);
+    reg signed [EN_W-1:0] e_sum;
+    always @(posedge clk) e_sum <= (u_az_x <<< (F_E - F_U)) + (az_x <<< (F_E - A_F - Z_F));
     wire [E_W-1:0] e_new;
     wire ovf_en;
-    fx_cast_sized #(EN_W, F_E, E_W, E_F, E_S, E_Q, E_O) c_e (.x(e_x18), .y(e_new), .ovf(ovf_en));
-    // F+19: the cast registered (its rounding carry apart from the lane's e state write),
-    // written into the lane's e state at the end of F+19
-    reg [E_W-1:0] e19;
-    reg oe19;
-    always @(posedge clk) {e19, oe19} <= {e_new, ovf_en};
-    wire [FTAGW-1:0] ft20 = `P2_FTAG(FWD_READ + 19);
-    always @(posedge clk) if (ft20[FTAGW-1]) e_state[ft20[XW+1 +: LW]] <= e19;
-    // F+15: valid, range (threshold); F+16: the output register
-    wire [0:0] thr14;
-    fx_delay #(1, 12) d_thr14 (clk, fthr_2, thr14);
+    fx_cast_sized #(EN_W, F_E, E_W, E_F, E_S, E_Q, E_O) c_e (.x(e_sum), .y(e_new), .ovf(ovf_en));
+    // F+FO_E: the cast registered (its rounding carry apart from the lane's e state
+    // write), written into the lane's e state at the end of F+FO_E
+    reg [E_W-1:0] e_f;
+    reg oe_f;
+    always @(posedge clk) {e_f, oe_f} <= {e_new, ovf_en};
+    wire [FTAGW-1:0] ft_st = `P2_FTAG(FWD_READ + FO_E);
+    always @(posedge clk) if (ft_st[FTAGW-1]) e_state[ft_st[XW+1 +: LW]] <= e_f;
+    // F+FO_Z+1: valid, range (threshold); F+FO_Z+2: the output register
+    wire [0:0] thr_z;
+    fx_delay #(1, FO_Z - 2) d_thr_z (clk, fthr_2, thr_z);
     wire signed [Z_W:0] rmax_s = {(Z_S != 0) & rmax_raw[Z_W-1], rmax_raw};
-    wire ok14 = thr14[0] && (z14s > 0) && (z14s <= rmax_s);
-    reg valid15;
-    reg [Z_W-1:0] range15;
+    wire ok_z = thr_z[0] && (z_fs > 0) && (z_fs <= rmax_s);
+    reg valid_f;
+    reg [Z_W-1:0] range_f;
     always @(posedge clk) begin
-        valid15 <= ok14;
-        range15 <= ok14 ? z14 : rmax_raw;
+        valid_f <= ok_z;
+        range_f <= ok_z ? z_f : rmax_raw;
     end
     // the taps' valid strobes (one register each, one sample per cycle)
     wire [FTAGW-1:0] ft_e = `P2_FTAG(FWD_READ);
-    wire [FTAGW-1:0] ft_w = `P2_FTAG(FWD_READ + 6);
-    wire [FTAGW-1:0] ft_lam = `P2_FTAG(FWD_READ + 10);
-    wire [FTAGW-1:0] ft_z = `P2_FTAG(FWD_READ + 14);
-    wire [FTAGW-1:0] ft_vr = `P2_FTAG(FWD_READ + 15);
+    wire [FTAGW-1:0] ft_w = `P2_FTAG(FWD_READ + FO_W);
+    wire [FTAGW-1:0] ft_lam = `P2_FTAG(FWD_READ + FO_LAM);
+    wire [FTAGW-1:0] ft_z = `P2_FTAG(FWD_READ + FO_Z);
+    wire [FTAGW-1:0] ft_vr = `P2_FTAG(FWD_READ + FO_Z + 1);
     wire tap_e_v = ft_e[FTAGW-1];
     wire tap_w_v = ft_w[FTAGW-1];
     wire tap_lam_v = ft_lam[FTAGW-1];
@@ -787,17 +800,17 @@ module p2_top #(
             ovf_w <= 0; ovf_lam <= 0; ovf_z <= 0; ovf_e <= 0;
         end else begin
             if (tap_w_v && !ft_w[FTAGW-2]) ovf_w <= ovf_w + ow6;
-            if (tap_lam_v && !ft_lam[FTAGW-2]) ovf_lam <= ovf_lam + olam10;
-            if (tap_z_v && !ft_z[FTAGW-2]) ovf_z <= ovf_z + oz14;
-            if (ft20[FTAGW-1] && !ft20[FTAGW-2]) ovf_e <= ovf_e + oe19;
+            if (tap_lam_v && !ft_lam[FTAGW-2]) ovf_lam <= ovf_lam + olam_f;
+            if (tap_z_v && !ft_z[FTAGW-2]) ovf_z <= ovf_z + oz_f;
+            if (ft_st[FTAGW-1] && !ft_st[FTAGW-2]) ovf_e <= ovf_e + oe_f;
         end
     end
-    // F+16: the output register (taps valid, range; m_axis): TUSER on the frame's first
-    // word, TLAST on the group's last (its last lane, column WIDTH-1)
+    // F+FO_Z+2: the output register (taps valid, range; m_axis): TUSER on the frame's
+    // first word, TLAST on the group's last (its last lane, column WIDTH-1)
     reg out_first;
     always @(posedge clk) begin
         m_axis_tvalid <= rst ? 1'b0 : ft_vr[FTAGW-1];
-        m_axis_tdata <= {valid15, range15};
+        m_axis_tdata <= {valid_f, range_f};
         m_axis_tuser <= ft_vr[FTAGW-1] && out_first;
         m_axis_tlast <= ft_vr[FTAGW-1] && ft_vr[FTAGW-3] && (ft_vr[1 +: XW] == WIDTH - 1);
         if (rst) out_first <= 1'b1;

@@ -170,22 +170,25 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
     a group's input would overwrite a line buffer its sweep still reads, or a forward read
     would come before its entry is written."""
     m, n = in_cycles.shape
-    # P2's divider: the reciprocal one pipelined (PIPE = 1: + 10), reduced to 1/den
-    # (UNIT = 1: - 5), den registered again and the normalising shift in two stages
+    # P2's divider: the reciprocal one pipelined (PIPE = 2: + 14, its products' operands
+    # in the DSPs' input registers and the cast's rounded value registered), reduced to
+    # 1/den (UNIT = 1: - 6), den registered again and the normalising shift in two stages
     # (NORM = 1: + 2), docs/p2_datapath.md "Timing"; the restoring one as declared
     t_div = divider_latency(config.divider, config.fmt("p2_r").word)
-    t_div += 10 - 5 + 2 if config.divider == "reciprocal" else 0
+    t_div += 14 - 6 + 2 if config.divider == "reciprocal" else 0
     mul = 3  # hdl/fx_pipe.v fx_mul_pipe: partial products, pair sums, final sum
+    lmul = mul + 1  # the backward loop's products: their operands in the DSPs first
     ram = 5  # a block RAM read: address, the blocks' reads, registered, ORed in fours, all
-    # backward loop: operand register, c S~ (mul), + 1, cast den; the divider; r
-    # registered; r S~ (mul), + M, cast S~ registered, into the lane's state
-    t_b = 1 + mul + 1 + 1 + t_div + 1 + mul + 1 + 1 + 1
-    # forward loop: u; S~ u (mul), + Q~, cast w; r w (mul), cast lam; (-a) lam (mul), cast
-    # z; a z (mul), + u, cast e registered into the lane's state; the e operand register
-    t_f = 1 + mul + 1 + 1 + mul + 1 + mul + 1 + mul + 1 + 1 + 1 + 1
+    # backward loop: operand register, c S~ (lmul), + 1, cast den; the divider; r
+    # registered; r S~ (lmul), + M, cast S~ registered, into the lane's state
+    t_b = 1 + lmul + 1 + 1 + t_div + 1 + lmul + 1 + 1 + 1
+    # forward loop: u; S~ u (mul), + Q~, cast w; r w (mul), its rounded value registered,
+    # cast lam; (-a) lam (mul), rounded, cast z; a z (mul), + u, cast e registered into
+    # the lane's state; the e operand register
+    t_f = 1 + mul + 1 + 1 + mul + 1 + 1 + mul + 1 + 1 + mul + 1 + 1 + 1 + 1
     entry = ram + 1 + mul + 1 + mul + 1 + 1  # read, D, KA D, cast a, a^2, cast, max C_MIN
     w_at = ram + 1 + mul + 1 + 1  # after a forward slot's read: u, S~ u, + Q~, cast
-    lam_at, z_at = w_at + mul + 1, w_at + 2 * (mul + 1)
+    lam_at, z_at = w_at + mul + 2, w_at + 2 * (mul + 2)  # each: rounded, then cast
     out_at = z_at + 1 + 1  # threshold compare, output register
     lanes = config.lanes or max(t_b, t_f)
     p_b, p_f = max(lanes, t_b), max(lanes, t_f)  # periods per column: one slot per lane

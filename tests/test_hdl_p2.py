@@ -20,7 +20,7 @@ import pytest
 from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
 from rangefx.rtl_model.p2 import P2_TAPS
-from rangefx.rtl_model.p2.config import P2Config
+from rangefx.rtl_model.p2.config import P2Config, divider_latency_p2, loop_latency
 from rangefx.tools.studies.cases import crop_case, scene_case
 from rangefx.vectors import replay
 from rangefx.vectors.generate import build_vectors, write_vectors
@@ -30,7 +30,10 @@ if shutil.which("iverilog") is None or shutil.which("vvp") is None:
     pytest.skip("Icarus Verilog (iverilog) is not installed", allow_module_level=True)
 
 CROP = (200, 208, 100, 124)  # 8 x 24 pixels of the lab scene: one short lane group
-TALL = (190, 250, 100, 124)  # 60 x 24: three groups of 29 (the last short), two of 30
+T_B = loop_latency(P2Config.default())  # the default lanes (reciprocal divider)
+R_B = loop_latency(P2Config.default().with_(divider="restoring"))
+# (2 T_b + 2) x 24: three groups of T_b (the last short), two of T_b + 1
+TALL = (190, 190 + 2 * T_B + 2, 100, 124)
 GAPS = TimingConfig(hblank=3, vblank=5, gap_prob=0.2, seed=4)
 PLAIN = TimingConfig()
 
@@ -93,10 +96,10 @@ def _check_exact(report: replay.ReplayReport, m: int, n: int, groups: int) -> No
 
 
 CASES = [  # (id, divider, lanes, crop, timing, groups)
-    ("recip-L29-short", "reciprocal", 0, CROP, PLAIN, 1),
-    ("recip-L30-gaps", "reciprocal", 30, TALL, GAPS, 2),
-    ("recip-L29-gaps-3groups", "reciprocal", 0, TALL, GAPS, 3),
-    ("restoring-L43", "restoring", 0, CROP, TimingConfig(hblank=2), 1),
+    (f"recip-L{T_B}-short", "reciprocal", 0, CROP, PLAIN, 1),
+    (f"recip-L{T_B + 1}-gaps", "reciprocal", T_B + 1, TALL, GAPS, 2),
+    (f"recip-L{T_B}-gaps-3groups", "reciprocal", 0, TALL, GAPS, 3),
+    (f"restoring-L{R_B}", "restoring", 0, CROP, TimingConfig(hblank=2), 1),
 ]
 
 
@@ -122,7 +125,7 @@ def test_overflow_counts_equal_the_models(tmp_path):
 
 @pytest.mark.skipif(shutil.which("verilator") is None, reason="Verilator is not installed")
 def test_verilator_replays_value_and_cycle_exact(tmp_path):
-    config = P2Config.default().with_(lanes=30)
+    config = P2Config.default().with_(lanes=T_B + 1)
     vec, _vs = _vectors(tmp_path, config, TALL, GAPS)
     report = _replay(vec, tmp_path, "verilator")
     _check_exact(report, TALL[1] - TALL[0], TALL[3] - TALL[2], 2)
@@ -141,12 +144,13 @@ def test_cli_replays_a_p2_directory(tmp_path, capsys):
 
 
 def test_overrun_flag_when_the_lanes_cannot_sustain_the_rate(tmp_path):
-    """Vectors at one pixel per clock with 29 lanes, the RTL compiled with a divider 9
-    cycles slower (loop latency 38 > 29 lanes): the sweep cannot keep up, and the
-    hardware raises ``overrun`` (the model's assertion) instead of sweeping overwritten
-    lines silently."""
+    """Vectors at one pixel per clock with ``T_b`` lanes, the RTL compiled with a divider
+    9 cycles slower (loop latency ``T_b + 9`` > ``T_b`` lanes): the sweep cannot keep up,
+    and the hardware raises ``overrun`` (the model's assertion) instead of sweeping
+    overwritten lines silently."""
     vec, _vs = _vectors(tmp_path, P2Config.default(), TALL)
-    report = _replay(vec, tmp_path, T_DIV=25)
+    t_div = divider_latency_p2("reciprocal", P2Config.default().formats["p2_r"].word)
+    report = _replay(vec, tmp_path, T_DIV=t_div + 9)
     assert report.flags["overrun"] == 1 and not report.ok
     assert report.flags["align_error"] == 0 and report.flags["line_too_long"] == 0
 

@@ -217,10 +217,14 @@ def test_group_starts_follow_the_recurrence(seed, arrival):
         assert info["backward_cycles"] == back and info["forward_cycles"] == fwd
 
 
+_T_B = {d: loop_latency(P2Config.default().with_(divider=d)) for d in ("reciprocal", "restoring")}
+
+
 @pytest.mark.parametrize(
     ("divider", "lanes", "hblank", "gap_prob"),
-    [("reciprocal", 0, 0, 0.0), ("reciprocal", 0, 7, 0.2), ("reciprocal", 30, 0, 0.0),
-     ("restoring", 0, 0, 0.0), ("restoring", 44, 5, 0.3), ("reciprocal", 3, 900, 0.0)],
+    [("reciprocal", 0, 0, 0.0), ("reciprocal", 0, 7, 0.2),
+     ("reciprocal", _T_B["reciprocal"] + 1, 0, 0.0), ("restoring", 0, 0, 0.0),
+     ("restoring", _T_B["restoring"] + 1, 5, 0.3), ("reciprocal", 3, 1200, 0.0)],
 )  # fmt: skip
 def test_tap_cycles_are_the_oracles_one_sample_per_cycle(divider, lanes, hblank, gap_prob):
     """Every tap's cycles (the schedule, :mod:`rangefx.rtl_model.p2.taps`) equal the
@@ -276,7 +280,7 @@ def _bank_events(cfg, res, hblank):
 @pytest.mark.parametrize(
     ("divider", "lanes", "shape", "hblank", "gap_prob"),
     [("reciprocal", 0, None, 0, 0.0), ("restoring", 0, None, 3, 0.2),
-     ("reciprocal", 3, (64, 100), 900, 0.0), ("reciprocal", 20, (64, 100), 60, 0.1),
+     ("reciprocal", 3, (64, 100), 1200, 0.0), ("reciprocal", 20, (64, 100), 80, 0.1),
      ("reciprocal", 40, (100, 64), 0, 0.0)],
 )  # fmt: skip
 def test_the_one_sweep_buffer_is_written_after_each_read_over_a_frame(

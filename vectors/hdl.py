@@ -589,8 +589,8 @@ P2_TAP_PORTS: Mapping[str, tuple[str, str]] = {
     "q": ("q_wb", "wb_v"),
     "e": ("e_op", "tap_e_v"),
     "w": ("w6", "tap_w_v"),
-    "lam": ("lam10", "tap_lam_v"),
-    "z": ("z14", "tap_z_v"),
+    "lam": ("lam_f", "tap_lam_v"),
+    "z": ("z_f", "tap_z_v"),
     "valid": ("m_axis_tdata[Z_W]", "m_axis_tvalid"),
     "range": ("m_axis_tdata[Z_W-1:0]", "m_axis_tvalid"),
 }

@@ -24,10 +24,12 @@ __all__ = [
     "DEN_LATENCY",
     "DIVIDER_PIPELINING",
     "FWD_LOOP",
+    "LOOP_MUL_LATENCY",
     "MUL_LATENCY",
     "OPERAND_LATENCY",
     "P2_SIGNALS",
     "QUOTIENT_LATENCY",
+    "ROUND_LATENCY",
     "STATE_CAST_LATENCY",
     "STATE_LATENCY",
     "SWEEP_READ",
@@ -154,8 +156,14 @@ P2_SIGNALS: tuple[str, ...] = P2Config.signals()
 #: Declared latencies (cycles) of P2's hardware units (docs/p2_datapath.md, "Hardware"):
 #: every unit does one multiply, one carry chain or one cast per cycle.
 MUL_LATENCY = 3  # hdl/fx_pipe.v fx_mul_pipe: 18x18 partial products, pair sums, final sum
+#: The backward loop's products (``c S~``, ``S~ dG``, ``r S~``, ``r h``): ``fx_mul_pipe``
+#: with ``IREG = 1``, the operands registered in the MULT18X18D's input registers first.
+LOOP_MUL_LATENCY = MUL_LATENCY + 1
 ADD_LATENCY = 1  # one carry chain (an add, a subtract or a compare), registered
 CAST_LATENCY = 1  # fx_cast_sized: the rounding carry and the overflow mode, registered
+#: fx_cast_reg: a cast's rounded value registered before its overflow mode (the forward
+#: ``lam`` and ``z`` casts: each rounding carry alone in the cycle after its product)
+ROUND_LATENCY = 1
 #: A block RAM read (hdl/p2_top.v p2_ram): the address registered, the blocks' read
 #: ports (zero but the one holding the address), their words registered, ORed in fours,
 #: then all.
@@ -168,7 +176,7 @@ SWEEP_READ = (
 )
 #: Cycles from the loop entry to the divider's operand ``den``: the operand register,
 #: ``c S~``, ``+ 1``, the cast.
-DEN_LATENCY = OPERAND_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
+DEN_LATENCY = OPERAND_LATENCY + LOOP_MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
 #: The divider's quotient ``r`` (its output cast's rounding carry) registered before the
 #: ``r S~``, ``r h`` products' operands.
 QUOTIENT_LATENCY = 1
@@ -177,31 +185,35 @@ QUOTIENT_LATENCY = 1
 STATE_CAST_LATENCY = 1
 #: Cycles from the divider's ``r`` to ``S~_k`` in the lane's state: ``r`` registered,
 #: ``r S~``, ``+ M``, the cast, registered.
-STATE_LATENCY = QUOTIENT_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY + STATE_CAST_LATENCY
+STATE_LATENCY = (
+    QUOTIENT_LATENCY + LOOP_MUL_LATENCY + ADD_LATENCY + CAST_LATENCY + STATE_CAST_LATENCY
+)
 #: The forward recurrence ``e_k -> e_k+1``: ``u = e - dG``; ``S~ u``, ``+ Q~``, cast ``w``;
-#: ``r w``, cast ``lam``; ``(-a) lam``, cast ``z``; ``a z``, ``+ u``, cast ``e``, registered
-#: into the lane's state (``STATE_CAST_LATENCY``); the e operand register.
+#: ``r w``, cast ``lam``; ``(-a) lam``, cast ``z`` (each with its rounded value
+#: registered first, ``ROUND_LATENCY``); ``a z``, ``+ u``, cast ``e``, registered into
+#: the lane's state (``STATE_CAST_LATENCY``); the e operand register.
 FWD_LOOP = (
     ADD_LATENCY
     + (MUL_LATENCY + ADD_LATENCY + CAST_LATENCY)
-    + 2 * (MUL_LATENCY + CAST_LATENCY)
+    + 2 * (MUL_LATENCY + ROUND_LATENCY + CAST_LATENCY)
     + (MUL_LATENCY + ADD_LATENCY + CAST_LATENCY + STATE_CAST_LATENCY)
     + OPERAND_LATENCY
 )
 
 
 #: Cycles P2's divider ``r = 1 / den`` adds to :func:`~rangefx.rtl_model.runtime.divider_latency`
-#: (``hdl/fx_divide.v``): the reciprocal one runs with ``PIPE = 1`` (the leading one, the
-#: normalising shift, the products and the cast's shift each in their own stages: + 10),
-#: ``UNIT = 1`` (numerator 1, ``den >= 0``: no magnitude stage, no ``|N| y1`` product
-#: nor its ``y1`` register: - 5) and ``NORM = 1`` (``den`` registered again before its
-#: leading one, the normalising shift in two stages: + 2); the restoring one as declared
-#: (``W + 4``).
-DIVIDER_PIPELINING = {"reciprocal": 10 - 5 + 2, "restoring": 0}
+#: (``hdl/fx_divide.v``): the reciprocal one runs with ``PIPE = 2`` (the leading one, the
+#: normalising shift, the products (4 stages each, their operands in the MULT18X18D's
+#: input registers), the cast's shift and its rounded value each in their own stages:
+#: + 14), ``UNIT = 1`` (numerator 1, ``den >= 0``: no magnitude stage, no ``|N| y1``
+#: product nor its ``y1`` register: - 6) and ``NORM = 1`` (``den`` registered again
+#: before its leading one, the normalising shift in two stages: + 2); the restoring one
+#: as declared (``W + 4``).
+DIVIDER_PIPELINING = {"reciprocal": 14 - 6 + 2, "restoring": 0}
 
 
 def divider_latency_p2(divider: str, quotient_word: int) -> int:
-    """Cycles of P2's divider ``r = 1 / den`` (reciprocal 16, restoring ``W + 4``)."""
+    """Cycles of P2's divider ``r = 1 / den`` (reciprocal 19, restoring ``W + 4``)."""
     return divider_latency(divider, quotient_word) + DIVIDER_PIPELINING[divider]
 
 

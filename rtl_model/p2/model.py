@@ -59,6 +59,7 @@ from .config import (
     FWD_LOOP,
     MUL_LATENCY,
     P2_SIGNALS,
+    ROUND_LATENCY,
     SWEEP_READ,
     P2Config,
     divider_latency_p2,
@@ -106,11 +107,11 @@ IN_LATENCY = 2  # input cast + d/Ĝ adder, then the line-buffer write
 FWD_READ = BRAM_READ  # a forward slot's sweep-buffer read: with it, the e operand register
 #: Cycles after a forward slot's sweep-buffer read at which its taps leave (Hardware):
 #: ``e`` with the read; ``w`` after ``u``, ``S~ u``, ``+ Q~``, the cast; ``lam`` and ``z``
-#: after a product and a cast each; ``valid``/``range`` after the threshold compare and
-#: the output register.
+#: after a product and a cast each (the casts' rounded values registered first);
+#: ``valid``/``range`` after the threshold compare and the output register.
 W_OFFSET = FWD_READ + ADD_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
-LAM_OFFSET = W_OFFSET + MUL_LATENCY + CAST_LATENCY
-Z_OFFSET = LAM_OFFSET + MUL_LATENCY + CAST_LATENCY
+LAM_OFFSET = W_OFFSET + MUL_LATENCY + ROUND_LATENCY + CAST_LATENCY
+Z_OFFSET = LAM_OFFSET + MUL_LATENCY + ROUND_LATENCY + CAST_LATENCY
 OUT_LATENCY = Z_OFFSET + ADD_LATENCY + 1
 #: Cycles a sweep-buffer write must come after the read of the same address: ``p2_ram``
 #: registers a write's and a read's address alike, so a write at cycle ``w`` lands in the
