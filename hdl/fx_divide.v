@@ -27,7 +27,7 @@
 //                      default) is the circuit without them
 //   fx_lead_one      : the reciprocal's leading one of |D| (combinational), a balanced tree
 // P1 (p1_range.v, p1_frontend.v) uses FRONT = 1 / PIPE = 2 to close its clock (docs/hdl.md);
-// P2 (p2_top.v, r = 1/den) PIPE = 1 / UNIT = 1 / NORM = 1.
+// P2 (p2_top.v, r = 1/den) PIPE = 2 / UNIT = 1 / NORM = 1.
 // D = 0 gives 0 when N = 0, otherwise the overflow mode of S acting on an infinite value
 // with the sign of N (ovf = 1).
 `timescale 1ns / 1ps
