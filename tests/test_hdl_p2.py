@@ -5,8 +5,9 @@ under Icarus (and the plain Verilog bench under Verilator when installed): every
 checked value for value and cycle for cycle (in cycle order: the lanes' interleaved
 order), the AXI4-Stream output word for word, cycle for cycle and group for group, the
 overflow counters against the manifest; both dividers, lanes at and above the loop
-latency, blanking and input gaps, short last groups, and a mixed-modes narrowed config
-that overflows on several signals. The mutants and the line-buffer read bound:
+latency, blanking and input gaps, short last groups, a mixed-modes narrowed config
+that overflows on several signals, and a stream of two frames (an odd number of groups
+each) at the least vertical blanking the model's ``frame_period`` gives. The mutants and the line-buffer read bound:
 ``tests/test_hdl_replay_benches.py``.
 """
 
