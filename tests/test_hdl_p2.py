@@ -7,8 +7,8 @@ order), the AXI4-Stream output word for word, cycle for cycle and group for grou
 overflow counters against the manifest; both dividers, lanes at and above the loop
 latency, blanking and input gaps, short last groups, a mixed-modes narrowed config
 that overflows on several signals, and a stream of two frames (an odd number of groups
-each) at the least vertical blanking the model's ``frame_period`` gives. The mutants and the line-buffer read bound:
-``tests/test_hdl_replay_benches.py``.
+each) at the least vertical blanking the model's ``frame_period`` gives. The mutants
+and the line-buffer read bound: ``tests/test_hdl_replay_benches.py``.
 """
 
 from __future__ import annotations
