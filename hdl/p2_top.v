@@ -1,6 +1,6 @@
 // p2_top: rangefx P2, the line-buffered Riccati sweep (docs/p2_datapath.md, "Hardware"),
 // one pixel per clock; AXI4-Stream video in (s0 = E1, s1 = E2, TUSER = start of frame,
-// TLAST = end of line, no back-pressure) and out (TDATA = {valid, range}, TUSER on the
+// TLAST = end of line, no back-pressure) and out (TDATA = {valid, range}, TUSER on each
 // frame's first word, TLAST on each lane group's last word: the interleaved order).
 //
 // Units and their cycles (r: a sweep slot's line-buffer read, E = r + SWEEP_READ its loop
@@ -27,7 +27,9 @@
 //   F + 20    u + a z   F + 21  its cast, registered into the lane's e state (T_F = 23:
 //   the lane's next e operand is read at its next t + 4)
 //   F + 17    valid, range (threshold)  F + 18  output register (taps, m_axis)
-// Lines are taken in groups of LANES (bank = group mod 2); a group's sweep runs WIDTH
+// Lines are taken in groups of LANES (bank = the group's parity over the whole stream of
+// frames: a frame's last group ends its bank, SOF restarts only the column, lane and row
+// counts; docs/p2_datapath.md "A stream of frames"); a group's sweep runs WIDTH
 // columns x P_B cycles (column WIDTH-1's slot loads S~_end, Q~ = 0), its forward pass
 // WIDTH x P_F; the controllers start them as the model's schedule does
 // (rtl_model/p2/model.py group_starts), each slot decided the cycle before (its registers
@@ -154,14 +156,17 @@ module p2_top #(
     reg [YW-1:0] in_row;
     wire [YW-1:0] row_now = s0_axis_tuser ? {YW{1'b0}} : in_row;
     wire [LW-1:0] lane_now = s0_axis_tuser ? {LW{1'b0}} : in_lane;
-    wire bank_now = s0_axis_tuser ? 1'b0 : in_bank;
+    // the bank parity continues across frames (a frame's last group, short or not, ends
+    // its bank): the controllers' sw_next / fw_next and the sweep buffer's column order
+    // follow it, so a stream of frames needs no reset between them
+    wire bank_now = in_bank;
     wire [XW:0] col_now = s0_axis_tuser ? {(XW+1){1'b0}} : in_col;
     wire keep = s0_axis_tvalid && (col_now < WIDTH);
     // t+1
     reg v1;
     reg [PIX_W-1:0] x1, x2;
     reg [AW-1:0] a1;
-    reg last1, first1;
+    reg last1, first1, sof1;
     reg [LW-1:0] lane1;
     reg bank1;
     reg ox1, ox2;
@@ -178,7 +183,7 @@ module p2_top #(
                 if (s0_axis_tlast) begin
                     in_col <= 0;
                     in_row <= row_now + 1'b1;
-                    if (lane_now == LANES - 1) begin
+                    if (lane_now == LANES - 1 || row_now == HEIGHT - 1) begin
                         in_lane <= 0;
                         in_bank <= ~bank_now;
                     end else begin
@@ -200,6 +205,7 @@ module p2_top #(
         // the group's last pixel: its last line (lane LANES-1 or the frame's last row)
         last1 <= (col_now == WIDTH - 1) && (lane_now == LANES - 1 || row_now == HEIGHT - 1);
         first1 <= (col_now == 0) && (lane_now == 0);
+        sof1 <= (col_now == 0) && (row_now == 0);          // the frame's first group
         lane1 <= lane_now;
         bank1 <= bank_now;
     end
@@ -213,7 +219,7 @@ module p2_top #(
         .x(x1s - x2s), .y(d_n), .ovf(ovf_dn));
     fx_cast_sized #(PIX_W + 2, PIX_F, G_W, G_F, G_S, G_Q, G_O) c_g (
         .x(x1s + x2s), .y(g_n), .ovf(ovf_gn));
-    reg v2, last2, first2, od2, og2, ox1_2, ox2_2;
+    reg v2, last2, first2, sof2, od2, og2, ox1_2, ox2_2;
     reg [D_W-1:0] d2;
     reg [G_W-1:0] g2;
     reg [AW-1:0] a2w;
@@ -221,7 +227,8 @@ module p2_top #(
     reg bank2;
     always @(posedge clk) begin
         v2 <= rst ? 1'b0 : v1;
-        {d2, g2, a2w, last2, first2, lane2, bank2} <= {d_n, g_n, a1, last1, first1, lane1, bank1};
+        {d2, g2, a2w, last2, first2, sof2, lane2, bank2} <=
+            {d_n, g_n, a1, last1, first1, sof1, lane1, bank1};
         {od2, og2, ox1_2, ox2_2} <= {ovf_dn, ovf_gn, ox1, ox2};
     end
     // the line buffer (p2_ram), written here, read by the sweep engine
@@ -238,6 +245,7 @@ module p2_top #(
     // (no multiply).
     reg [1:0] ready;                 // per bank: a group is in the line buffer
     reg [LW:0] lines [0:1];          // per bank: the group's lines
+    reg [1:0] sof_b;                 // per bank: its group is a frame's first
     reg [1:0] lb_busy;               // per bank: its sweep has reads left
     reg [1:0] used;                  // per bank: a group of it has been swept
     reg [1:0] f_started;             // per bank: that group's forward pass has started
@@ -271,7 +279,9 @@ module p2_top #(
     reg [XW-1:0] fk;
     reg [SAW-1:0] sb_ra, sb_ca;      // the slot's address; its column's, lane 0 (k, WIDTH-1-k)
     reg [LW:0] sw_lines_b [0:1];     // per bank: the lines of the group swept into it
+    reg [1:0] sw_sof_b;              // per bank: that group is a frame's first
     reg [LW:0] fw_lines;
+    reg fw_sof;
     wire fb = fw_bank;
     wire t_v = fw_on && (fph < fw_lines);
     wire fw_wrap = fw_on && fw_ph_last;
@@ -318,6 +328,7 @@ module p2_top #(
             if (v2 && first2) begin
                 if (lb_busy[bank2] || ready[bank2]) overrun <= 1'b1;
                 lb_busy[bank2] <= 1'b1;
+                sof_b[bank2] <= sof2;
             end
             if (v2 && last2) begin
                 ready[bank2] <= 1'b1;
@@ -334,6 +345,7 @@ module p2_top #(
                 hold_a <= now + HOLD_A;
                 hold_a_met2 <= (HOLD_A <= 2);  // now + 2 - b_start = 2
                 sw_lines_b[sw_next] <= lines[sw_next];
+                sw_sof_b[sw_next] <= sof_b[sw_next];
                 sw_next <= ~sw_next;
             end
             // the sweep's next slot
@@ -370,6 +382,7 @@ module p2_top #(
             if (fw_free) begin
                 fw_bank <= fw_next;
                 fw_lines <= sw_lines_b[fw_next];
+                fw_sof <= sw_sof_b[fw_next];
                 sb_ra <= fw_start;
                 sb_ca <= fw_start;
             end else if (fw_wrap) begin     // the next column: one word on (bank 0) or back
@@ -644,11 +657,13 @@ module p2_top #(
 
     // ---- the forward engine -----------------------------------------------------------
     // t: the sweep-buffer read (address); ftag(i) holds the tag of the slot read at
-    // t = now - i: (valid, column WIDTH-1, the group's last lane, lane, column, bank)
-    localparam integer FTAGW = 3 + LW + XW + 1;
+    // t = now - i: (valid, column WIDTH-1, the group's last lane, the frame's first word,
+    // lane, column, bank)
+    localparam integer FTAGW = 4 + LW + XW + 1;
     localparam integer NFT = FWD_READ + T_F - 2;
     wire f_zero = (fk == WIDTH - 1);
-    wire [FTAGW-1:0] ftag_t = {t_v, f_zero, fph == fw_lines - 1, fph[LW-1:0], fk, fb};
+    wire [FTAGW-1:0] ftag_t = {t_v, f_zero, fph == fw_lines - 1, fw_sof && fph == 0 && fk == 0,
+                               fph[LW-1:0], fk, fb};
     reg [FTAGW*NFT-1:0] ftags;
     always @(posedge clk)
         ftags <= rst ? {(FTAGW*NFT){1'b0}} : {ftags[FTAGW*(NFT-1)-1:0], ftag_t};
@@ -805,16 +820,14 @@ module p2_top #(
             if (ft_st[FTAGW-1] && !ft_st[FTAGW-2]) ovf_e <= ovf_e + oe_f;
         end
     end
-    // F+FO_Z+2: the output register (taps valid, range; m_axis): TUSER on the frame's
-    // first word, TLAST on the group's last (its last lane, column WIDTH-1)
-    reg out_first;
+    // F+FO_Z+2: the output register (taps valid, range; m_axis): TUSER on each frame's
+    // first word (lane 0, column 0 of its first group), TLAST on the group's last (its
+    // last lane, column WIDTH-1)
     always @(posedge clk) begin
         m_axis_tvalid <= rst ? 1'b0 : ft_vr[FTAGW-1];
         m_axis_tdata <= {valid_f, range_f};
-        m_axis_tuser <= ft_vr[FTAGW-1] && out_first;
+        m_axis_tuser <= ft_vr[FTAGW-1] && ft_vr[FTAGW-4];
         m_axis_tlast <= ft_vr[FTAGW-1] && ft_vr[FTAGW-3] && (ft_vr[1 +: XW] == WIDTH - 1);
-        if (rst) out_first <= 1'b1;
-        else if (ft_vr[FTAGW-1]) out_first <= 1'b0;
     end
 `undef P2_BTAG
 `undef P2_FTAG

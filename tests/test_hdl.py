@@ -22,6 +22,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from hdl_frames import two_frame_report, two_frames
 
 from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
@@ -522,3 +523,20 @@ def test_the_dividers_leading_one_tree_is_proved_equal_at_the_widths_p1_and_p2_u
     run = subprocess.run([*yosys_command(), "-q", "-s", "eq.ys"], cwd=tmp_path,
                          capture_output=True, text=True, check=False)  # fmt: skip
     assert run.returncode == 0, (run.stdout + run.stderr)[-2000:]
+
+
+@pytest.mark.parametrize("vblank", [0, 5], ids=["no-blanking", "vblank-5"])
+def test_two_frames_back_to_back(vblank, tmp_path):
+    """A stream of two stereo frames through ``p1_top`` (the input counters and the
+    first-row state restart at TUSER; no other state crosses a frame): frame 2's taps and
+    output equal frame 1's at frame 1's cycles + the frame period, even with no vertical
+    blanking; TUSER on each frame's first word."""
+    config = P1Config.default()
+    vec, _vs = _vectors(tmp_path, config, "stereo", dataclasses.replace(TIMING, vblank=vblank))
+    count = two_frames(vec, tmp_path / "two")
+    run = replay.simulate(tmp_path / "two", tmp_path / "work", "icarus")
+    m, n = CROP[1] - CROP[0], CROP[3] - CROP[2]
+    report = two_frame_report(vec, run["dump"], count, sorted(_rtl_taps(config)), [n] * m)
+    flags = [report["status"][f] for f in ("align_error", "line_too_long", "frame_too_big")]
+    assert flags == [0, 0, 0] and report["framing_ok"] and report["counters_ok"], report
+    assert report["values"] == 0 and report["cycles"] == 0, report

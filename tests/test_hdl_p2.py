@@ -5,9 +5,10 @@ under Icarus (and the plain Verilog bench under Verilator when installed): every
 checked value for value and cycle for cycle (in cycle order: the lanes' interleaved
 order), the AXI4-Stream output word for word, cycle for cycle and group for group, the
 overflow counters against the manifest; both dividers, lanes at and above the loop
-latency, blanking and input gaps, short last groups, and a mixed-modes narrowed config
-that overflows on several signals. The mutants and the line-buffer read bound:
-``tests/test_hdl_replay_benches.py``.
+latency, blanking and input gaps, short last groups, a mixed-modes narrowed config
+that overflows on several signals, and a stream of two frames (an odd number of groups
+each) at the least vertical blanking the model's ``frame_period`` gives. The mutants
+and the line-buffer read bound: ``tests/test_hdl_replay_benches.py``.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import functools
 import shutil
 
 import pytest
+from hdl_frames import two_frame_report, two_frames
 
 from rangefx.rtl_model.config import TimingConfig
 from rangefx.rtl_model.fixedpoint import FixedFormat, Overflow, Quant
@@ -178,3 +180,47 @@ def test_timing_wrapper_elaborates(tmp_path):
     run = subprocess.run(cmd, capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
     assert pins < 200
+
+
+SHORT = (190, 250, 100, 106)  # 60 x 6: three groups of 29 lanes (the last one 2 lines)
+
+
+def least_blanking(config: P2Config, m: int, n: int) -> int:
+    """The least vertical blanking (no horizontal blanking, no gaps) of a stream of
+    ``m x n`` frames: the model's :func:`frame_period` less the frame's ``m n`` beats."""
+    import numpy as np
+
+    from rangefx.rtl_model.p2.model import frame_period
+
+    firsts = np.arange(m, dtype=np.int64) * n
+    return frame_period(firsts, firsts + n - 1, n, config, 0) - m * n
+
+
+@pytest.mark.parametrize("case", ["drained", "least", "least-1"])
+def test_two_frames_back_to_back(case, tmp_path):
+    """A stream of two frames: 60 lines in 29 lanes (three groups, an odd number, the
+    last one short), the second after ``vblank`` idle cycles. ``drained``: frame 1's last
+    output comes before frame 2's first beat; ``least``: the least blanking after which
+    frame 2's schedule is a lone frame's (:func:`least_blanking`). In both, frame 2's taps
+    and output equal frame 1's at frame 1's cycles + the stream's frame period. One cycle
+    less: frame 2's second group's first pixel would overwrite the line buffer frame 1's
+    short last group's sweep still reads (``overrun``)."""
+    import json
+
+    config = P2Config.default()
+    m, n = SHORT[1] - SHORT[0], SHORT[3] - SHORT[2]
+    vblank = least_blanking(config, m, n) - (case == "least-1")
+    if case == "drained":
+        one, _vs = _vectors(tmp_path, config, SHORT, PLAIN, name="one")
+        vblank = json.loads((one / "manifest.json").read_text())["total_cycles"] - m * n
+    vec, _vs = _vectors(tmp_path, config, SHORT, TimingConfig(vblank=vblank))
+    count = two_frames(vec, tmp_path / "two")
+    run = replay.simulate(tmp_path / "two", tmp_path / "work", "icarus")
+    groups = [min(29, m - g) * n for g in range(0, m, 29)]
+    report = two_frame_report(vec, run["dump"], count, P2_TAPS, groups)
+    flags = [report["status"][f] for f in ("align_error", "line_too_long", "overrun")]
+    if case == "least-1":
+        assert flags == [0, 0, 1], report
+        return
+    assert flags == [0, 0, 0] and report["framing_ok"] and report["counters_ok"], report
+    assert report["values"] == 0 and report["cycles"] == 0, report

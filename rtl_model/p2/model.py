@@ -80,6 +80,7 @@ __all__ = [
     "Z_OFFSET",
     "P2Registers",
     "buffer_bits",
+    "frame_period",
     "group_starts",
     "output_line_starts",
     "p2_registers",
@@ -719,6 +720,35 @@ def sweep_hold(n: int, pb: int, pf: int, tb: int) -> int:
     ``P_f <= P_b`` (``T_f <= T_b``) the maximum is at ``i = 1`` and is below ``-T_b``: it
     never binds, as ``f_g-1 <= b_g + T_b`` then."""
     return max(pf - pb, (n - 1) * (pf - pb)) - SWEEP_READ - tb + BANK_MARGIN
+
+
+def frame_period(
+    line_first: np.ndarray, line_last: np.ndarray, n: int, config: P2Config, hblank: int
+) -> int:
+    """The least number of cycles from a frame's first beat to the next frame's, in a
+    stream of frames whose beats come as this frame's (the input cycle of every line's
+    first and last pixel), for which the next frame's schedule is that of a frame alone
+    and no line buffer is overwritten early (``hdl/p2_top.v``: the bank parity continues
+    across frames, so the groups of a stream follow :func:`group_starts`' recurrence
+    over the frame boundary). The next frame's first group waits for nothing of this
+    frame's last group: its sweep starts after that sweep's end and :func:`sweep_hold`
+    after its forward start, its forward pass after that forward pass's end; and its
+    first two groups' first pixels come after the last reads of the banks they write
+    (this frame's groups ``G - 2``, ``G - 1``). A short last group costs a whole sweep:
+    at ``P_b = P_f = L`` and no gaps the period is ``G n P_b`` (``G`` groups), so the
+    vertical blanking is at least ``G n P_b - m (n + hblank)``."""
+    starts, info = group_starts(line_first, line_last, n, config, hblank)
+    firsts = np.asarray(line_first, dtype=np.int64)
+    lanes, back, fwd = info["lanes"], info["backward_cycles"], info["forward_cycles"]
+    tb = loop_latency(config)
+    hold = sweep_hold(n, info["backward_period"], info["forward_period"], tb)
+    reads = (n - 1) * info["backward_period"] + lanes
+    (s_last, f_last), groups = starts[-1], starts.shape[0]
+    need = [s_last + back - starts[0, 0], f_last + hold - starts[0, 0], f_last + fwd - starts[0, 1]]
+    for gi in range(min(2, groups)):  # the next frame's group gi writes group G - 2 + gi's bank
+        if groups - 2 + gi >= 0:
+            need.append(starts[groups - 2 + gi, 0] + reads - firsts[gi * lanes] - IN_LATENCY)
+    return int(max(need))
 
 
 def output_line_starts(starts: np.ndarray, info: dict[str, int], j0: int, j1: int) -> np.ndarray:
