@@ -182,7 +182,11 @@ def test_timing_wrapper_elaborates(tmp_path):
     assert pins < 200
 
 
-SHORT = (190, 250, 100, 106)  # 60 x 6: three groups of 29 lanes (the last one 2 lines)
+def short_crop(config: P2Config) -> tuple[int, int, int, int]:
+    """A crop of ``2 L + 2`` lines x 6 at the default's ``L`` lanes: three groups (an odd
+    number), the last one of 2 lines."""
+    lanes = config.effective_lanes()
+    return (190, 190 + 2 * lanes + 2, 100, 106)
 
 
 def least_blanking(config: P2Config, m: int, n: int) -> int:
@@ -198,25 +202,28 @@ def least_blanking(config: P2Config, m: int, n: int) -> int:
 
 @pytest.mark.parametrize("case", ["drained", "least", "least-1"])
 def test_two_frames_back_to_back(case, tmp_path):
-    """A stream of two frames: 60 lines in 29 lanes (three groups, an odd number, the
-    last one short), the second after ``vblank`` idle cycles. ``drained``: frame 1's last
-    output comes before frame 2's first beat; ``least``: the least blanking after which
-    frame 2's schedule is a lone frame's (:func:`least_blanking`). In both, frame 2's taps
-    and output equal frame 1's at frame 1's cycles + the stream's frame period. One cycle
-    less: frame 2's second group's first pixel would overwrite the line buffer frame 1's
-    short last group's sweep still reads (``overrun``)."""
+    """A stream of two frames: ``2 L + 2`` lines in ``L`` lanes (three groups, an odd
+    number, the last one short), the second after ``vblank`` idle cycles. ``drained``:
+    frame 1's last output comes before frame 2's first beat; ``least``: the least
+    blanking after which frame 2's schedule is a lone frame's (:func:`least_blanking`).
+    In both, frame 2's taps and output equal frame 1's at frame 1's cycles + the stream's
+    frame period. One cycle less: frame 2's second group's first pixel would overwrite
+    the line buffer frame 1's short last group's sweep still reads (``overrun``)."""
     import json
 
     config = P2Config.default()
-    m, n = SHORT[1] - SHORT[0], SHORT[3] - SHORT[2]
+    crop = short_crop(config)
+    lanes = config.effective_lanes()
+    m, n = crop[1] - crop[0], crop[3] - crop[2]
+    assert len(range(0, m, lanes)) % 2 == 1
     vblank = least_blanking(config, m, n) - (case == "least-1")
     if case == "drained":
-        one, _vs = _vectors(tmp_path, config, SHORT, PLAIN, name="one")
+        one, _vs = _vectors(tmp_path, config, crop, PLAIN, name="one")
         vblank = json.loads((one / "manifest.json").read_text())["total_cycles"] - m * n
-    vec, _vs = _vectors(tmp_path, config, SHORT, TimingConfig(vblank=vblank))
+    vec, _vs = _vectors(tmp_path, config, crop, TimingConfig(vblank=vblank))
     count = two_frames(vec, tmp_path / "two")
     run = replay.simulate(tmp_path / "two", tmp_path / "work", "icarus")
-    groups = [min(29, m - g) * n for g in range(0, m, 29)]
+    groups = [min(lanes, m - g) * n for g in range(0, m, lanes)]
     report = two_frame_report(vec, run["dump"], count, P2_TAPS, groups)
     flags = [report["status"][f] for f in ("align_error", "line_too_long", "overrun")]
     if case == "least-1":
