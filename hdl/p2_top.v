@@ -5,14 +5,15 @@
 //
 // Units and their cycles (r: a sweep slot's line-buffer read, E = r + SWEEP_READ its loop
 // entry, t: a forward slot's sweep-buffer read, F = t + FWD_READ; every stage holds one
-// multiply (fx_mul_pipe, MUL_LAT = 3 stages), one carry chain or one cast; the line and
-// sweep buffers read in LB_READ = 5 cycles, p2_ram below):
+// multiply (fx_mul_pipe with IREG = 1, MUL_LAT = 4 stages: the operands in the
+// MULT18X18D's input registers first), one carry chain or one cast; the line and sweep
+// buffers read in LB_READ = 5 cycles, p2_ram below):
 //   beat + 1  x1, x2 = cast(E, pix)          beat + 2  d, g_hat (tap), line-buffer write
 //   r + 5     d_k, G_k (p2_ram's output)      r + 6     D = d_k + d_k+1, dG
-//   r + 9     KA D                            r + 10    a = cast(KA D)
-//   r + 13    a^2                             r + 14    cast(a^2)
-//   E = r+15  c = max(cast(a^2), C_MIN)       E + 1     S~_k+1, Q~_k+1 (lane state read)
-//   E + 2     c, S~, dG in the DSPs' input registers (the loop's products: IREG = 1)
+//   r + 10    KA D                            r + 11    a = cast(KA D)
+//   r + 15    a^2                             r + 16    cast(a^2)
+//   E = r+17  c = max(cast(a^2), C_MIN)       E + 1     S~_k+1, Q~_k+1 (lane state read)
+//   E + 2     c, S~, dG in the DSPs' input registers
 //   E + 5     c S~, S~ dG                     E + 6     1 + c S~, Q~ - S~ dG
 //   E + 7     den (divider operand), h        E + 7 + T_DIV  r (the divider's cast)
 //   E + 8 + T_DIV  r registered               E + 12 + T_DIV  r S~, r h
@@ -20,13 +21,13 @@
 //   E + T_B   write-back (taps a c den r s h q; S~_k, Q~_k into the lane's state),
 //             T_B = 7 + T_DIV + 8; sweep-buffer entry D, r, S~_k+1, Q~_k+1, dG
 //   F         sweep-buffer entry, e operand (tap e)   F + 1  u = e - dG, |D|
-//   F + 2     |D| >= T_D    F + 3  KA D    F + 4  a = cast(KA D)    F + 5  -a
-//   F + 4     S~ u      F + 5  + Q~     F + 6   w (tap)    F + 9   r w
-//   F + 10    its rounded value         F + 11  lam (tap)  F + 14  (-a) lam
-//   F + 15    its rounded value         F + 16  z (tap)    F + 19  a z
-//   F + 20    u + a z   F + 21  its cast, registered into the lane's e state (T_F = 23:
+//   F + 2     |D| >= T_D    F + 4  KA D    F + 5  a = cast(KA D)    F + 6  -a
+//   F + 5     S~ u      F + 6   + Q~      F + 7   w (tap)    F + 11  r w
+//   F + 12    its rounded value           F + 13  lam (tap)  F + 17  (-a) lam
+//   F + 18    its rounded value           F + 19  z (tap)    F + 23  a z
+//   F + 24    u + a z   F + 25  its cast, registered into the lane's e state (T_F = 27:
 //   the lane's next e operand is read at its next t + 4)
-//   F + 17    valid, range (threshold)  F + 18  output register (taps, m_axis)
+//   F + 20    valid, range (threshold)    F + 21  output register (taps, m_axis)
 // Lines are taken in groups of LANES (bank = the group's parity over the whole stream of
 // frames: a frame's last group ends its bank, SOF restarts only the column, lane and row
 // counts; docs/p2_datapath.md "A stream of frames"); a group's sweep runs WIDTH
@@ -85,17 +86,18 @@ module p2_top #(
 );
     // declared latencies (rtl_model/p2/config.py): every unit one multiply (fx_mul_pipe,
     // MUL_LAT stages), one carry chain or one cast per cycle; block RAMs read in LB_READ
-    localparam integer MUL_LAT = 3;                  // fx_pipe.v fx_mul_pipe
-    localparam integer LMUL_LAT = MUL_LAT + 1;       // the loop's: IREG = 1 (in the DSP)
+    // every product: fx_mul_pipe with IREG = 1, its operands in the MULT18X18D's input
+    // registers, then the partial products, their pair sums, the final sum
+    localparam integer MUL_LAT = 4;
     localparam integer LB_READ = 5;                  // p2_ram: address, read, out, ORed x2
     localparam integer FWD_READ = LB_READ;           // the sweep buffer likewise
     // the loop entry E = r + SWEEP_READ: read, D, KA D, cast a, a^2, cast, max(., C_MIN)
     localparam integer SWEEP_READ = LB_READ + 1 + MUL_LAT + 1 + MUL_LAT + 1 + 1;
     // the backward loop: operand register, c S~, + 1, cast (den at E + E_DEN), the
     // divider, r registered, r S~, + M, cast, registered into the lane's state; its
-    // products with their operands in the MULT18X18D's input registers (LMUL_LAT)
-    localparam integer E_DEN = 1 + LMUL_LAT + 1 + 1;
-    localparam integer T_B = E_DEN + T_DIV + 1 + LMUL_LAT + 1 + 1 + 1;
+    // products with their operands in the MULT18X18D's input registers (MUL_LAT)
+    localparam integer E_DEN = 1 + MUL_LAT + 1 + 1;
+    localparam integer T_B = E_DEN + T_DIV + 1 + MUL_LAT + 1 + 1 + 1;
     // the forward loop, its units' cycles after F (the sweep-buffer entry and the e
     // operand): u, S~ u, + Q~, cast w (FO_W); r w, cast lam (FO_LAM: its rounded value,
     // then its overflow mode); (-a) lam, cast z (FO_Z: likewise); a z, + u, cast e,
@@ -138,9 +140,6 @@ module p2_top #(
     localparam signed [47:0] HOLD_B = FWD_LEN + HOLD;             // after a forward start
     localparam integer DS_W = D_W + 1;                            // D = d_k + d_k+1
     localparam integer SB_W = DS_W + R_W + ST_W + Q_W + DG_W;
-
-    reg [47:0] now;
-    always @(posedge clk) now <= rst ? 48'd0 : now + 48'd1;
 
     // ---- input stage ---------------------------------------------------------------
     wire [PIX_W-1:0] x1_n, x2_n;
@@ -250,15 +249,24 @@ module p2_top #(
     reg [1:0] used;                  // per bank: a group of it has been swept
     reg [1:0] f_started;             // per bank: that group's forward pass has started
     reg [1:0] f_pend;                // per bank: a swept group waits for its forward pass
-    reg [47:0] f_ready [0:1];
-    reg [47:0] hold_at [0:1];        // per bank: its forward start + HOLD_B
-    reg [47:0] hold_a;               // the last sweep's start + HOLD_A
-    // the time compares, registered two cycles ahead (one carry chain each): per bank,
-    // hold_met2 = now + 2 - f_start >= HOLD_B, fwd_met2 = now + 2 >= f_ready; hold_a_met2
-    // = now + 2 - (the last sweep's start) >= HOLD_A
-    reg [47:0] now2;                 // now + 2
+    // the time compares, for the cycle after next: per bank, hold_met2 = now + 2 -
+    // (its forward start) >= HOLD_B, fwd_met2 = now + 2 - (its sweep's start) >= FWD_K
+    // (the sweep written back); hold_a_met2 = now + 2 - (the last sweep's start) >=
+    // HOLD_A. Each a down-counter of the cycles left (CW bits), loaded at its start event
+    // with K - 2 and met the cycle after it reads 1: no wide compare, no absolute time
+    localparam signed [47:0] FWD_K = SWEEP_LEN + T_B;
+    localparam signed [47:0] K_MAX = (FWD_K > HOLD_A) ? ((FWD_K > HOLD_B) ? FWD_K : HOLD_B)
+                                                      : ((HOLD_A > HOLD_B) ? HOLD_A : HOLD_B);
+    localparam integer CW = $clog2(K_MAX + 1);
+    localparam [CW-1:0] FWD_REM = (FWD_K > 2) ? FWD_K - 2 : 0;
+    localparam [CW-1:0] HOLD_A_REM = (HOLD_A > 2) ? HOLD_A - 2 : 0;
+    localparam [CW-1:0] HOLD_B_REM = (HOLD_B > 2) ? HOLD_B - 2 : 0;
     reg [1:0] hold_met2, fwd_met2;
     reg hold_a_met2;
+    reg [CW-1:0] hold_rem [0:1];
+    reg [CW-1:0] fwd_rem [0:1];
+    reg [CW-1:0] hold_a_rem;
+    integer cb;
     // the sweep's slot at this cycle: sw_go (its first), sw_on, phase ph (the lane),
     // st_t (column WIDTH-1-st_t), bank, line-buffer read address lb_ra
     reg sw_go, sw_on, sw_bank, sw_next, sw_ph_last, sw_t_last;
@@ -310,20 +318,33 @@ module p2_top #(
         if (rst) begin
             ready <= 2'b00; lb_busy <= 2'b00; used <= 2'b00; f_started <= 2'b00;
             f_pend <= 2'b00; overrun <= 1'b0;
-            now2 <= 48'd2; hold_met2 <= 2'b00; fwd_met2 <= 2'b00;
-            hold_a <= 48'd0; hold_a_met2 <= 1'b1;    // no previous sweep: no bound
+            // no previous sweep, no forward start: no bound, the counters idle
+            hold_met2 <= 2'b11; fwd_met2 <= 2'b11; hold_a_met2 <= 1'b1;
+            hold_a_rem <= 0;
+            for (cb = 0; cb < 2; cb = cb + 1) begin
+                hold_rem[cb] <= 0; fwd_rem[cb] <= 0;
+            end
             sw_go <= 1'b0; sw_on <= 1'b0; sw_bank <= 1'b0; sw_next <= 1'b0; ph <= 0;
             st_t <= 0; sw_ph_last <= (P_B == 1); sw_t_last <= (WIDTH == 1);
             fw_go <= 1'b0; fw_on <= 1'b0; fw_bank <= 1'b0; fw_next <= 1'b0; fph <= 0;
             fk <= 0; fw_ph_last <= (P_F == 1); fw_k_last <= (WIDTH == 1);
         end else begin
-            now2 <= now2 + 48'd1;
-            // the compares for the cycle after next (overridden below where a bank restarts)
-            hold_met2[0] <= $signed(now2) >= $signed(hold_at[0]);
-            hold_met2[1] <= $signed(now2) >= $signed(hold_at[1]);
-            hold_a_met2 <= $signed(now2) >= $signed(hold_a);
-            fwd_met2[0] <= now2 >= f_ready[0];
-            fwd_met2[1] <= now2 >= f_ready[1];
+            // the counters count down to their compares' cycle (reloaded below where a
+            // bank restarts)
+            for (cb = 0; cb < 2; cb = cb + 1) begin
+                if (!hold_met2[cb]) begin
+                    hold_rem[cb] <= hold_rem[cb] - 1'b1;
+                    hold_met2[cb] <= (hold_rem[cb] == 1);
+                end
+                if (!fwd_met2[cb]) begin
+                    fwd_rem[cb] <= fwd_rem[cb] - 1'b1;
+                    fwd_met2[cb] <= (fwd_rem[cb] == 1);
+                end
+            end
+            if (!hold_a_met2) begin
+                hold_a_rem <= hold_a_rem - 1'b1;
+                hold_a_met2 <= (hold_a_rem == 1);
+            end
             // the input side: a group's first pixel claims its bank, its last one is ready
             if (v2 && first2) begin
                 if (lb_busy[bank2] || ready[bank2]) overrun <= 1'b1;
@@ -340,10 +361,10 @@ module p2_top #(
                 used[sw_next] <= 1'b1;
                 f_started[sw_next] <= 1'b0;
                 f_pend[sw_next] <= 1'b1;
-                f_ready[sw_next] <= now + SWEEP_LEN + T_B;
-                fwd_met2[sw_next] <= 1'b0;    // SWEEP_LEN + T_B > 2 cycles away
-                hold_a <= now + HOLD_A;
-                hold_a_met2 <= (HOLD_A <= 2);  // now + 2 - b_start = 2
+                fwd_rem[sw_next] <= FWD_REM;
+                fwd_met2[sw_next] <= (FWD_K <= 2);  // now + 2 - b_start = 2
+                hold_a_rem <= HOLD_A_REM;
+                hold_a_met2 <= (HOLD_A <= 2);
                 sw_lines_b[sw_next] <= lines[sw_next];
                 sw_sof_b[sw_next] <= sof_b[sw_next];
                 sw_next <= ~sw_next;
@@ -368,7 +389,7 @@ module p2_top #(
             if (fw_go) begin
                 f_pend[fw_next] <= 1'b0;
                 f_started[fw_next] <= 1'b1;
-                hold_at[fw_next] <= now + HOLD_B;
+                hold_rem[fw_next] <= HOLD_B_REM;
                 hold_met2[fw_next] <= (HOLD_B <= 2);  // now + 2 - f_start = 2
                 fw_next <= ~fw_next;
             end
@@ -432,10 +453,10 @@ module p2_top #(
                + $signed({{2{(D_S != 0) & dk1[D_W-1]}}, dk1});
         dg3 <= $signed({(G_S != 0) & gk1[G_W-1], gk1}) - $signed({(G_S != 0) & gk[G_W-1], gk});
     end
-    // r+3 -> r+6: KA D (fx_mul_pipe); r+7: a = cast(KA D)
+    // r+6 -> r+10: KA D (fx_mul_pipe, IREG = 1); r+11: a = cast(KA D)
     wire signed [KA_W:0] ka_s = {(KA_S != 0) & ka_raw[KA_W-1], ka_raw};
     wire signed [KA_W+D_W+2:0] ka_d;
-    fx_mul_pipe #(KA_W + 1, D_W + 2) m_kad (clk, ka_s, dsum3, ka_d);
+    fx_mul_pipe #(KA_W + 1, D_W + 2, 1) m_kad (clk, ka_s, dsum3, ka_d);
     wire [A_W-1:0] a_n;
     wire ovf_an;
     fx_cast_sized #(KA_W + D_W + 3, KA_F + D_F, A_W, A_F, A_S, A_Q, A_O) c_a (
@@ -443,10 +464,10 @@ module p2_top #(
     reg [A_W-1:0] a7;
     reg oa7;
     always @(posedge clk) {a7, oa7} <= {a_n, ovf_an};
-    // r+7 -> r+10: a^2; r+11: cast(a^2); r+12: c = max(cast(a^2), C_MIN), the loop entry
+    // r+11 -> r+15: a^2; r+16: cast(a^2); r+17: c = max(cast(a^2), C_MIN), the loop entry
     wire signed [A_W:0] a7s = {(A_S != 0) & a7[A_W-1], a7};
     wire signed [2*A_W+1:0] asq;
-    fx_mul_pipe #(A_W + 1, A_W + 1) m_asq (clk, a7s, a7s, asq);
+    fx_mul_pipe #(A_W + 1, A_W + 1, 1) m_asq (clk, a7s, a7s, asq);
     wire [C_W-1:0] c_n;
     wire ovf_cn;
     fx_cast_sized #(2 * A_W + 2, 2 * A_F, C_W, C_F, C_S, C_Q, C_O) c_c (
@@ -462,10 +483,10 @@ module p2_top #(
     wire [DG_W-1:0] dgE;
     wire [DS_W-1:0] dE;
     wire oaE, ocE;
-    fx_delay #(A_W + 1, SWEEP_READ - LB_READ - 5) d_aE (clk, {a7, oa7}, {aE, oaE});
+    fx_delay #(A_W + 1, SWEEP_READ - LB_READ - MUL_LAT - 2) d_aE (clk, {a7, oa7}, {aE, oaE});
     fx_delay #(DG_W, SWEEP_READ - LB_READ - 1) d_dgE (clk, dg3, dgE);
     fx_delay #(DS_W, SWEEP_READ - LB_READ - 1) d_dE (clk, dsum3[DS_W-1:0], dE);
-    fx_delay #(1, SWEEP_READ - LB_READ - 9) d_ocE (clk, oc11, ocE);
+    fx_delay #(1, SWEEP_READ - LB_READ - 2 * MUL_LAT - 3) d_ocE (clk, oc11, ocE);
     // E: the lane's S~_k+1, Q~_k+1 (its state, written at the write-back) into the
     // operand registers (E+1)
     wire [TAGW-1:0] tgE = `P2_BTAG(SWEEP_READ);
@@ -487,7 +508,7 @@ module p2_top #(
     wire signed [ST_W+DG_W:0] sdg;
     fx_mul_pipe #(ST_W + 1, DG_W, 1) m_sdg (clk, s_op1s, dg_op1s, sdg);
     wire [Q_W-1:0] q4;
-    fx_delay #(Q_W, LMUL_LAT) d_q4 (clk, q_op1, q4);
+    fx_delay #(Q_W, MUL_LAT) d_q4 (clk, q_op1, q4);
     // E+6: 1 + c S~, Q~ - S~ dG (one carry chain each)
     localparam integer DN_W = C_W + ST_W + 4 + F_DEN + (F_DEN - C_F - ST_F);
     localparam integer HN_W = ((Q_W + 1 + F_H - Q_F > ST_W + 1 + DG_W + F_H - ST_F - G_F)
@@ -682,8 +703,8 @@ module p2_top #(
     wire [ST_W-1:0] f_s = fr2[SB_W-DS_W-R_W-1 -: ST_W];
     wire [Q_W-1:0] f_q = fr2[DG_W +: Q_W];
     wire signed [DG_W-1:0] f_dg = fr2[0 +: DG_W];
-    // F+1: u = e_k - dG (one carry chain), |D|; F+2: |D| >= T_D; F -> F+3: KA D;
-    // F+4: a = cast(KA D) (as the sweep engine's; its overflow counted there); F+5: -a
+    // F+1: u = e_k - dG (one carry chain), |D|; F+2: |D| >= T_D; F -> F+4: KA D;
+    // F+5: a = cast(KA D) (as the sweep engine's; its overflow counted there); F+6: -a
     wire signed [D_W+1:0] f_ds = $signed({(D_S != 0) & f_dsum[DS_W-1], f_dsum});
     reg [D_W+1:0] fdabs_1;
     reg fthr_2;
@@ -692,16 +713,16 @@ module p2_top #(
         fthr_2 <= (fdabs_1 >= td_raw);
     end
     wire signed [KA_W+D_W+2:0] fka_d;
-    fx_mul_pipe #(KA_W + 1, D_W + 2) m_fkad (clk, ka_s, f_ds, fka_d);
+    fx_mul_pipe #(KA_W + 1, D_W + 2, 1) m_fkad (clk, ka_s, f_ds, fka_d);
     wire [A_W-1:0] fa_n;
     wire ovf_fan_unused;
     fx_cast_sized #(KA_W + D_W + 3, KA_F + D_F, A_W, A_F, A_S, A_Q, A_O) c_fa (
         .x(fka_d), .y(fa_n), .ovf(ovf_fan_unused));
-    reg [A_W-1:0] fa4;
-    always @(posedge clk) fa4 <= fa_n;
-    wire signed [A_W+1:0] fa4s = $signed({(A_S != 0) & fa4[A_W-1], fa4});
-    reg signed [A_W+1:0] fna5;
-    always @(posedge clk) fna5 <= -fa4s;
+    reg [A_W-1:0] fa5;
+    always @(posedge clk) fa5 <= fa_n;
+    wire signed [A_W+1:0] fa5s = $signed({(A_S != 0) & fa5[A_W-1], fa5});
+    reg signed [A_W+1:0] fna6;
+    always @(posedge clk) fna6 <= -fa5s;
     localparam integer U_W = ((E_W + 1 + F_U - E_F > DG_W + F_U - G_F)
                               ? E_W + 1 + F_U - E_F : DG_W + F_U - G_F) + 1;
     wire signed [U_W-1:0] e_x = $signed({(E_S != 0) & e_op[E_W-1], e_op});
@@ -714,12 +735,12 @@ module p2_top #(
         fu_1 <= (e_x <<< (F_U - E_F)) - (dg_x <<< (F_U - G_F));
         {fs_1, fq_1, fr_1} <= {f_s, f_q, f_r};
     end
-    // F+1 -> F+4: S~_k+1 u; F+5: + Q~_k+1; F+6: w = cast(...) (tap w)
+    // F+1 -> F+5: S~_k+1 u; F+6: + Q~_k+1; F+7: w = cast(...) (tap w)
     localparam integer WN_W = ((ST_W + 1 + U_W + F_W - ST_F - F_U > Q_W + 1 + F_W - Q_F)
                                ? ST_W + 1 + U_W + F_W - ST_F - F_U : Q_W + 1 + F_W - Q_F) + 2;
     wire signed [ST_W+U_W:0] su;
     wire signed [ST_W:0] fs_1s = {1'b0, fs_1};
-    fx_mul_pipe #(ST_W + 1, U_W) m_su (clk, fs_1s, fu_1, su);
+    fx_mul_pipe #(ST_W + 1, U_W, 1) m_su (clk, fs_1s, fu_1, su);
     wire [Q_W-1:0] q4f;
     fx_delay #(Q_W, MUL_LAT) d_q4f (clk, fq_1, q4f);
     wire signed [WN_W-1:0] su_x = su;
@@ -732,14 +753,14 @@ module p2_top #(
     reg [W_W-1:0] w6;
     reg ow6;
     always @(posedge clk) {w6, ow6} <= {w_n, ovf_wn};
-    // F+FO_W -> F+FO_W+3: r w; F+FO_LAM-1: its rounded value (fx_cast_reg), F+FO_LAM:
+    // F+FO_W -> F+FO_W+4: r w; F+FO_LAM-1: its rounded value (fx_cast_reg), F+FO_LAM:
     // lam = cast(r w) (tap lam; the rounding carry and the overflow mode in two cycles)
     wire [R_W-1:0] r6;
     fx_delay #(R_W, FO_W - 1) d_r6 (clk, fr_1, r6);
     wire signed [R_W+W_W+1:0] rw;
     wire signed [R_W:0] r6s = {(R_S != 0) & r6[R_W-1], r6};
     wire signed [W_W:0] w6s = {(W_S != 0) & w6[W_W-1], w6};
-    fx_mul_pipe #(R_W + 1, W_W + 1) m_rw (clk, r6s, w6s, rw);
+    fx_mul_pipe #(R_W + 1, W_W + 1, 1) m_rw (clk, r6s, w6s, rw);
     wire [LAM_W-1:0] lam_n;
     wire ovf_lamn;
     fx_cast_reg #(R_W + W_W + 2, R_F + W_F, LAM_W, LAM_F, LAM_S, LAM_Q, LAM_O) c_lam (
@@ -747,14 +768,14 @@ module p2_top #(
     reg [LAM_W-1:0] lam_f;
     reg olam_f;
     always @(posedge clk) {lam_f, olam_f} <= {lam_n, ovf_lamn};
-    // F+FO_LAM -> F+FO_LAM+3: (-a) lam; then its rounded value (fx_cast_reg), F+FO_Z:
+    // F+FO_LAM -> F+FO_LAM+4: (-a) lam; then its rounded value (fx_cast_reg), F+FO_Z:
     // z = cast(-(a lam)) (tap z; the rounding carry and the overflow mode in two cycles)
     wire [A_W+1:0] na_l;
-    fx_delay #(A_W + 2, FO_LAM - 5) d_na_l (clk, fna5, na_l);
+    fx_delay #(A_W + 2, FO_LAM - MUL_LAT - 2) d_na_l (clk, fna6, na_l);
     wire signed [A_W+LAM_W+2:0] nalam;
     wire signed [A_W+1:0] na_ls = na_l;
     wire signed [LAM_W:0] lam_fs = {(LAM_S != 0) & lam_f[LAM_W-1], lam_f};
-    fx_mul_pipe #(A_W + 2, LAM_W + 1) m_alam (clk, na_ls, lam_fs, nalam);
+    fx_mul_pipe #(A_W + 2, LAM_W + 1, 1) m_alam (clk, na_ls, lam_fs, nalam);
     wire [Z_W-1:0] z_n;
     wire ovf_zn;
     fx_cast_reg #(A_W + LAM_W + 3, A_F + LAM_F, Z_W, Z_F, Z_S, Z_Q, Z_O) c_z (
@@ -762,15 +783,15 @@ module p2_top #(
     reg [Z_W-1:0] z_f;
     reg oz_f;
     always @(posedge clk) {z_f, oz_f} <= {z_n, ovf_zn};
-    // F+FO_Z -> F+FO_Z+3: a z; F+FO_E-1: u + a z (one carry chain); its cast e_k+1,
+    // F+FO_Z -> F+FO_Z+4: a z; F+FO_E-1: u + a z (one carry chain); its cast e_k+1,
     // registered at F+FO_E, is written into the lane's e state (read for the lane's next
     // slot at t' + 4)
     wire [A_W+1:0] a_z;
-    fx_delay #(A_W + 2, FO_Z - 4) d_a_z (clk, fa4s, a_z);
+    fx_delay #(A_W + 2, FO_Z - MUL_LAT - 1) d_a_z (clk, fa5s, a_z);
     wire signed [Z_W:0] z_fs = {(Z_S != 0) & z_f[Z_W-1], z_f};
     wire signed [A_W+Z_W+2:0] az;
     wire signed [A_W+1:0] a_zs = a_z;
-    fx_mul_pipe #(A_W + 2, Z_W + 1) m_az (clk, a_zs, z_fs, az);
+    fx_mul_pipe #(A_W + 2, Z_W + 1, 1) m_az (clk, a_zs, z_fs, az);
     wire [U_W-1:0] u_az;
     fx_delay #(U_W, FO_Z + MUL_LAT - 1) d_u_az (clk, fu_1, u_az);
     localparam integer EN_W = ((U_W + F_E - F_U > A_W + Z_W + 3 + F_E - A_F - Z_F)

@@ -176,12 +176,11 @@ def oracle_p2_cycles(in_cycles: np.ndarray, config: P2Config) -> dict[str, np.nd
     # (NORM = 1: + 2), docs/p2_datapath.md "Timing"; the restoring one as declared
     t_div = divider_latency(config.divider, config.fmt("p2_r").word)
     t_div += 14 - 6 + 2 if config.divider == "reciprocal" else 0
-    mul = 3  # hdl/fx_pipe.v fx_mul_pipe: partial products, pair sums, final sum
-    lmul = mul + 1  # the backward loop's products: their operands in the DSPs first
+    mul = 4  # hdl/fx_pipe.v fx_mul_pipe IREG = 1: operands in the DSP, products, pairs, sum
     ram = 5  # a block RAM read: address, the blocks' reads, registered, ORed in fours, all
-    # backward loop: operand register, c S~ (lmul), + 1, cast den; the divider; r
-    # registered; r S~ (lmul), + M, cast S~ registered, into the lane's state
-    t_b = 1 + lmul + 1 + 1 + t_div + 1 + lmul + 1 + 1 + 1
+    # backward loop: operand register, c S~ (mul), + 1, cast den; the divider; r
+    # registered; r S~ (mul), + M, cast S~ registered, into the lane's state
+    t_b = 1 + mul + 1 + 1 + t_div + 1 + mul + 1 + 1 + 1
     # forward loop: u; S~ u (mul), + Q~, cast w; r w (mul), its rounded value registered,
     # cast lam; (-a) lam (mul), rounded, cast z; a z (mul), + u, cast e registered into
     # the lane's state; the e operand register

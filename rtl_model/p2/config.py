@@ -24,7 +24,6 @@ __all__ = [
     "DEN_LATENCY",
     "DIVIDER_PIPELINING",
     "FWD_LOOP",
-    "LOOP_MUL_LATENCY",
     "MUL_LATENCY",
     "OPERAND_LATENCY",
     "P2_SIGNALS",
@@ -155,10 +154,11 @@ P2_SIGNALS: tuple[str, ...] = P2Config.signals()
 
 #: Declared latencies (cycles) of P2's hardware units (docs/p2_datapath.md, "Hardware"):
 #: every unit does one multiply, one carry chain or one cast per cycle.
-MUL_LATENCY = 3  # hdl/fx_pipe.v fx_mul_pipe: 18x18 partial products, pair sums, final sum
-#: The backward loop's products (``c S~``, ``S~ dG``, ``r S~``, ``r h``): ``fx_mul_pipe``
-#: with ``IREG = 1``, the operands registered in the MULT18X18D's input registers first.
-LOOP_MUL_LATENCY = MUL_LATENCY + 1
+#: Every P2 product (``KA D``, ``a^2``; the backward loop's ``c S~``, ``S~ dG``, ``r S~``,
+#: ``r h``; the forward ``KA D``, ``S~ u``, ``r w``, ``(-a) lam``, ``a z``): hdl/fx_pipe.v
+#: ``fx_mul_pipe`` with ``IREG = 1``: the operands in the MULT18X18D's input registers,
+#: the 18x18 partial products, their pair sums, the final sum.
+MUL_LATENCY = 4
 ADD_LATENCY = 1  # one carry chain (an add, a subtract or a compare), registered
 CAST_LATENCY = 1  # fx_cast_sized: the rounding carry and the overflow mode, registered
 #: fx_cast_reg: a cast's rounded value registered before its overflow mode (the forward
@@ -176,7 +176,7 @@ SWEEP_READ = (
 )
 #: Cycles from the loop entry to the divider's operand ``den``: the operand register,
 #: ``c S~``, ``+ 1``, the cast.
-DEN_LATENCY = OPERAND_LATENCY + LOOP_MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
+DEN_LATENCY = OPERAND_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY
 #: The divider's quotient ``r`` (its output cast's rounding carry) registered before the
 #: ``r S~``, ``r h`` products' operands.
 QUOTIENT_LATENCY = 1
@@ -185,9 +185,7 @@ QUOTIENT_LATENCY = 1
 STATE_CAST_LATENCY = 1
 #: Cycles from the divider's ``r`` to ``S~_k`` in the lane's state: ``r`` registered,
 #: ``r S~``, ``+ M``, the cast, registered.
-STATE_LATENCY = (
-    QUOTIENT_LATENCY + LOOP_MUL_LATENCY + ADD_LATENCY + CAST_LATENCY + STATE_CAST_LATENCY
-)
+STATE_LATENCY = QUOTIENT_LATENCY + MUL_LATENCY + ADD_LATENCY + CAST_LATENCY + STATE_CAST_LATENCY
 #: The forward recurrence ``e_k -> e_k+1``: ``u = e - dG``; ``S~ u``, ``+ Q~``, cast ``w``;
 #: ``r w``, cast ``lam``; ``(-a) lam``, cast ``z`` (each with its rounded value
 #: registered first, ``ROUND_LATENCY``); ``a z``, ``+ u``, cast ``e``, registered into
