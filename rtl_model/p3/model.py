@@ -551,6 +551,22 @@ def _stage_box(
     into the other band: those lines' row sums are taken here too (their ``ay`` into a
     line of this band's, when the stage is the level's first) and logged nowhere (the
     other band logs them). ``bsums``, ``bdet``, ``bnv`` with no lines are not kept."""
+    cols = np.zeros((5, a.shape[1]), dtype=np.int64)  # the running column sums (exact)
+    state = np.array([max(y0 - rv, 0)], dtype=np.int64)  # the next line whose row sums are due
+    _stage_box_lines(a, w, g, e, ay, f_l, rv, base, first, kind, lanes, lut, r_bits, log, modes,
+                     fm, st, dst, ov, wy, gy, ring, bsums, bdet, bnv, v, y0, y1, y0, y1, cols,
+                     state)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _stage_box_lines(
+    a, w, g, e, ay, f_l, rv, base, first, kind, lanes, lut, r_bits, log, modes, fm, st, dst,
+    ov, wy, gy, ring, bsums, bdet, bnv, v, y0, y1, ya, yb, cols, state,
+):  # fmt: skip
+    """Lines ``ya <= y < yb`` of :func:`_stage_box` on the band ``y0 <= y < y1``, resumable:
+    ``cols`` (the five running column sums) and ``state[0]`` (the next line whose box row
+    sums are due) carry from one call to the next, so that consecutive calls over
+    ``[y0, y1)`` give one call's sums and log (:func:`_stage_box_fused`)."""
     m, n = a.shape
     rows = ring.shape[0]
     f_g, f_gy, f_e = fm[G, 1], fm[GY, 1], fm[E, 1]
@@ -568,9 +584,8 @@ def _stage_box(
     sth, ovh = st.copy(), ov.copy()  # the halo's log, discarded
     lines = np.empty((7, n), dtype=np.int64)  # the sums, bdet, bnv when not kept
     keep = bsums.shape[1] > 0
-    cols = np.zeros((5, n), dtype=np.int64)  # the running column sums (exact)
-    done = max(y0 - rv, 0)  # the next line whose box row sums are due
-    for y in range(y0, y1):
+    done = state[0]  # the next line whose box row sums are due
+    for y in range(ya, yb):
         need = min(y + rv + 1, m)
         for yl in range(done, need):
             if y0 <= yl < y1:
@@ -618,6 +633,7 @@ def _stage_box(
         else:
             _divide_row(num, fm[BNV, 1], den, fm[BDET, 1], V, kind, lut, r_bits, fm, dst, ov,
                         v[y], flags)  # fmt: skip
+    state[0] = done
 
 
 @njit(cache=True, nogil=True)
@@ -810,25 +826,94 @@ def _stage_box_tail(
     that a band's column work needs are corrected here too from the same planes, logged
     nowhere (the other band logs them). With taps the two run over every line in turn
     (the row sums into planes)."""
+    r = win.shape[0] - 1
+    state = np.array([max(y0 - r, 0)], dtype=np.int64)  # the next line whose sums are due
+    _stage_box_tail_lines(g, e, gy, v, rv, u, umax, win, base, kind, lanes, lut, r_bits, log,
+                          modes, fm, st, dst, ov, ev, rgg, rge, ree, sums, du, y0, y1, y0, y1,
+                          state)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _stage_box_tail_lines(
+    g, e, gy, v, rv, u, umax, win, base, kind, lanes, lut, r_bits, log, modes, fm, st, dst,
+    ov, ev, rgg, rge, ree, sums, du, y0, y1, ya, yb, state,
+):  # fmt: skip
+    """Lines ``ya <= y < yb`` of :func:`_stage_box_tail` on the band ``y0 <= y < y1``,
+    resumable: ``state[0]`` (the next line whose corrected row sums are due) carries from
+    one call to the next (:func:`_stage_box_fused`). A chunk's correction reaches
+    ``radius`` lines past the chunk, and no further."""
     m, n = u.shape
     r = win.shape[0] - 1
     none = np.empty((0, n), dtype=np.int64)
     off = np.bool_(False)  # typed, not a constant (tests/test_compile.py)
     sth, ovh = st.copy(), ov.copy()  # the halo's log, discarded
-    lo, hi = max(y0 - r, 0), min(y1 + r, m)
-    done = lo  # the next line whose corrected row sums are due
-    for t in range(y0, y1, FUSED_CHUNK):
-        need = min(t + FUSED_CHUNK + r, hi)
+    hi = min(y1 + r, m)
+    done = state[0]  # the next line whose corrected row sums are due
+    for t in range(ya, yb, FUSED_CHUNK):
+        end = min(t + FUSED_CHUNK, yb)
+        need = min(end + r, hi)
         _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, sth, ovh, none, rge, ree, done,
                               min(need, y0))  # fmt: skip
         _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, st, ov, ev, rge, ree,
                               max(done, y0), min(need, y1))  # fmt: skip
         _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, sth, ovh, none, rge, ree,
                               max(done, y1), need)  # fmt: skip
-        done = need
+        done = max(done, need)
         _stage_columns(u, umax, win, off, base, kind, lanes, lut, r_bits, log, modes, fm, st,
-                       dst, ov, rgg, rge, ree, none, none, none, sums, du, t,
-                       min(t + FUSED_CHUNK, y1))  # fmt: skip
+                       dst, ov, rgg, rge, ree, none, none, none, sums, du, t, end)  # fmt: skip
+    state[0] = done
+
+
+@njit(cache=True, nogil=True)
+def _stage_box_fused(
+    a, b, u, ax, f_l, rom, keys_bits, win, rv, umax, base, first, kind, lanes, lanes_v, lut,
+    r_bits, log, modes, fm, st, dst, ov, w, g, e, ay, wy, gy, rgg, box_ring, v, rge, ree, sums,
+):  # fmt: skip
+    """One warp stage of the box form without taps on a whole level in one band, as
+    :func:`_stage_rows`, :func:`_stage_box` and :func:`_stage_box_tail` over every line
+    give it, in one pass down the lines: per :data:`FUSED_CHUNK` lines of the column
+    work, the box (``v``) of the lines that chunk's correction reads and the line work
+    of the lines that box reads (``radius + 1`` to ``2 rv + 1`` lines ahead), so that
+    the planes (W, ``g``, ``e``, ``gy``, ``v``, ``rgg``) are read back while their lines
+    are still in the cache, not a whole 512 x 512 plane (2 MB) later; one call from the
+    host instead of three. The line work of line ``y`` reads ``u[y]`` before the column
+    work updates it (the line work runs ahead). The same sums, casts and log as the
+    three passes (each line is cast once, in the same kernels; only their order
+    differs)."""
+    m, n = a.shape
+    r = win.shape[0] - 1
+    none = np.empty((0, n), dtype=np.int64)
+    no_sums = np.empty((5, 0, n), dtype=np.int64)
+    own, fit = np.int64(0), np.bool_(False)  # typed, not constants (tests/test_compile.py)
+    y0, y1 = np.int64(0), np.int64(m)
+    cols = np.zeros((5, n), dtype=np.int64)
+    box_state = np.zeros(1, dtype=np.int64)
+    tail_state = np.zeros(1, dtype=np.int64)
+    rows_done = 0  # lines whose line work is done
+    box_done = 0  # lines whose v is done
+    for t in range(0, m, FUSED_CHUNK):
+        end = min(t + FUSED_CHUNK, m)
+        # the chunk's correction reads lines < end + radius of e, g, gy and v of lines
+        # up to rv lines above those; the box of line y reads gy (W) of lines <= y + rv (+ 1)
+        need_v = min(max(min(end + r, m) - rv, 1), m)
+        need_rows = min(need_v + rv + 1, m)
+        if need_rows > rows_done:
+            _stage_rows(a, b, u, own, ax, f_l, rom, keys_bits, win, base, fm, st, ov, w, none,
+                        g, e, rgg, none, none, rows_done, need_rows, fit)  # fmt: skip
+            rows_done = need_rows
+        if need_v > box_done:
+            _stage_box_lines(a, w, g, e, ay, f_l, rv, base, first, kind, lanes_v, lut, r_bits,
+                             log, modes, fm, st, dst, ov, wy, gy, box_ring, no_sums, none,
+                             none, v, y0, y1, box_done, need_v, cols, box_state)  # fmt: skip
+            box_done = need_v
+        _stage_box_tail_lines(g, e, gy, v, rv, u, umax, win, base, kind, lanes, lut, r_bits,
+                              log, modes, fm, st, dst, ov, none, rgg, rge, ree, sums, none, y0,
+                              y1, t, end, tail_state)  # fmt: skip
+    # the last rv lines' box: no correction reads it, but the datapath computes (and logs) it
+    if box_done < m:
+        _stage_box_lines(a, w, g, e, ay, f_l, rv, base, first, kind, lanes_v, lut, r_bits, log,
+                         modes, fm, st, dst, ov, wy, gy, box_ring, no_sums, none, none, v, y0,
+                         y1, box_done, m, cols, box_state)  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
@@ -1269,6 +1354,11 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
 BAND_PIXELS = 4096
 
 
+def _two_bands(h: int, w: int, stats: list[runtime.SignalStats]) -> bool:
+    """Whether :func:`_in_bands` splits a ``h`` x ``w`` level into two bands."""
+    return len(stats) == 2 and h >= 2 and h * w >= BAND_PIXELS
+
+
 def _in_bands(
     work: Callable[[np.ndarray, np.ndarray, np.ndarray, int, int], None], h: int, w: int,
     stats: list[runtime.SignalStats],
@@ -1277,7 +1367,7 @@ def _in_bands(
     level: two bands at once on the two threads (each band its own log, one per entry of
     ``stats``) when there are two and the level has :data:`BAND_PIXELS` or more, else
     one band on the calling thread."""
-    if len(stats) == 2 and h >= 2 and h * w >= BAND_PIXELS:
+    if _two_bands(h, w, stats):
         mid = h // 2
         runtime.run_two(work, (*stats[1].arrays, mid, h), (*stats[0].arrays, 0, mid))
     else:
@@ -1398,6 +1488,17 @@ def _run_level(
         if fused:
             uh = u[uh_off : h // 2 + config.radius].copy()
             _in_bands(functools.partial(stage, sums if kept else no_sums), h, w, stats)
+            continue
+        if box and taps is None and not _two_bands(h, w, stats):
+            # one band: the line work, the box and the tail in one pass down the lines
+            rge, ree = (runtime.scratch(f"{key}.ring.{k}", ring) for k in ("rge", "ree"))
+            box_ring = runtime.scratch(f"{key}.ring.box", (2 * config.vertical_radius + 2, 5, w))
+            st, dst, ov = stats[0].arrays
+            _stage_box_fused(a, b, u, ax, f_l, rom, config.keys_bits, win,
+                             config.vertical_radius, umax, base, first, kind, lanes, lanes_v,
+                             lut, config.recip_bits, log, modes, fm, st, dst, ov, wp, g, e, ay,
+                             wy, gy, rgg, box_ring, v, rge, ree,
+                             sums if kept else no_sums)  # fmt: skip
             continue
         _in_bands(rows, h, w, stats)
         if vertical:
