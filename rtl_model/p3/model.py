@@ -890,6 +890,12 @@ def _stage_box_tail_lines(
     state[0] = done
 
 
+#: Lines of the box form's fused stage's column work a turn (:func:`_stage_box_fused`):
+#: its line work and box run ahead by as many lines (the correction within a turn: by
+#: :data:`FUSED_CHUNK` lines at a time).
+BOX_CHUNK = 32
+
+
 @njit(cache=True, nogil=True)
 def _stage_box_fused(
     a, b, u, uh, uh_off, ax, f_l, rom, keys_bits, win, rv, umax, base, first, kind, lanes,
@@ -928,8 +934,8 @@ def _stage_box_fused(
     tail_state = np.array([max(y0 - r, 0)], dtype=np.int64)
     rows_done = max(vlo - rv - 1, 0)  # the next line whose line work is due
     box_done = vlo  # the next line whose v is due
-    for t in range(y0, y1 + FUSED_CHUNK, FUSED_CHUNK):
-        end = min(t + FUSED_CHUNK, y1)
+    for t in range(y0, y1 + BOX_CHUNK, BOX_CHUNK):
+        end = min(t + BOX_CHUNK, y1)
         # the chunk's correction reads lines < end + radius of e, g, gy, and v of lines
         # up to rv lines above those; the band's last turn (t >= y1): every line's v
         need_v = max(min(end + r, m) - rv, 1) if t < y1 else vhi
