@@ -17,12 +17,14 @@ the schedule (:func:`tap_cycles`).
 
 A warp stage runs as line work (:func:`_stage_rows`; the window form then
 :func:`_stage_rows_vertical`) then column work (:func:`_stage_columns`), each over every
-line of the level; the box form's line work then :func:`_stage_box` (the box's line and
-column work interleaved through a ring of its row sums) and :func:`_stage_box_tail`
-(the correction and the column work, interleaved through rings of row sums); without
-the vertical term and taps, as one pass down the lines that interleaves the two through
-a ring of row sums (:func:`_stage_fused`). On two threads each runs in two bands of
-lines with their own logs (:func:`_in_bands`), merged after.
+line of the level; with taps the box form's line work then :func:`_stage_box` (the box's
+line and column work interleaved through a ring of its row sums) and
+:func:`_stage_rows_corrected` and :func:`_stage_columns` (the correction and the column
+work); without taps, the box form as one pass down the lines that interleaves its line
+work, box, correction and column work (:func:`_stage_box_fused`), and the 1-D fit as one
+pass that interleaves its line and column work through a ring of row sums
+(:func:`_stage_fused`). On two threads each runs in two bands of lines with their own
+logs (:func:`_in_bands`), merged after.
 """
 
 from __future__ import annotations
@@ -838,36 +840,22 @@ def _stage_fused(
 
 
 @njit(cache=True, nogil=True)
-def _stage_box_tail(
-    g, e, gy, v, rv, u, umax, win, base, kind, lanes, lut, r_bits, log, modes, fm, st, dst,
-    ov, ev, rgg, rge, ree, sums, du, y0, y1,
-):  # fmt: skip
-    """Lines ``y0 <= y < y1`` of the box form's correction and column work, once ``v`` of
-    every line is there, as :func:`_stage_rows_corrected` then :func:`_stage_columns`
-    over every line give them, in one pass down the lines (as :func:`_stage_fused`): the
-    correction of :data:`FUSED_CHUNK` lines, ``radius`` lines ahead, then the column
-    work of a chunk, the row sums on ``e + gy v`` in ``rge``, ``ree`` (a ring of ``2
-    radius + FUSED_CHUNK`` lines each, this band's own; ``rgg`` :func:`_stage_rows`'
-    plane). The correction does not read ``u``: the ``radius`` lines of the other band
-    that a band's column work needs are corrected here too from the same planes, logged
-    nowhere (the other band logs them). With taps the two run over every line in turn
-    (the row sums into planes)."""
-    r = win.shape[0] - 1
-    state = np.array([max(y0 - r, 0)], dtype=np.int64)  # the next line whose sums are due
-    _stage_box_tail_lines(g, e, gy, v, rv, u, umax, win, base, kind, lanes, lut, r_bits, log,
-                          modes, fm, st, dst, ov, ev, rgg, rge, ree, sums, du, y0, y1, y0, y1,
-                          state)  # fmt: skip
-
-
-@njit(cache=True, nogil=True)
 def _stage_box_tail_lines(
     g, e, gy, v, rv, u, umax, win, base, kind, lanes, lut, r_bits, log, modes, fm, st, dst,
     ov, ev, rgg, rge, ree, sums, du, y0, y1, ya, yb, state,
 ):  # fmt: skip
-    """Lines ``ya <= y < yb`` of :func:`_stage_box_tail` on the band ``y0 <= y < y1``,
-    resumable: ``state[0]`` (the next line whose corrected row sums are due) carries from
-    one call to the next (:func:`_stage_box_fused`). A chunk's correction reaches
-    ``radius`` lines past the chunk, and no further."""
+    """Lines ``ya <= y < yb`` of the box form's correction and column work for the band
+    ``y0 <= y < y1``, once ``v`` of the lines they read is there, as
+    :func:`_stage_rows_corrected` then :func:`_stage_columns` over every line give them,
+    in one pass down the lines (as :func:`_stage_fused`): the correction of
+    :data:`FUSED_CHUNK` lines, ``radius`` lines ahead (no further), then the column work
+    of those lines, the row sums on ``e + gy v`` in ``rge``, ``ree`` (a ring of ``2
+    radius + FUSED_CHUNK`` lines each, this band's own; ``rgg`` :func:`_stage_rows`'
+    plane). The correction does not read ``u``: the ``radius`` lines of the other band
+    that a band's column work needs are corrected here too from the same planes, logged
+    nowhere (the other band logs them). Resumable: ``state[0]`` (the next line whose
+    corrected row sums are due; ``max(y0 - radius, 0)`` at the band's start) carries
+    from one call to the next (:func:`_stage_box_fused`)."""
     m, n = u.shape
     r = win.shape[0] - 1
     none = np.empty((0, n), dtype=np.int64)
@@ -903,13 +891,14 @@ def _stage_box_fused(
     rge, ree, sums, y0, y1,
 ):  # fmt: skip
     """Lines ``y0 <= y < y1`` (a band) of one warp stage of the box form without taps, as
-    :func:`_stage_rows`, :func:`_stage_box` and :func:`_stage_box_tail` over every line
-    give them, in one pass down the lines: per :data:`FUSED_CHUNK` lines of the column
-    work, the box (``v``) of the lines that chunk's correction reads and the line work of
-    the lines that box reads (``radius + 1`` to ``2 rv + 1`` lines ahead), so that the
-    planes (W, ``g``, ``e``, ``gy``, ``v``, ``rgg``) are read back while their lines are
-    still in the cache, not a whole 512 x 512 plane (2 MB) later; one call (one hand-off
-    to the worker thread) a stage instead of three. The line work of line ``y`` reads
+    :func:`_stage_rows`, :func:`_stage_box`, :func:`_stage_rows_corrected` and
+    :func:`_stage_columns` over every line give them, in one pass down the lines: per
+    :data:`BOX_CHUNK` lines of the column work, the box (``v``) of the lines that their
+    correction reads and the line work of the lines that box reads (``radius + 1`` to
+    ``2 rv + 1`` lines ahead), so that the planes (W, ``g``, ``e``, ``gy``, ``v``,
+    ``rgg``) are read back while their lines are still in the cache, not a whole 512 x
+    512 plane (2 MB) later; one call (one hand-off to the worker thread) a stage instead
+    of three. The line work of line ``y`` reads
     ``u[y]`` before the column work updates it (the line work runs ahead). The planes
     are this band's own (the scratch of the thread that runs it): a band also computes
     the lines of the other band that its column work reaches, ``radius + 2 rv + 1``
@@ -1439,12 +1428,12 @@ def _run_level(
     window form then :func:`_stage_rows_vertical`) and the column work
     (:func:`_stage_columns`), each over every line (in two bands on two threads:
     :func:`_in_bands`) before the next starts, since the window's column pass reads
-    ``radius`` lines either side; the box form's line work then :func:`_stage_box` and
-    :func:`_stage_box_tail` (the correction and the column work in one pass down each
-    band's lines, each band its own ring; with taps :func:`_stage_rows_corrected` then
-    :func:`_stage_columns` over every line, the row sums in planes); without the
-    vertical term and taps, one pass down each band's lines (:func:`_stage_fused`, each
-    band its own ring). Returns
+    ``radius`` lines either side; with taps the box form's line work, then
+    :func:`_stage_box`, :func:`_stage_rows_corrected` and :func:`_stage_columns` over
+    every line (the row sums in planes); without taps the box form in one pass down each
+    band's lines (:func:`_stage_box_fused`: the band's own planes and rings, one hand-off
+    a stage) and the 1-D fit in one pass down each band's lines (:func:`_stage_fused`,
+    each band its own ring). Returns
     the last stage's window sums (``sgg``, ``sge``, ``see``, and with ``vertical``
     ``syy``, ``sgy``, ``sye``, ``det``, ``nu``), written only at level 0 (``final``) or
     with taps; ``taps`` (level 0 of a run with taps): ``ax``, ``u_start`` (``ay``), then
@@ -1463,8 +1452,8 @@ def _run_level(
     ax = plane("ax")
     # the row sums: planes, or (fused) each band's own ring of lines, the scratch of the
     # thread that runs it (a ring shared by the two bands was a race: each overwrote the
-    # other's lines, issue 38); the box form's rge, ree: rings (_stage_box_tail) but for
-    # the taps
+    # other's lines, issue 38); the box form's rge, ree: rings (_stage_box_fused) but
+    # for the taps
     rgg = plane("rgg", 0 if fused else h)
     rge, ree = (plane(k, 0 if fused or (box and taps is None) else h) for k in ("rge", "ree"))
     ring = (2 * config.radius + FUSED_CHUNK, w)
@@ -1504,15 +1493,6 @@ def _run_level(
         _stage_box(a, wp, g, e, ay, f_l, config.vertical_radius, base, first, kind, lanes_v,
                    lut, config.recip_bits, log, modes, fm, st, dst, ov, wy, gy, ring, bsums,
                    bdet, bnv, v, y0, y1)  # fmt: skip
-
-    def box_tail(out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
-                 y1: int) -> None:  # fmt: skip
-        # the row sums on e + gy v: each band's own ring (the scratch of the thread that
-        # runs it)
-        rge, ree = (runtime.scratch(f"{key}.ring.{k}", ring) for k in ("rge", "ree"))
-        _stage_box_tail(g, e, gy, v, config.vertical_radius, u, umax, win, base, kind, lanes,
-                        lut, config.recip_bits, log, modes, fm, st, dst, ov, ev, rgg, rge, ree,
-                        out, du, y0, y1)  # fmt: skip
 
     def corrected(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
         _stage_rows_corrected(g, e, gy, v, config.vertical_radius, win, base, fm, st, ov, ev,
@@ -1568,12 +1548,9 @@ def _run_level(
             _in_bands(functools.partial(rows_vertical, first), h, w, stats)
         if box:
             _in_bands(functools.partial(box_stage, first), h, w, stats)
-        if box and taps is None:  # the correction and the column work in one pass
-            _in_bands(functools.partial(box_tail, sums if kept else no_sums), h, w, stats)
-        else:
-            if box:  # with taps: the row sums on e + gy v into planes, every line
-                _in_bands(corrected, h, w, stats)
-            _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
+        if box:  # with taps: the row sums on e + gy v into planes, every line
+            _in_bands(corrected, h, w, stats)
+        _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
         if taps is None:
             continue
         if first:
