@@ -399,37 +399,34 @@ def test_two_bands_of_the_fused_stage_have_their_own_rings(monkeypatch):
 
 
 def test_two_bands_of_the_box_form_have_their_own_rings(monkeypatch):
-    """The box form (the default) runs its box (``_stage_box``: the five box row sums in
-    a ring) and then its correction and column work (``_stage_box_tail``: the row sums
-    on ``e + gy v`` in two rings) each as one pass down a band's lines; on two threads
-    the bands run at once, so no ring may be shared between them (as
+    """The box form (the default) runs a stage without taps as one pass down a band's
+    lines (``_stage_box_fused``: the line work, the box's row sums in a ring, the
+    correction's row sums in two rings), each band into planes of its own (W, ``g``,
+    ``e``, ``Wy``, ``gy``, ``rgg``, ``v``: it computes the other band's lines its column
+    work reaches into them); on two threads the bands run at once, so no ring and no
+    such plane may be shared between them (as
     ``test_two_bands_of_the_fused_stage_have_their_own_rings``), and the 512 x 512 lab
     frame's outputs equal the one-thread run's."""
-    calls = {"_stage_box": [], "_stage_box_tail": []}
-    # the rings' positions among the arguments (counted from the end), then y0, y1
-    rings = {"_stage_box": (-7,), "_stage_box_tail": (-6, -5)}
+    made = []
+    # the band's own planes and rings among the arguments (counted from the end: w, g,
+    # e, wy, gy, rgg, the box's ring, v, rge, ree; not ay, shared), then y0, y1
+    own = (-14, -13, -12, -10, -9, -8, -7, -6, -5, -4)
+    real = p3_model._stage_box_fused
 
-    def spy(name):
-        real = getattr(p3_model, name)
+    def spy(*args):
+        made.append(tuple(args[k] for k in own) + args[-2:])
+        real(*args)
 
-        def run(*args):
-            calls[name].append(tuple(args[k] for k in rings[name]) + args[-2:])
-            real(*args)
-
-        return run
-
-    for name in calls:
-        monkeypatch.setattr(p3_model, name, spy(name))
+    monkeypatch.setattr(p3_model, "_stage_box_fused", spy)
     config = P3.default_config()
     assert config.vertical_form == "box"
     _assert_two_threads_give_one_thread_on_lab(config, runs=2)
-    for name, made in calls.items():
-        firsts = [c for c in made if c[-2] == 0]
-        pairs = [(a, b) for b in made if b[-2] > 0 for a in firsts if a[-1] == b[-2]]
-        assert len(pairs) >= 2 * config.warps, name
-        for a, b in pairs:
-            for ring_a, ring_b in zip(a[:-2], b[:-2], strict=True):
-                assert not np.shares_memory(ring_a, ring_b), name
+    firsts = [c for c in made if c[-2] == 0]
+    pairs = [(a, b) for b in made if b[-2] > 0 for a in firsts if a[-1] == b[-2]]
+    assert len(pairs) >= 2 * config.warps
+    for a, b in pairs:
+        for buf_a, buf_b in zip(a[:-2], b[:-2], strict=True):
+            assert not np.shares_memory(buf_a, buf_b)
 
 
 @pytest.mark.parametrize("design", [{}, {"vertical_radius": 0}])

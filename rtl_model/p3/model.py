@@ -17,12 +17,14 @@ the schedule (:func:`tap_cycles`).
 
 A warp stage runs as line work (:func:`_stage_rows`; the window form then
 :func:`_stage_rows_vertical`) then column work (:func:`_stage_columns`), each over every
-line of the level; the box form's line work then :func:`_stage_box` (the box's line and
-column work interleaved through a ring of its row sums) and :func:`_stage_box_tail`
-(the correction and the column work, interleaved through rings of row sums); without
-the vertical term and taps, as one pass down the lines that interleaves the two through
-a ring of row sums (:func:`_stage_fused`). On two threads each runs in two bands of
-lines with their own logs (:func:`_in_bands`), merged after.
+line of the level; with taps the box form's line work then :func:`_stage_box` (the box's
+line and column work interleaved through a ring of its row sums) and
+:func:`_stage_rows_corrected` and :func:`_stage_columns` (the correction and the column
+work); without taps, the box form as one pass down the lines that interleaves its line
+work, box, correction and column work (:func:`_stage_box_fused`), and the 1-D fit as one
+pass that interleaves its line and column work through a ring of row sums
+(:func:`_stage_fused`). On two threads each runs in two bands of lines with their own
+logs (:func:`_in_bands`), merged after.
 """
 
 from __future__ import annotations
@@ -291,8 +293,9 @@ def _window_row(p, q, f_in, win, s, site, fm, st, ov, pad, acc, out):
     n = p.shape[0]
     r = win.shape[0] - 1
     rp = max(r, UNROLLED_RADIUS)
+    body = pad[rp : rp + n]  # a slice: pad[x + rp] did not vectorise (_box_rows_line)
     for x in range(n):
-        pad[x + rp] = p[x] * q[x]
+        body[x] = p[x] * q[x]
     for k in range(rp):  # the replicated borders
         pad[k] = pad[rp]
         pad[n + rp + k] = pad[n + rp - 1]
@@ -304,8 +307,9 @@ def _window_row(p, q, f_in, win, s, site, fm, st, ov, pad, acc, out):
                       + w2 * (pad[x + 2] + pad[x + 6]) + w3 * (pad[x + 1] + pad[x + 7])
                       + w4 * (pad[x] + pad[x + 8]))  # fmt: skip
     else:
+        mid = pad[r : r + n]
         for x in range(n):
-            acc[x] = w0 * pad[x + r]
+            acc[x] = w0 * mid[x]
         for k in range(1, r + 1):
             wk = win[k]
             before, after = pad[r - k : r - k + n], pad[r + k : r + k + n]
@@ -419,14 +423,21 @@ def _stage_rows(
     r = win.shape[0] - 1
     pad = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
     f_wgg, f_wge, f_wee = fm[WIN, 1] + 2 * f_g, fm[WIN, 1] + f_g + f_e, fm[WIN, 1] + 2 * f_e
-    # the ROM's four weight columns, and E2's line with three replicated pixels either
-    # side: the four taps at i0 - 1 .. i0 + 2 are then bp[i0 + 2 .. i0 + 5] once i0 is
-    # clamped to -2 .. n (beyond, every tap reads the border pixel anyway): one clamp a
-    # pixel instead of four, and a loop without a branch
-    k0, k1 = rom[:, 0].copy(), rom[:, 1].copy()
-    k2, k3 = rom[:, 2].copy(), rom[:, 3].copy()
+    # the ROM (its four weights of a fraction side by side), and E2's line with three
+    # replicated pixels either side: the four taps at i0 - 1 .. i0 + 2 are then bp[i0 + 2
+    # .. i0 + 5] once i0 is clamped to -2 .. n (beyond, every tap reads the border pixel
+    # anyway): one clamp a pixel instead of four, and a loop without a branch. The
+    # positions and ROM rows of a line first, in a loop of their own (it vectorises),
+    # then the gather: 3.05 against 3.75 ns a pixel with the two in one loop reading the
+    # ROM's four columns (a 512-pixel line, one thread)
+    rom4 = rom.copy()
     bp = np.empty(n + 6, dtype=np.int64)
+    body = bp[3 : n + 3]
+    taps = np.empty(n, dtype=np.int64)  # i0 + 2: the first tap's index in bp
+    frac = np.empty(n, dtype=np.int64)  # the ROM row
     lo, hi = np.int64(-2), np.int64(n)
+    down = f_u >= keys_bits
+    sh = f_u - keys_bits if down else keys_bits - f_u
     rows = rgg.shape[0]
     for y in range(y0, y1):
         al, bl, ul = a[y], b[y], u[y - u_off]
@@ -434,14 +445,20 @@ def _stage_rows(
             bp[k] = bl[0]
             bp[n + 3 + k] = bl[n - 1]
         for x in range(n):
-            bp[x + 3] = bl[x]
+            body[x] = bl[x]
+        if down:
+            for x in range(n):
+                src = (np.int64(x) << f_u) - ul[x] + half
+                taps[x] = min(max(src >> f_u, lo), hi) + 2
+                frac[x] = (src & mask) >> sh
+        else:
+            for x in range(n):
+                src = (np.int64(x) << f_u) - ul[x] + half
+                taps[x] = min(max(src >> f_u, lo), hi) + 2
+                frac[x] = (src & mask) << sh
         for x in range(n):
-            src = (np.int64(x) << f_u) - ul[x] + half
-            i0 = min(max(src >> f_u, lo), hi) + 2
-            t = src & mask
-            idx = t >> (f_u - keys_bits) if f_u >= keys_bits else t << (keys_bits - f_u)
-            row[x] = (k0[idx] * bp[i0] + k1[idx] * bp[i0 + 1] + k2[idx] * bp[i0 + 2]
-                      + k3[idx] * bp[i0 + 3])  # fmt: skip
+            i0, k = taps[x], rom4[frac[x]]
+            row[x] = k[0] * bp[i0] + k[1] * bp[i0 + 1] + k[2] * bp[i0 + 2] + k[3] * bp[i0 + 3]
         wl = w[y] if keep else lines[0]
         wxl = wx[y] if keep_wx else lines[1]
         gl, el = (g[y], e[y]) if keep else (lines[2], lines[3])
@@ -475,44 +492,61 @@ def _gy_line(a, w, ayl, y, f_l, base, first, fm, st, ov, row, wyl, gyl):
     _cast_logged_row(row, fm[GRAD, 1] + 1, GY, base + L_GY, fm, st, ov, gyl)
 
 
-@njit((_R, _R, _R, _I, _R, _P), cache=True, nogil=True)
+@njit((_R, _R, _R, _I, _P, _P), cache=True, nogil=True)
 def _box_rows_line(g, e, gy, rv, pad, out):
     """The box's row pass on one line: the five products ``g²``, ``g e``, ``gy²``, ``g
     gy``, ``gy e``, each summed over ``2 rv + 1`` taps (replicated borders), exact (no
     cast: the line buffers hold the exact sums), into ``out`` (5 rows). Each product is
-    formed into ``pad`` with ``rv`` replicated pixels either side, then summed as a
-    running sum along it without a clamp (0.70 against 1.03 ns a pixel with the clamped
-    index, one 512-pixel line; summing by doubling, 2, 4, 8, 16 taps over the whole line,
-    did not vectorise in a loop over ``rv``'s binary digits and was slower)."""
+    formed into its row of ``pad`` (``rv`` replicated pixels either side), then the five
+    are summed as running sums along it in one loop without a clamp (five independent
+    chains of adds). Every index is a loop index plus a constant, into slices of
+    ``pad``: ``pad[x + rv]`` with ``rv`` a variable kept the product loops from
+    vectorising (numba's negative-index wrap of a variable offset; 0.55 against 0.10 ns
+    an element, one 512-pixel line). Summing by doubling (2, 4, 8, 16 taps over the
+    whole line) was slower at ``rv = 8`` (4.7 against 3.9 ns a pixel for the five)."""
     n = g.shape[0]
     width = 2 * rv + 1
+    p0, p1, p2, p3, p4 = pad[0], pad[1], pad[2], pad[3], pad[4]
+    b0, b1, b2 = p0[rv : rv + n], p1[rv : rv + n], p2[rv : rv + n]
+    b3, b4 = p3[rv : rv + n], p4[rv : rv + n]
+    for x in range(n):
+        b0[x] = g[x] * g[x]
+    for x in range(n):
+        b1[x] = g[x] * e[x]
+    for x in range(n):
+        b2[x] = gy[x] * gy[x]
+    for x in range(n):
+        b3[x] = g[x] * gy[x]
+    for x in range(n):
+        b4[x] = gy[x] * e[x]
     for j in range(5):
-        if j == 0:
-            for x in range(n):
-                pad[x + rv] = g[x] * g[x]
-        elif j == 1:
-            for x in range(n):
-                pad[x + rv] = g[x] * e[x]
-        elif j == 2:
-            for x in range(n):
-                pad[x + rv] = gy[x] * gy[x]
-        elif j == 3:
-            for x in range(n):
-                pad[x + rv] = g[x] * gy[x]
-        else:
-            for x in range(n):
-                pad[x + rv] = gy[x] * e[x]
+        pj = pad[j]
         for k in range(rv):
-            pad[k] = pad[rv]
-            pad[n + rv + k] = pad[n + rv - 1]
-        o = out[j]
-        acc = np.int64(0)
-        for k in range(width):
-            acc += pad[k]
-        o[0] = acc
-        for x in range(1, n):
-            acc += pad[x + width - 1] - pad[x - 1]
-            o[x] = acc
+            pj[k] = pj[rv]
+            pj[n + rv + k] = pj[n + rv - 1]
+    o0, o1, o2, o3, o4 = out[0], out[1], out[2], out[3], out[4]
+    s0 = s1 = s2 = s3 = s4 = np.int64(0)
+    for k in range(width):
+        s0 += p0[k]
+        s1 += p1[k]
+        s2 += p2[k]
+        s3 += p3[k]
+        s4 += p4[k]
+    o0[0], o1[0], o2[0], o3[0], o4[0] = s0, s1, s2, s3, s4
+    # line x + 1's sum: line x's, plus the tap x + width in, the tap x out
+    a0, a1, a2 = p0[width : width + n - 1], p1[width : width + n - 1], p2[width : width + n - 1]
+    a3, a4 = p3[width : width + n - 1], p4[width : width + n - 1]
+    for x in range(n - 1):
+        s0 += a0[x] - p0[x]
+        s1 += a1[x] - p1[x]
+        s2 += a2[x] - p2[x]
+        s3 += a3[x] - p3[x]
+        s4 += a4[x] - p4[x]
+        o0[x + 1] = s0
+        o1[x + 1] = s1
+        o2[x + 1] = s2
+        o3[x + 1] = s3
+        o4[x + 1] = s4
 
 
 @njit(cache=True, nogil=True)
@@ -532,6 +566,27 @@ def _stage_box(
     into the other band: those lines' row sums are taken here too (their ``ay`` into a
     line of this band's, when the stage is the level's first) and logged nowhere (the
     other band logs them). ``bsums``, ``bdet``, ``bnv`` with no lines are not kept."""
+    cols = np.zeros((5, a.shape[1]), dtype=np.int64)  # the running column sums (exact)
+    # the next line whose box row sums are due; whether cols hold a line's sums yet
+    state = np.array([max(y0 - rv, 0), 0], dtype=np.int64)
+    _stage_box_lines(a, w, g, e, ay, f_l, rv, base, first, kind, lanes, lut, r_bits, log, modes,
+                     fm, st, dst, ov, wy, gy, ring, bsums, bdet, bnv, v, y0, y1, y0, y1, cols,
+                     state, np.bool_(False))  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _stage_box_lines(
+    a, w, g, e, ay, f_l, rv, base, first, kind, lanes, lut, r_bits, log, modes, fm, st, dst,
+    ov, wy, gy, ring, bsums, bdet, bnv, v, y0, y1, ya, yb, cols, state, private,
+):  # fmt: skip
+    """Lines ``ya <= y < yb`` of :func:`_stage_box` for the band ``y0 <= y < y1``,
+    resumable: ``cols`` (the five running column sums), ``state[0]`` (the next line whose
+    box row sums are due) and ``state[1]`` (whether ``cols`` hold the line before's sums)
+    carry from one call to the next, so that consecutive calls give one call's sums and
+    log (:func:`_stage_box_fused`). Lines outside the band (their ``gy`` and box row
+    sums, and ``ya .. yb`` may reach outside it too: their column work and ``v``) are
+    logged nowhere (the other band logs them); with ``private`` (planes of this band's
+    own) their ``Wy`` and ``gy`` go into the planes, else into line buffers."""
     m, n = a.shape
     rows = ring.shape[0]
     f_g, f_gy, f_e = fm[G, 1], fm[GY, 1], fm[E, 1]
@@ -544,18 +599,22 @@ def _stage_box(
     num = np.empty(n, dtype=np.int64)
     den = np.empty(n, dtype=np.int64)
     flags = np.empty(n, dtype=np.bool_)
-    pad = np.empty(n + 2 * rv, dtype=np.int64)
+    pad = np.empty((5, n + 2 * rv), dtype=np.int64)
     halo = np.empty((3, n), dtype=np.int64)  # ay, Wy, gy of the other band's lines
     sth, ovh = st.copy(), ov.copy()  # the halo's log, discarded
     lines = np.empty((7, n), dtype=np.int64)  # the sums, bdet, bnv when not kept
     keep = bsums.shape[1] > 0
-    cols = np.zeros((5, n), dtype=np.int64)  # the running column sums (exact)
-    done = max(y0 - rv, 0)  # the next line whose box row sums are due
-    for y in range(y0, y1):
+    dsth = dst.copy()  # the halo's divider log, discarded
+    done = state[0]  # the next line whose box row sums are due
+    for y in range(ya, yb):
         need = min(y + rv + 1, m)
         for yl in range(done, need):
             if y0 <= yl < y1:
                 _gy_line(a, w, ay[yl], yl, f_l, base, first, fm, st, ov, row, wy[yl], gy[yl])
+                gyl = gy[yl]
+            elif private:
+                ayl = halo[0] if first else ay[yl]
+                _gy_line(a, w, ayl, yl, f_l, base, first, fm, sth, ovh, row, wy[yl], gy[yl])
                 gyl = gy[yl]
             else:
                 ayl = halo[0] if first else ay[yl]
@@ -563,9 +622,11 @@ def _stage_box(
                 gyl = halo[2]
             _box_rows_line(g[yl], e[yl], gyl, rv, pad, ring[yl % rows])
         done = max(done, need)
+        own = y0 <= y < y1
+        sl, dl_, ol = (st, dst, ov) if own else (sth, dsth, ovh)
         for j in range(5):
             col = cols[j]
-            if y == y0:  # the band's first line: the whole box
+            if state[1] == 0:  # the first line: the whole box
                 for k in range(-rv, rv + 1):
                     src = ring[min(max(y + k, 0), m - 1) % rows, j]
                     for x in range(n):
@@ -576,8 +637,9 @@ def _stage_box(
                 for x in range(n):
                     col[x] += add[x] - drop[x]
             out = bsums[j, y] if keep else lines[j]
-            _cast_logged_row(col, f_in[j], _BOX_SIGNALS[j], base + _BOX_SITES[j], fm, st, ov,
+            _cast_logged_row(col, f_in[j], _BOX_SIGNALS[j], base + _BOX_SITES[j], fm, sl, ol,
                              out)  # fmt: skip
+        state[1] = 1
         if keep:
             gg, ge, yy, gy2, ye = bsums[0, y], bsums[1, y], bsums[2, y], bsums[3, y], bsums[4, y]
             dl, nl = bdet[y], bnv[y]
@@ -587,18 +649,19 @@ def _stage_box(
         for x in range(n):
             acc[x] = _at(gg[x] * yy[x], f_gg + f_yy, fd) - _at(gy2[x] * gy2[x], 2 * f_gy2, fd)
             row[x] = _at(gg[x] * ye[x], f_gg + f_ye, fn) - _at(gy2[x] * ge[x], f_gy2 + f_ge, fn)
-        _cast_logged_row(acc, fd, BDET, base + L_BDET, fm, st, ov, dl)
-        _cast_logged_row(row, fn, BNV, base + L_BNV, fm, st, ov, nl)
+        _cast_logged_row(acc, fd, BDET, base + L_BDET, fm, sl, ol, dl)
+        _cast_logged_row(row, fn, BNV, base + L_BNV, fm, sl, ol, nl)
         for x in range(n):
             solved = dl[x] > 0  # a singular box: the divider is fed 0 / 1, v = 0
             num[x] = -nl[x] if solved else np.int64(0)
             den[x] = dl[x] if solved else np.int64(1)
         if lanes:
-            divide_row_lanes(num, fm[BNV, 1], den, fm[BDET, 1], V, lut, r_bits, fm, dst, ov,
+            divide_row_lanes(num, fm[BNV, 1], den, fm[BDET, 1], V, lut, r_bits, fm, dl_, ol,
                              v[y], flags, log, modes)  # fmt: skip
         else:
-            _divide_row(num, fm[BNV, 1], den, fm[BDET, 1], V, kind, lut, r_bits, fm, dst, ov,
+            _divide_row(num, fm[BNV, 1], den, fm[BDET, 1], V, kind, lut, r_bits, fm, dl_, ol,
                         v[y], flags)  # fmt: skip
+    state[0] = done
 
 
 @njit(cache=True, nogil=True)
@@ -777,50 +840,131 @@ def _stage_fused(
 
 
 @njit(cache=True, nogil=True)
-def _stage_box_tail(
+def _stage_box_tail_lines(
     g, e, gy, v, rv, u, umax, win, base, kind, lanes, lut, r_bits, log, modes, fm, st, dst,
-    ov, ev, rgg, rge, ree, sums, du, y0, y1,
+    ov, ev, rgg, rge, ree, sums, du, y0, y1, ya, yb, state,
 ):  # fmt: skip
-    """Lines ``y0 <= y < y1`` of the box form's correction and column work, once ``v`` of
-    every line is there, as :func:`_stage_rows_corrected` then :func:`_stage_columns`
-    over every line give them, in one pass down the lines (as :func:`_stage_fused`): the
-    correction of :data:`FUSED_CHUNK` lines, ``radius`` lines ahead, then the column
-    work of a chunk, the row sums on ``e + gy v`` in ``rge``, ``ree`` (a ring of ``2
+    """Lines ``ya <= y < yb`` of the box form's correction and column work for the band
+    ``y0 <= y < y1``, once ``v`` of the lines they read is there, as
+    :func:`_stage_rows_corrected` then :func:`_stage_columns` over every line give them,
+    in one pass down the lines (as :func:`_stage_fused`): the correction of
+    :data:`FUSED_CHUNK` lines, ``radius`` lines ahead (no further), then the column work
+    of those lines, the row sums on ``e + gy v`` in ``rge``, ``ree`` (a ring of ``2
     radius + FUSED_CHUNK`` lines each, this band's own; ``rgg`` :func:`_stage_rows`'
     plane). The correction does not read ``u``: the ``radius`` lines of the other band
     that a band's column work needs are corrected here too from the same planes, logged
-    nowhere (the other band logs them). With taps the two run over every line in turn
-    (the row sums into planes)."""
+    nowhere (the other band logs them). Resumable: ``state[0]`` (the next line whose
+    corrected row sums are due; ``max(y0 - radius, 0)`` at the band's start) carries
+    from one call to the next (:func:`_stage_box_fused`)."""
     m, n = u.shape
     r = win.shape[0] - 1
     none = np.empty((0, n), dtype=np.int64)
     off = np.bool_(False)  # typed, not a constant (tests/test_compile.py)
     sth, ovh = st.copy(), ov.copy()  # the halo's log, discarded
-    lo, hi = max(y0 - r, 0), min(y1 + r, m)
-    done = lo  # the next line whose corrected row sums are due
-    for t in range(y0, y1, FUSED_CHUNK):
-        need = min(t + FUSED_CHUNK + r, hi)
+    hi = min(y1 + r, m)
+    done = state[0]  # the next line whose corrected row sums are due
+    for t in range(ya, yb, FUSED_CHUNK):
+        end = min(t + FUSED_CHUNK, yb)
+        need = min(end + r, hi)
         _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, sth, ovh, none, rge, ree, done,
                               min(need, y0))  # fmt: skip
         _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, st, ov, ev, rge, ree,
                               max(done, y0), min(need, y1))  # fmt: skip
         _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, sth, ovh, none, rge, ree,
                               max(done, y1), need)  # fmt: skip
-        done = need
+        done = max(done, need)
         _stage_columns(u, umax, win, off, base, kind, lanes, lut, r_bits, log, modes, fm, st,
-                       dst, ov, rgg, rge, ree, none, none, none, sums, du, t,
-                       min(t + FUSED_CHUNK, y1))  # fmt: skip
+                       dst, ov, rgg, rge, ree, none, none, none, sums, du, t, end)  # fmt: skip
+    state[0] = done
+
+
+#: Lines of the box form's fused stage's column work a turn (:func:`_stage_box_fused`):
+#: its line work and box run ahead by as many lines (the correction within a turn: by
+#: :data:`FUSED_CHUNK` lines at a time).
+BOX_CHUNK = 32
+
+
+@njit(cache=True, nogil=True)
+def _stage_box_fused(
+    a, b, u, uh, uh_off, ax, f_l, rom, keys_bits, win, rv, umax, base, first, kind, lanes,
+    lanes_v, lut, r_bits, log, modes, fm, st, dst, ov, w, g, e, ay, wy, gy, rgg, box_ring, v,
+    rge, ree, sums, y0, y1,
+):  # fmt: skip
+    """Lines ``y0 <= y < y1`` (a band) of one warp stage of the box form without taps, as
+    :func:`_stage_rows`, :func:`_stage_box`, :func:`_stage_rows_corrected` and
+    :func:`_stage_columns` over every line give them, in one pass down the lines: per
+    :data:`BOX_CHUNK` lines of the column work, the box (``v``) of the lines that their
+    correction reads and the line work of the lines that box reads (``radius + 1`` to
+    ``2 rv + 1`` lines ahead), so that the planes (W, ``g``, ``e``, ``gy``, ``v``,
+    ``rgg``) are read back while their lines are still in the cache, not a whole 512 x
+    512 plane (2 MB) later; one call (one hand-off to the worker thread) a stage instead
+    of three. The line work of line ``y`` reads
+    ``u[y]`` before the column work updates it (the line work runs ahead). The planes
+    are this band's own (the scratch of the thread that runs it): a band also computes
+    the lines of the other band that its column work reaches, ``radius + 2 rv + 1``
+    above it and ``max(radius, rv) + 1`` below (their line work at the estimate before
+    the stage, ``uh``: the lines ``uh_off ..`` of ``u`` copied before the bands start),
+    into its planes, logged nowhere (the other band logs them). The same sums, casts
+    and log as the three passes (each line is cast once, in the same kernels; only their
+    order differs)."""
+    m, n = a.shape
+    r = win.shape[0] - 1
+    none = np.empty((0, n), dtype=np.int64)
+    no_sums = np.empty((5, 0, n), dtype=np.int64)
+    # typed, not constants (tests/test_compile.py)
+    own, fit, private = np.int64(0), np.bool_(False), np.bool_(True)
+    sth, ovh = st.copy(), ov.copy()  # the other band's line work's log, discarded
+    # v of the band's lines and of those its correction reads (rv lines above the
+    # correction's, which reaches radius lines past the band); their box reads gy of
+    # rv lines either side, gy W of one line more
+    vlo, vhi = max(y0 - r - rv, 0), max(y1, min(y1 + r - rv, m))
+    cols = np.zeros((5, n), dtype=np.int64)
+    box_state = np.array([max(vlo - rv, 0), 0], dtype=np.int64)
+    tail_state = np.array([max(y0 - r, 0)], dtype=np.int64)
+    rows_done = max(vlo - rv - 1, 0)  # the next line whose line work is due
+    box_done = vlo  # the next line whose v is due
+    for t in range(y0, y1 + BOX_CHUNK, BOX_CHUNK):
+        end = min(t + BOX_CHUNK, y1)
+        # the chunk's correction reads lines < end + radius of e, g, gy, and v of lines
+        # up to rv lines above those; the band's last turn (t >= y1): every line's v
+        need_v = max(min(end + r, m) - rv, 1) if t < y1 else vhi
+        need_rows = min(max(need_v, box_done) + rv + 1, m)
+        if need_rows > rows_done:  # the other band's lines at the estimate before the stage
+            _stage_rows(a, b, uh, uh_off, ax, f_l, rom, keys_bits, win, base, fm, sth, ovh, w,
+                        none, g, e, rgg, none, none, rows_done, min(need_rows, y0),
+                        fit)  # fmt: skip
+            _stage_rows(a, b, u, own, ax, f_l, rom, keys_bits, win, base, fm, st, ov, w, none,
+                        g, e, rgg, none, none, max(rows_done, y0), min(need_rows, y1),
+                        fit)  # fmt: skip
+            _stage_rows(a, b, uh, uh_off, ax, f_l, rom, keys_bits, win, base, fm, sth, ovh, w,
+                        none, g, e, rgg, none, none, max(rows_done, y1), need_rows,
+                        fit)  # fmt: skip
+            rows_done = need_rows
+        if need_v > box_done:
+            _stage_box_lines(a, w, g, e, ay, f_l, rv, base, first, kind, lanes_v, lut, r_bits,
+                             log, modes, fm, st, dst, ov, wy, gy, box_ring, no_sums, none,
+                             none, v, y0, y1, box_done, need_v, cols, box_state,
+                             private)  # fmt: skip
+            box_done = need_v
+        if t < y1:
+            _stage_box_tail_lines(g, e, gy, v, rv, u, umax, win, base, kind, lanes, lut,
+                                  r_bits, log, modes, fm, st, dst, ov, none, rgg, rge, ree,
+                                  sums, none, y0, y1, t, end, tail_state)  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
 def _final_kernel(
     u, sums, vertical, regs, kind, lanes, lut, r_bits, log, modes, fm, st, dst, ov,
-    out_range, out_valid, taps, t0, want_taps, y0, y1,
+    out_range, out_valid, out_float, scale, taps, t0, want_taps, y0, y1,
 ):  # fmt: skip
     """Level 0, lines ``y0 <= y < y1``: the residual and gradient tests (with
     ``vertical`` the 2x2 fit's residual, ``nv`` cast here, and the determinant test), the
     match inside E2, the range divider ``z = f B / u`` gated by ``u >= u_min``
-    (``z <= range_max``; ``lanes`` as in :func:`_stage_columns`), range + valid."""
+    (``z <= range_max``; ``lanes`` as in :func:`_stage_columns`), range + valid, and the
+    range as a float (``out_float``: the raw code times ``scale = 2**-F``, exact, as
+    :meth:`~rangefx.rtl_model.fixedpoint.FixedFormat.to_float` gives it, in the loop
+    that writes the code: a NumPy pass over the plane after it took 0.85 ms of CPU a
+    512 x 512 frame, cProfile, one thread)."""
     n = u.shape[1]
     sgg, sge, see = sums[0], sums[1], sums[2]
     sgy, sye, det, nu = sums[4], sums[5], sums[6], sums[7]
@@ -873,7 +1017,7 @@ def _final_kernel(
         # the validity and the range in a loop of its own, without branches, so that it
         # vectorises (the kernel 7.7 -> 5.6 ns a pixel, 512 x 512 lab, one thread, min
         # of 21); the taps copied after it
-        vl, rl, ul, gl = out_valid[y], out_range[y], u[y], sgg[y]
+        vl, rl, fl, ul, gl = out_valid[y], out_range[y], out_float[y], u[y], sgg[y]
         dl = det[y] if vertical else gl  # with vertical, the determinant test too
         for x in range(n):
             gg, uu = gl[x], ul[x]
@@ -882,7 +1026,9 @@ def _final_kernel(
                   & (uu >= umin) & (uu <= umax) & (not flags[x]) & (rq[x] > 0)
                   & (rq[x] <= rmax) & (dl[x] > 0 or not vertical))  # fmt: skip
             vl[x] = ok
-            rl[x] = rq[x] if ok else rmax
+            z = rq[x] if ok else rmax
+            rl[x] = z
+            fl[x] = np.float64(z) * scale
         if want_taps:
             for x in range(n):
                 if vertical:
@@ -1250,6 +1396,11 @@ def buffer_bits(config: P3Config, shape: tuple[int, int]) -> dict[str, int]:
 BAND_PIXELS = 4096
 
 
+def _two_bands(h: int, w: int, stats: list[runtime.SignalStats]) -> bool:
+    """Whether :func:`_in_bands` splits a ``h`` x ``w`` level into two bands."""
+    return len(stats) == 2 and h >= 2 and h * w >= BAND_PIXELS
+
+
 def _in_bands(
     work: Callable[[np.ndarray, np.ndarray, np.ndarray, int, int], None], h: int, w: int,
     stats: list[runtime.SignalStats],
@@ -1258,7 +1409,7 @@ def _in_bands(
     level: two bands at once on the two threads (each band its own log, one per entry of
     ``stats``) when there are two and the level has :data:`BAND_PIXELS` or more, else
     one band on the calling thread."""
-    if len(stats) == 2 and h >= 2 and h * w >= BAND_PIXELS:
+    if _two_bands(h, w, stats):
         mid = h // 2
         runtime.run_two(work, (*stats[1].arrays, mid, h), (*stats[0].arrays, 0, mid))
     else:
@@ -1277,12 +1428,12 @@ def _run_level(
     window form then :func:`_stage_rows_vertical`) and the column work
     (:func:`_stage_columns`), each over every line (in two bands on two threads:
     :func:`_in_bands`) before the next starts, since the window's column pass reads
-    ``radius`` lines either side; the box form's line work then :func:`_stage_box` and
-    :func:`_stage_box_tail` (the correction and the column work in one pass down each
-    band's lines, each band its own ring; with taps :func:`_stage_rows_corrected` then
-    :func:`_stage_columns` over every line, the row sums in planes); without the
-    vertical term and taps, one pass down each band's lines (:func:`_stage_fused`, each
-    band its own ring). Returns
+    ``radius`` lines either side; with taps the box form's line work, then
+    :func:`_stage_box`, :func:`_stage_rows_corrected` and :func:`_stage_columns` over
+    every line (the row sums in planes); without taps the box form in one pass down each
+    band's lines (:func:`_stage_box_fused`: the band's own planes and rings, one hand-off
+    a stage) and the 1-D fit in one pass down each band's lines (:func:`_stage_fused`,
+    each band its own ring). Returns
     the last stage's window sums (``sgg``, ``sge``, ``see``, and with ``vertical``
     ``syy``, ``sgy``, ``sye``, ``det``, ``nu``), written only at level 0 (``final``) or
     with taps; ``taps`` (level 0 of a run with taps): ``ax``, ``u_start`` (``ay``), then
@@ -1301,8 +1452,8 @@ def _run_level(
     ax = plane("ax")
     # the row sums: planes, or (fused) each band's own ring of lines, the scratch of the
     # thread that runs it (a ring shared by the two bands was a race: each overwrote the
-    # other's lines, issue 38); the box form's rge, ree: rings (_stage_box_tail) but for
-    # the taps
+    # other's lines, issue 38); the box form's rge, ree: rings (_stage_box_fused) but
+    # for the taps
     rgg = plane("rgg", 0 if fused else h)
     rge, ree = (plane(k, 0 if fused or (box and taps is None) else h) for k in ("rge", "ree"))
     ring = (2 * config.radius + FUSED_CHUNK, w)
@@ -1343,15 +1494,6 @@ def _run_level(
                    lut, config.recip_bits, log, modes, fm, st, dst, ov, wy, gy, ring, bsums,
                    bdet, bnv, v, y0, y1)  # fmt: skip
 
-    def box_tail(out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int,
-                 y1: int) -> None:  # fmt: skip
-        # the row sums on e + gy v: each band's own ring (the scratch of the thread that
-        # runs it)
-        rge, ree = (runtime.scratch(f"{key}.ring.{k}", ring) for k in ("rge", "ree"))
-        _stage_box_tail(g, e, gy, v, config.vertical_radius, u, umax, win, base, kind, lanes,
-                        lut, config.recip_bits, log, modes, fm, st, dst, ov, ev, rgg, rge, ree,
-                        out, du, y0, y1)  # fmt: skip
-
     def corrected(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
         _stage_rows_corrected(g, e, gy, v, config.vertical_radius, win, base, fm, st, ov, ev,
                               rge, ree, y0, y1)  # fmt: skip
@@ -1369,28 +1511,49 @@ def _run_level(
                      kind, lanes, lut, config.recip_bits, log, modes, fm, st, dst, ov, rgg,
                      rge, ree, out, y0, y1)  # fmt: skip
 
+    def box_fused(first: bool, out: np.ndarray, st: np.ndarray, dst: np.ndarray, ov: np.ndarray,
+                  y0: int, y1: int) -> None:  # fmt: skip
+        # the band's own planes and rings: the scratch of the thread that runs it (it
+        # computes the other band's lines its column work reaches into them)
+        wp, g, e, wy, gy, rgg, v = (plane(k) for k in ("w", "g", "e", "wy", "gy", "rgg", "v"))
+        rge, ree = (runtime.scratch(f"{key}.ring.{k}", ring) for k in ("rge", "ree"))
+        box_ring = runtime.scratch(f"{key}.ring.box", (2 * rv + 2, 5, w))
+        _stage_box_fused(a, b, u, uh, uh_lo, ax, f_l, rom, config.keys_bits, win, rv, umax,
+                         base, first, kind, lanes, lanes_v, lut, config.recip_bits, log, modes,
+                         fm, st, dst, ov, wp, g, e, ay, wy, gy, rgg, box_ring, v, rge, ree,
+                         out, y0, y1)  # fmt: skip
+
     _in_bands(differences, h, w, stats)
-    # the estimate of the lines either side of the bands' boundary, before each stage
-    # (_stage_fused; _in_bands splits at h // 2)
-    uh_off = max(h // 2 - config.radius, 0)
+    # the estimate of the lines of the other band either side of the bands' boundary
+    # that a band computes, before each stage (_in_bands splits at h // 2): the 1-D
+    # fit's (_stage_fused) and the box form's (_stage_box_fused); in one band no line is
+    # the other band's, and u itself is passed (not read there: copying it cost ~0.7 ms
+    # of CPU a 512 x 512 frame, cProfile, one thread)
+    rv, r = config.vertical_radius, config.radius
+    bands = _two_bands(h, w, stats)
+    uh_off = max(h // 2 - r, 0) if bands else 0
+    uh_lo = max(h // 2 - (r + 2 * rv + 1), 0) if bands else 0
+    uh_hi = min(h // 2 + max(r, rv) + 1, h)
     for k in range(config.warps):
         first = k == 0
         kept = taps is not None or (final and k == config.warps - 1)
         if fused:
-            uh = u[uh_off : h // 2 + config.radius].copy()
+            uh = u[uh_off : h // 2 + r].copy() if bands else u
             _in_bands(functools.partial(stage, sums if kept else no_sums), h, w, stats)
+            continue
+        if box and taps is None:  # the line work, the box and the tail in one pass
+            uh = u[uh_lo:uh_hi].copy() if bands else u
+            _in_bands(functools.partial(box_fused, first, sums if kept else no_sums), h, w,
+                      stats)  # fmt: skip
             continue
         _in_bands(rows, h, w, stats)
         if vertical:
             _in_bands(functools.partial(rows_vertical, first), h, w, stats)
         if box:
             _in_bands(functools.partial(box_stage, first), h, w, stats)
-        if box and taps is None:  # the correction and the column work in one pass
-            _in_bands(functools.partial(box_tail, sums if kept else no_sums), h, w, stats)
-        else:
-            if box:  # with taps: the row sums on e + gy v into planes, every line
-                _in_bands(corrected, h, w, stats)
-            _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
+        if box:  # with taps: the row sums on e + gy v into planes, every line
+            _in_bands(corrected, h, w, stats)
+        _in_bands(functools.partial(columns, sums if kept else no_sums), h, w, stats)
         if taps is None:
             continue
         if first:
@@ -1500,6 +1663,7 @@ def run_p3(
     out_range = np.empty((m, n), dtype=np.int64)
     out_valid = np.empty((m, n), dtype=np.bool_)
     range_float = np.empty((m, n), dtype=np.float64)
+    scale = 2.0 ** -config.formats["p3_range"].frac  # exact (FixedFormat.to_float)
     # the input beats' cycles in closed form band by band, as the output stage (as P1);
     # with input gaps, the stream's running count once
     closed = timing.gap_prob == 0
@@ -1509,9 +1673,9 @@ def run_p3(
     def final(st: np.ndarray, dst: np.ndarray, ov: np.ndarray, y0: int, y1: int) -> None:
         _final_kernel(
             u, sums, vertical, regs.final, kind, lanes_z, lut, config.recip_bits, log, modes,
-            fm, st, dst, ov, out_range, out_valid, tp, len(names) - 4, taps, y0, y1,
+            fm, st, dst, ov, out_range, out_valid, range_float, scale, tp, len(names) - 4, taps,
+            y0, y1,
         )  # fmt: skip
-        config.formats["p3_range"].to_float(out_range[y0:y1], out=range_float[y0:y1])
         if closed:
             line_cycles((m, n), timing, 0, y0, y1, in_cycles[y0:y1])
 
