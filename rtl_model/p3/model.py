@@ -380,6 +380,27 @@ def _window_taps(win):
             win[3] if r >= 3 else zero, win[4] if r >= 4 else zero)  # fmt: skip
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _pad_product(p, q, rp, pad):
+    """The product ``p q`` of a line into ``pad`` with ``rp`` replicated pixels either
+    side (:func:`_window_row`)."""
+    n = p.shape[0]
+    body = pad[rp : rp + n]  # a slice: pad[x + rp] did not vectorise (_box_rows_line)
+    for x in range(n):
+        body[x] = p[x] * q[x]
+    for k in range(rp):  # the replicated borders
+        pad[k] = pad[rp]
+        pad[n + rp + k] = pad[n + rp - 1]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _unrolled_sum(pad, x, w0, w1, w2, w3, w4):
+    """The window's row sum at pixel ``x`` of a line padded by :data:`UNROLLED_RADIUS`
+    (:func:`_window_row`): every tap one term, the symmetric ones paired."""
+    return (w0 * pad[x + 4] + w1 * (pad[x + 3] + pad[x + 5]) + w2 * (pad[x + 2] + pad[x + 6])
+            + w3 * (pad[x + 1] + pad[x + 7]) + w4 * (pad[x] + pad[x + 8]))  # fmt: skip
+
+
 @njit((_R, _R, _I, _R, _I, _I, _P, _P, _R, _R, _R, _R), cache=True, nogil=True)
 def _window_row(p, q, f_in, win, s, site, fm, st, ov, pad, acc, out):
     """Row pass of the window on one line of the product ``p q`` (``f_in`` fraction bits:
@@ -396,21 +417,14 @@ def _window_row(p, q, f_in, win, s, site, fm, st, ov, pad, acc, out):
     n = p.shape[0]
     r = win.shape[0] - 1
     rp = max(r, UNROLLED_RADIUS)
-    body = pad[rp : rp + n]  # a slice: pad[x + rp] did not vectorise (_box_rows_line)
-    for x in range(n):
-        body[x] = p[x] * q[x]
-    for k in range(rp):  # the replicated borders
-        pad[k] = pad[rp]
-        pad[n + rp + k] = pad[n + rp - 1]
+    _pad_product(p, q, rp, pad)
     w0 = win[0]
     fuse, plan = _fused_cast(f_in, s, fm)
     if r <= UNROLLED_RADIUS and fuse:  # the cast in the sum's loop
         w1, w2, w3, w4 = _window_taps(win)
         lo, hi, count = _I64_MAX, _I64_MIN, np.int64(0)
         for x in range(n):
-            t = (w0 * pad[x + 4] + w1 * (pad[x + 3] + pad[x + 5])
-                 + w2 * (pad[x + 2] + pad[x + 6]) + w3 * (pad[x + 1] + pad[x + 7])
-                 + w4 * (pad[x] + pad[x + 8]))  # fmt: skip
+            t = _unrolled_sum(pad, x, w0, w1, w2, w3, w4)
             lo, hi = min(lo, t), max(hi, t)
             out[x], flag = cast_by_plan(t, plan, PLAIN_MODES)
             count += flag
@@ -419,9 +433,7 @@ def _window_row(p, q, f_in, win, s, site, fm, st, ov, pad, acc, out):
     if r <= UNROLLED_RADIUS:
         w1, w2, w3, w4 = _window_taps(win)
         for x in range(n):
-            acc[x] = (w0 * pad[x + 4] + w1 * (pad[x + 3] + pad[x + 5])
-                      + w2 * (pad[x + 2] + pad[x + 6]) + w3 * (pad[x + 1] + pad[x + 7])
-                      + w4 * (pad[x] + pad[x + 8]))  # fmt: skip
+            acc[x] = _unrolled_sum(pad, x, w0, w1, w2, w3, w4)
     else:
         mid = pad[r : r + n]
         for x in range(n):
@@ -797,7 +809,10 @@ def _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, st, ov, ev, rge, ree, 
     there: ``e + gy v`` with ``v`` of line ``y - rv`` (top lines: line 0's) cast into
     ``p3_ev`` and the window's row pass on ``g ev`` and ``ev²`` into ``rge``, ``ree`` (in
     place of :func:`_stage_rows`' on ``e``; line ``y`` into line ``y % rows``: a plane or
-    a ring of lines). ``ev`` with no lines is not kept."""
+    a ring of lines). ``ev`` with no lines is not kept. Where both casts fuse
+    (:func:`_fused_cast`) and the window is unrolled, the two row passes share one loop
+    (the box form's tail 13.22 against 13.54 ns a pixel and stage with two
+    :func:`_window_row` calls, 512 x 512 ``lab``, one thread, AMD EPYC Zen 4)."""
     n = g.shape[1]
     f_g, f_gy, f_e, f_v, f_ev = fm[G, 1], fm[GY, 1], fm[E, 1], fm[V, 1], fm[EV, 1]
     fc = max(f_e, f_gy + f_v)
@@ -809,6 +824,12 @@ def _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, st, ov, ev, rge, ree, 
     f_wge, f_wee = fm[WIN, 1] + f_g + f_ev, fm[WIN, 1] + 2 * f_ev
     rows = rge.shape[0]
     fuse, plan = _fused_cast(fc, EV, fm)
+    fuse_ge, plan_ge = _fused_cast(f_wge, RGE, fm)
+    fuse_ee, plan_ee = _fused_cast(f_wee, REE, fm)
+    pair = r <= UNROLLED_RADIUS and fuse_ge and fuse_ee
+    pad2 = np.empty(n + 2 * max(r, UNROLLED_RADIUS), dtype=np.int64)
+    w0 = win[0]
+    w1, w2, w3, w4 = _window_taps(win)
     for y in range(y0, y1):
         el, yl, vl = e[y], gy[y], v[max(y - rv, 0)]
         evl = ev[y] if keep else line
@@ -825,6 +846,24 @@ def _stage_rows_corrected(g, e, gy, v, rv, win, base, fm, st, ov, ev, rge, ree, 
                 row[x] = _at(el[x], f_e, fc) + _at(yl[x] * vl[x], f_gy + f_v, fc)
             _cast_logged_row(row, fc, EV, base + L_EV, fm, st, ov, evl)
         j = y % rows
+        if pair:  # both row passes in one loop, their casts in it (_fused_cast)
+            _pad_product(g[y], evl, UNROLLED_RADIUS, pad)
+            _pad_product(evl, evl, UNROLLED_RADIUS, pad2)
+            lo, hi, count = _I64_MAX, _I64_MIN, np.int64(0)
+            lo2, hi2, count2 = _I64_MAX, _I64_MIN, np.int64(0)
+            ol, ol2 = rge[j], ree[j]
+            for x in range(n):
+                t = _unrolled_sum(pad, x, w0, w1, w2, w3, w4)
+                lo, hi = min(lo, t), max(hi, t)
+                ol[x], flag = cast_by_plan(t, plan_ge, PLAIN_MODES)
+                count += flag
+                t = _unrolled_sum(pad2, x, w0, w1, w2, w3, w4)
+                lo2, hi2 = min(lo2, t), max(hi2, t)
+                ol2[x], flag = cast_by_plan(t, plan_ee, PLAIN_MODES)
+                count2 += flag
+            _fused_log(lo, hi, count, f_wge, RGE, base + L_RGE, st, ov)
+            _fused_log(lo2, hi2, count2, f_wee, REE, base + L_REE, st, ov)
+            continue
         _window_row(g[y], evl, f_wge, win, RGE, base + L_RGE, fm, st, ov, pad, row, rge[j])
         _window_row(evl, evl, f_wee, win, REE, base + L_REE, fm, st, ov, pad, row, ree[j])
 
