@@ -175,7 +175,8 @@ class SignalStats:
             ovf += part.overflows
             lo = np.minimum(lo, part.values[:, 0])
             hi = np.maximum(hi, part.values[:, 1])
-            for raw_lo, raw_hi, frac, sig in part.sites:
+            # Python ints: iterating the array's rows cost ~0.1 ms a part (P3: 74 sites)
+            for raw_lo, raw_hi, frac, sig in part.sites.tolist():
                 if sig >= 0:
                     lo[sig] = min(lo[sig], math.ldexp(float(raw_lo), -int(frac)))
                     hi[sig] = max(hi[sig], math.ldexp(float(raw_hi), -int(frac)))

