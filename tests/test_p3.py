@@ -189,6 +189,28 @@ def test_oracle_and_model_agree_on_negative_fraction_bits(seed, quant):
     assert any(np.any(ref.taps[t] != 0) for t in ("warp0", "sge0", "du0"))
 
 
+@pytest.mark.parametrize("overflow", [Overflow.SAT, Overflow.WRAP])
+def test_casts_beyond_a_62_bit_shift_are_bit_exact(overflow):
+    """The line work's and the box's casts run in the loop that forms their values
+    where every shift is within 62 bits (``cast_by_plan``), else in a loop per cast
+    (``cast_row``): ``p3_e``, ``p3_gy`` and the five box sums with their LSB 62 bits
+    above zero take the second; model == oracle bit for bit, with taps and without."""
+    base = P3.default_config(levels=2)
+    formats = dict(base.formats)
+    for name in ("p3_e", "p3_gy", "p3_bgg", "p3_bge", "p3_byy", "p3_bgy", "p3_bye"):
+        formats[name] = FixedFormat(formats[name].signed, 8, -62, Quant.RND, overflow)
+    config = base.with_(formats=formats)
+    assert config.vertical_form == "box"
+    frac = {name: f.frac for name, f in config.formats.items()}
+    assert min(frac["p3_warp"], frac["p3_grad"], frac["p3_g"]) >= 1  # the shifts: > 62
+    case = p3_case(5, "random")
+    ref = ORACLES["p3"].run(case, config)
+    assert_bit_exact(P3.run(case, config, taps=True), ref)
+    fast = P3.run(case, config, taps=False, threads=1)
+    assert np.array_equal(fast.range_raw, ref.range_raw)
+    assert dict(fast.overflows) == ref.overflows and dict(fast.minmax) == ref.minmax
+
+
 @pytest.mark.parametrize(
     "perturb", [{"gain": 0.9}, {"gain": 1.1}, {"offset": -10.0}, {"vshift": 1.0}]
 )
