@@ -1068,17 +1068,21 @@ def _stage_box_fused(
         # up to rv lines above those; the band's last turn (t >= y1): every line's v
         need_v = max(min(end + r, m) - rv, 1) if t < y1 else vhi
         need_rows = min(max(need_v, box_done) + rv + 1, m)
-        if need_rows > rows_done:  # the other band's lines at the estimate before the stage
+        # the line work of the lines due: the other band's at the estimate before the
+        # stage; a range with no line is not called (each call sets up its buffers)
+        if rows_done < min(need_rows, y0):
             _stage_rows(a, b, uh, uh_off, ax, f_l, rom, keys_bits, win, base, modes, fm, sth,
                         ovh, w, none, g, e, rgg, none, none, rows_done, min(need_rows, y0),
                         fit)  # fmt: skip
+        if max(rows_done, y0) < min(need_rows, y1):
             _stage_rows(a, b, u, own, ax, f_l, rom, keys_bits, win, base, modes, fm, st, ov, w,
                         none, g, e, rgg, none, none, max(rows_done, y0), min(need_rows, y1),
                         fit)  # fmt: skip
+        if max(rows_done, y1) < need_rows:
             _stage_rows(a, b, uh, uh_off, ax, f_l, rom, keys_bits, win, base, modes, fm, sth,
                         ovh, w, none, g, e, rgg, none, none, max(rows_done, y1), need_rows,
                         fit)  # fmt: skip
-            rows_done = need_rows
+        rows_done = max(rows_done, need_rows)
         if need_v > box_done:
             _stage_box_lines(a, w, g, e, ay, f_l, rv, base, first, kind, lanes_v, lut, r_bits,
                              log, modes, fm, st, dst, ov, none, gy, box_ring, no_sums, none,
