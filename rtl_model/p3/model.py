@@ -665,6 +665,29 @@ def _column_cast(col, add, drop, plan, modes, out):
 
 
 @njit(cache=True, nogil=True)
+def _box_solve_line(gg, ge, yy, gy2, ye, plans, shifts, modes, num, den, logs):
+    """A line's ``bdet = gg yy - gy2²`` and ``bnv = gg ye - gy2 ge`` (exact, aligned by
+    the left ``shifts``) cast by ``plans`` (bdet's, bnv's; ``|shift| <= 62``) and the
+    divider's operands (``-bnv / bdet`` where ``bdet > 0``, else 0 / 1) into ``num``,
+    ``den``, in one loop, the casts not kept (no taps); their raw min, max and overflow
+    counts into ``logs`` (2 x 3), as ``cast_row`` gives them. 0.8 against 1.1 ns a
+    pixel with a loop per cast (one 512-pixel line, plain modes, AMD EPYC Zen 4)."""
+    sd0, sd1, sn0, sn1 = shifts
+    big, small, zero = np.int64(_I64_MAX), np.int64(_I64_MIN), np.int64(0)
+    lod, hid, kd, lon, hin, kn = big, small, zero, big, small, zero
+    for x in range(num.shape[0]):
+        det = ((gg[x] * yy[x]) << sd0) - ((gy2[x] * gy2[x]) << sd1)
+        nv = ((gg[x] * ye[x]) << sn0) - ((gy2[x] * ge[x]) << sn1)
+        qd, lod, hid, kd = _logged_cast(det, plans[0], modes, lod, hid, kd)
+        qn, lon, hin, kn = _logged_cast(nv, plans[1], modes, lon, hin, kn)
+        solved = qd > 0  # a singular box: the divider is fed 0 / 1, v = 0
+        num[x] = -qn if solved else np.int64(0)
+        den[x] = qd if solved else np.int64(1)
+    logs[0, 0], logs[0, 1], logs[0, 2] = lod, hid, kd
+    logs[1, 0], logs[1, 1], logs[1, 2] = lon, hin, kn
+
+
+@njit(cache=True, nogil=True)
 def _stage_box(
     a, w, g, e, ay, f_l, rv, base, first, kind, lanes, lut, r_bits, log, modes, fm, st, dst,
     ov, wy, gy, ring, bsums, bdet, bnv, v, y0, y1,
@@ -720,6 +743,12 @@ def _stage_box_lines(
     plans = (signal_plan(f_in[0], BGG, fm), signal_plan(f_in[1], BGE, fm),
              signal_plan(f_in[2], BYY, fm), signal_plan(f_in[3], BGY, fm),
              signal_plan(f_in[4], BYE, fm))  # fmt: skip
+    # bdet, bnv and the divider's operands in one loop (_box_solve_line) when bdet and
+    # bnv are not kept (no taps) and their shifts are within |shift| <= 62
+    solve_short = max(abs(fd - fm[BDET, 1]), abs(fn - fm[BNV, 1])) <= 62
+    solve_plans = (signal_plan(fd, BDET, fm), signal_plan(fn, BNV, fm))
+    solve_shifts = (fd - f_gg - f_yy, fd - 2 * f_gy2, fn - f_gg - f_ye, fn - f_gy2 - f_ge)
+    logs = np.empty((2, 3), dtype=np.int64)
     row = np.empty(n, dtype=np.int64)
     num = np.empty(n, dtype=np.int64)
     den = np.empty(n, dtype=np.int64)
@@ -783,15 +812,24 @@ def _stage_box_lines(
         else:
             gg, ge, yy, gy2, ye = lines[0], lines[1], lines[2], lines[3], lines[4]
             dl, nl = lines[5], lines[6]
-        for x in range(n):
-            acc[x] = _at(gg[x] * yy[x], f_gg + f_yy, fd) - _at(gy2[x] * gy2[x], 2 * f_gy2, fd)
-            row[x] = _at(gg[x] * ye[x], f_gg + f_ye, fn) - _at(gy2[x] * ge[x], f_gy2 + f_ge, fn)
-        _cast_logged_row(acc, fd, BDET, base + L_BDET, fm, sl, ol, dl)
-        _cast_logged_row(row, fn, BNV, base + L_BNV, fm, sl, ol, nl)
-        for x in range(n):
-            solved = dl[x] > 0  # a singular box: the divider is fed 0 / 1, v = 0
-            num[x] = -nl[x] if solved else np.int64(0)
-            den[x] = dl[x] if solved else np.int64(1)
+        if solve_short and not keep:
+            _box_solve_line(gg, ge, yy, gy2, ye, solve_plans, solve_shifts, modes, num, den, logs)
+            log_site(sl, base + L_BDET, logs[0, 0], logs[0, 1], fd, BDET)
+            log_site(sl, base + L_BNV, logs[1, 0], logs[1, 1], fn, BNV)
+            ol[BDET] += logs[0, 2]
+            ol[BNV] += logs[1, 2]
+        else:
+            for x in range(n):
+                acc[x] = (_at(gg[x] * yy[x], f_gg + f_yy, fd)
+                          - _at(gy2[x] * gy2[x], 2 * f_gy2, fd))  # fmt: skip
+                row[x] = (_at(gg[x] * ye[x], f_gg + f_ye, fn)
+                          - _at(gy2[x] * ge[x], f_gy2 + f_ge, fn))  # fmt: skip
+            _cast_logged_row(acc, fd, BDET, base + L_BDET, fm, sl, ol, dl)
+            _cast_logged_row(row, fn, BNV, base + L_BNV, fm, sl, ol, nl)
+            for x in range(n):
+                solved = dl[x] > 0  # a singular box: the divider is fed 0 / 1, v = 0
+                num[x] = -nl[x] if solved else np.int64(0)
+                den[x] = dl[x] if solved else np.int64(1)
         if lanes:
             divide_row_lanes(num, fm[BNV, 1], den, fm[BDET, 1], V, lut, r_bits, fm, dl_, ol,
                              v[y], flags, log, modes)  # fmt: skip
