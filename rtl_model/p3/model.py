@@ -423,7 +423,8 @@ def _wx_g_e_line(wl, axl, al, plans, sa, sw, modes, wxl, gl, el, logs):
     into ``wxl``, ``gl``, ``el`` in one loop over the line's inner pixels (the two border
     pixels apart, so that the loop has no clamp); each cast's raw min, max and overflow
     count into ``logs`` (3 x 3), as ``cast_row`` gives them. One pass, not five or six
-    (a difference, three casts, the sums)."""
+    (a difference, three casts, the sums): :func:`_stage_rows` over a 512 x 512 level
+    took 11.4 against 12.9 ns a pixel (one thread, AMD EPYC Zen 4, shared)."""
     n = wl.shape[0]
     big, small, zero = np.int64(_I64_MAX), np.int64(_I64_MIN), np.int64(0)
     lo0, hi0, lo1, hi1, lo2, hi2, k0, k1, k2 = big, small, big, small, big, small, zero, zero, zero
@@ -614,7 +615,8 @@ def _box_rows_line(g, e, gy, rv, pad, out):
     ``pad``: ``pad[x + rv]`` with ``rv`` a variable kept the product loops from
     vectorising (numba's negative-index wrap of a variable offset; 0.55 against 0.10 ns
     an element, one 512-pixel line). Summing by doubling (2, 4, 8, 16 taps over the
-    whole line) was slower at ``rv = 8`` (4.7 against 3.9 ns a pixel for the five)."""
+    whole line) was slower at ``rv = 8`` (4.7 against 3.9 ns a pixel for the five, then
+    in one loop)."""
     n = g.shape[0]
     width = 2 * rv + 1
     p0, p1, p2, p3, p4 = pad[0], pad[1], pad[2], pad[3], pad[4]
