@@ -189,6 +189,61 @@ def test_oracle_and_model_agree_on_negative_fraction_bits(seed, quant):
     assert any(np.any(ref.taps[t] != 0) for t in ("warp0", "sge0", "du0"))
 
 
+@pytest.mark.parametrize("overflow", [Overflow.SAT, Overflow.WRAP])
+def test_casts_beyond_a_62_bit_shift_are_bit_exact(overflow):
+    """The line work's and the box's casts run in the loop that forms their values
+    where every shift is within 62 bits (``cast_by_plan``), else in a loop per cast
+    (``cast_row``): ``p3_e``, ``p3_gy`` and the five box sums with their LSB 62 bits
+    above zero take the second; model == oracle bit for bit, with taps and without."""
+    base = P3.default_config(levels=2)
+    formats = dict(base.formats)
+    for name in ("p3_e", "p3_gy", "p3_bgg", "p3_bge", "p3_byy", "p3_bgy", "p3_bye"):
+        formats[name] = FixedFormat(formats[name].signed, 8, -62, Quant.RND, overflow)
+    config = base.with_(formats=formats)
+    assert config.vertical_form == "box"
+    frac = {name: f.frac for name, f in config.formats.items()}
+    assert min(frac["p3_warp"], frac["p3_grad"], frac["p3_g"]) >= 1  # the shifts: > 62
+    case = p3_case(5, "random")
+    ref = ORACLES["p3"].run(case, config)
+    assert_bit_exact(P3.run(case, config, taps=True), ref)
+    fast = P3.run(case, config, taps=False, threads=1)
+    assert np.array_equal(fast.range_raw, ref.range_raw)
+    assert dict(fast.overflows) == ref.overflows and dict(fast.minmax) == ref.minmax
+
+
+#: The signals the line work and the box cast in the loops that form them, and integer
+#: bits (with the sign) too few for ``p3_case(6, "lab")``'s values.
+FUSED_CAST_SIGNALS = {
+    "p3_grad": 3, "p3_g": 2, "p3_e": 2, "p3_gy": 2, "p3_bgg": 6, "p3_bge": 5, "p3_byy": 6,
+    "p3_bgy": 5, "p3_bye": 5, "p3_bdet": 12, "p3_bnv": 10,
+}  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("quant", "overflow"), [(Quant.RND, Overflow.SAT), (Quant.TRN_ZERO, Overflow.WRAP)]
+)
+def test_casts_in_the_loops_that_form_them_count_every_overflow(quant, overflow):
+    """The line work's and the box's signals narrowed so that each overflows: the
+    model's counts, min/max and outputs equal the oracle's with taps and without (the
+    stages without taps cast bdet and bnv in a loop of their own), in plain modes and in
+    the others."""
+    base = P3.default_config(levels=2)
+    formats = dict(base.formats)
+    for name, bits in FUSED_CAST_SIGNALS.items():
+        f = formats[name]
+        formats[name] = FixedFormat(f.signed, f.frac + bits, f.frac, quant, overflow)
+    config = base.with_(formats=formats)
+    case = p3_case(6, "lab")
+    ref = ORACLES["p3"].run(case, config)
+    assert all(ref.overflows[name] > 0 for name in FUSED_CAST_SIGNALS), {
+        k: ref.overflows[k] for k in FUSED_CAST_SIGNALS
+    }
+    assert_bit_exact(P3.run(case, config, taps=True), ref)
+    fast = P3.run(case, config, taps=False, threads=1)
+    assert np.array_equal(fast.range_raw, ref.range_raw)
+    assert dict(fast.overflows) == ref.overflows and dict(fast.minmax) == ref.minmax
+
+
 @pytest.mark.parametrize(
     "perturb", [{"gain": 0.9}, {"gain": 1.1}, {"offset": -10.0}, {"vshift": 1.0}]
 )
@@ -264,7 +319,8 @@ def test_vertical_term_is_bit_exact_over_formats(seed, quant, overflow, drop):
 
 def _assert_narrowed_bit_exact(base, signals, drop, quant, overflow, seed):
     """``signals`` of ``base`` narrowed by ``drop``'s (integer, fraction) bits in
-    ``quant``/``overflow`` (the quotients saturate), model == oracle on a seeded case."""
+    ``quant``/``overflow`` (the quotients saturate), model == oracle on a seeded case,
+    with taps and without."""
     formats = dict(base.formats)
     for name, (d_int, d_frac) in zip(signals, drop, strict=True):
         f = formats[name]
@@ -273,7 +329,11 @@ def _assert_narrowed_bit_exact(base, signals, drop, quant, overflow, seed):
         formats[name] = FixedFormat(f.signed, word, f.frac - d_frac, quant, ovf)
     config = base.with_(formats=formats)
     case = p3_case(seed % 7, "random" if seed % 2 else "lab")
-    assert_bit_exact(P3.run(case, config, taps=True), ORACLES["p3"].run(case, config))
+    ref = ORACLES["p3"].run(case, config)
+    assert_bit_exact(P3.run(case, config, taps=True), ref)
+    fast = P3.run(case, config, taps=False)  # the stages without taps: their own loops
+    assert np.array_equal(fast.range_raw, ref.range_raw)
+    assert dict(fast.overflows) == ref.overflows and dict(fast.minmax) == ref.minmax
 
 
 def test_vertical_term_schedule_and_cost():
