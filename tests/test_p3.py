@@ -462,15 +462,15 @@ def test_two_bands_of_the_box_form_have_their_own_rings(monkeypatch):
     """The box form (the default) runs a stage without taps as one pass down a band's
     lines (``_stage_box_fused``: the line work, the box's row sums in a ring, the
     correction's row sums in two rings), each band into planes of its own (W, ``g``,
-    ``e``, ``Wy``, ``gy``, ``rgg``, ``v``: it computes the other band's lines its column
-    work reaches into them); on two threads the bands run at once, so no ring and no
-    such plane may be shared between them (as
+    ``e``, ``gy``, ``rgg``, ``v``; ``Wy`` in a line buffer: it computes the other band's
+    lines its column work reaches into them); on two threads the bands run at once, so no
+    ring and no such plane may be shared between them (as
     ``test_two_bands_of_the_fused_stage_have_their_own_rings``), and the 512 x 512 lab
     frame's outputs equal the one-thread run's."""
     made = []
     # the band's own planes and rings among the arguments (counted from the end: w, g,
-    # e, wy, gy, rgg, the box's ring, v, rge, ree; not ay, shared), then y0, y1
-    own = (-14, -13, -12, -10, -9, -8, -7, -6, -5, -4)
+    # e, gy, rgg, the box's ring, v, rge, ree; not ay, shared), then y0, y1
+    own = (-13, -12, -11, -9, -8, -7, -6, -5, -4)
     real = p3_model._stage_box_fused
 
     def spy(*args):

@@ -1226,7 +1226,7 @@ BOX_CHUNK = 32
 @njit(cache=True, nogil=True)
 def _stage_box_fused(
     a, b, u, uh, uh_off, ax, f_l, rom, keys_bits, win, rv, umax, base, first, kind, lanes,
-    lanes_v, lut, r_bits, log, modes, fm, st, dst, ov, w, g, e, ay, wy, gy, rgg, box_ring, v,
+    lanes_v, lut, r_bits, log, modes, fm, st, dst, ov, w, g, e, ay, gy, rgg, box_ring, v,
     rge, ree, sums, y0, y1,
 ):  # fmt: skip
     """Lines ``y0 <= y < y1`` (a band) of one warp stage of the box form without taps, as
@@ -1875,12 +1875,12 @@ def _run_level(
                   y0: int, y1: int) -> None:  # fmt: skip
         # the band's own planes and rings: the scratch of the thread that runs it (it
         # computes the other band's lines its column work reaches into them)
-        wp, g, e, wy, gy, rgg, v = (plane(k) for k in ("w", "g", "e", "wy", "gy", "rgg", "v"))
+        wp, g, e, gy, rgg, v = (plane(k) for k in ("w", "g", "e", "gy", "rgg", "v"))
         rge, ree = (runtime.scratch(f"{key}.ring.{k}", ring) for k in ("rge", "ree"))
         box_ring = runtime.scratch(f"{key}.ring.box", (2 * rv + 2, 5, w))
         _stage_box_fused(a, b, u, uh, uh_lo, ax, f_l, rom, config.keys_bits, win, rv, umax,
                          base, first, kind, lanes, lanes_v, lut, config.recip_bits, log, modes,
-                         fm, st, dst, ov, wp, g, e, ay, wy, gy, rgg, box_ring, v, rge, ree,
+                         fm, st, dst, ov, wp, g, e, ay, gy, rgg, box_ring, v, rge, ree,
                          out, y0, y1)  # fmt: skip
 
     _in_bands(differences, h, w, stats)
