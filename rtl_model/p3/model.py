@@ -144,7 +144,6 @@ N_SUMS = 8
 #: The 5-tap binomial of the reduce (weights / 16 per pass).
 _BINOM = np.array([1, 4, 6, 4, 1], dtype=np.int64)
 _KEYS_A = -0.5
-_I64_MAX, _I64_MIN = 2**63 - 1, -(2**63)
 
 
 def _stage_taps(config: P3Config) -> tuple[str, ...]:
